@@ -1,0 +1,44 @@
+"""Benchmarks (timed in the process; machines are shared, so report medians of repeats)."""
+
+from __future__ import annotations
+
+import platform
+import statistics
+import time
+
+import numpy as np
+
+from d2sr.desync import DEFAULT_CONTROLLER
+from d2sr.sim.overlap import OverlapGraph
+from d2sr.sim.timing import TimingConfig, simulate
+
+__all__ = ["bench_timing"]
+
+
+def bench_timing(sensors: int = 1000, seconds: float = 600.0, repeats: int = 3, seed: int = 0) -> dict:
+    """The warehouse: ``sensors`` sensors (20% on robots, ~4 neighbours each) for ``seconds`` seconds."""
+    t = time.perf_counter()
+    graph = OverlapGraph.warehouse(sensors, seconds, seed=seed)
+    build_s = time.perf_counter() - t
+    cfg = TimingConfig(active_frames=10)
+    times, ratio = [], 0.0
+    for r in range(repeats):
+        t = time.perf_counter()
+        run = simulate(graph, DEFAULT_CONTROLLER, cfg, seconds, seed=seed + r)
+        times.append(time.perf_counter() - t)
+        ratio = run.ratio()
+    degree = np.bincount(graph.dst, minlength=sensors)
+    return {
+        "benchmark": "timing_world_warehouse",
+        "sensors": sensors,
+        "simulated_s": seconds,
+        "edges_directed": int(graph.src.size),
+        "mean_live_degree": float(degree.mean() if graph.live is None else graph.live.mean() * degree.mean()),
+        "graph_build_s": round(build_s, 3),
+        "run_s_median": round(statistics.median(times), 3),
+        "run_s_all": [round(x, 3) for x in times],
+        "realtime_factor": round(seconds / statistics.median(times), 1),
+        "interference_ratio": round(ratio, 4),
+        "controller": DEFAULT_CONTROLLER,
+        "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
+    }

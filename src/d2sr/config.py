@@ -1,0 +1,51 @@
+"""Settings are pydantic models; this module turns their validation errors into one-line ConfigErrors."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from d2sr.errors import ConfigError
+
+__all__ = ["Settings", "load_toml", "one_line"]
+
+M = TypeVar("M", bound="Settings")
+
+
+class Settings(BaseModel):
+    """Base of d2sr's settings: frozen, no unknown keys, validated on construction."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    @classmethod
+    def make(cls: type[M], **values: Any) -> M:
+        """Build and validate, raising ConfigError (one line) instead of pydantic's ValidationError."""
+        try:
+            return cls(**values)
+        except ValidationError as exc:
+            raise ConfigError(one_line(exc, cls.__name__)) from None
+
+
+def one_line(exc: ValidationError, what: str) -> str:
+    """'TimingConfig: recall: Input should be less than or equal to 1 (got 1.5); ...'."""
+    parts = []
+    for err in exc.errors():
+        field = ".".join(str(p) for p in err["loc"]) or "value"
+        got = err.get("input")
+        shown = "" if isinstance(got, dict) else f" (got {got!r})"
+        parts.append(f"{field}: {err['msg']}{shown}")
+    return f"{what}: " + "; ".join(parts)
+
+
+def load_toml(cls: type[M], path: Path) -> M:
+    """Read a TOML file into a settings model."""
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    return cls.make(**data)

@@ -1,0 +1,74 @@
+"""The controller contract shared by every de-synchronization strategy.
+
+A sensor's 1 s observation period has ``total_frames`` slots; its laser delivers ``active_frames`` (n)
+consecutive frames starting at slot ``offset`` (wrapping at the period's end). After each period the
+controller sees the n detections of that period, oldest first, and picks the next offset. Controllers see
+nothing else: no other sensor, no clock, no count of sensors. That is what makes them decentralized.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+import numpy as np
+
+from d2sr.errors import ConfigError
+
+__all__ = ["Controller", "check_flags", "check_window"]
+
+
+def check_window(total_frames: int, active_frames: int) -> None:
+    """Reject windows that do not fit in the period."""
+    if isinstance(total_frames, bool) or not isinstance(total_frames, int | np.integer) or total_frames <= 0:
+        raise ConfigError(f"total_frames must be a positive integer, got {total_frames!r}")
+    if isinstance(active_frames, bool) or not isinstance(active_frames, int | np.integer):
+        raise ConfigError(f"active_frames must be an integer, got {active_frames!r}")
+    if not 0 < active_frames <= total_frames:
+        raise ConfigError(f"active_frames must be in 1..{total_frames} (total_frames), got {active_frames}")
+
+
+def check_flags(flags: Sequence[bool] | np.ndarray, n: int) -> list[bool]:
+    """The period's n detections as plain bools; anything else is an error, never a silent fix."""
+    if len(flags) != n:
+        raise ConfigError(f"update() needs the {n} detections of the window, got {len(flags)}")
+    out = []
+    for f in flags:
+        if isinstance(f, bool | np.bool_) or (isinstance(f, int | np.integer) and f in (0, 1)):
+            out.append(bool(f))
+        else:
+            raise ConfigError(f"detections must be booleans (or 0/1), got {f!r}")
+    return out
+
+
+class Controller(ABC):
+    """One sensor's duty-cycle controller: ``offset`` now, ``update(flags)`` at each period's end."""
+
+    name: str = ""
+
+    def __init__(self, total_frames: int = 30, active_frames: int = 15, seed: int | None = 0) -> None:
+        check_window(total_frames, active_frames)
+        self.total_frames = int(total_frames)
+        self.active_frames = int(active_frames)
+        self.rng = np.random.default_rng(seed)
+        # Random initial offset (Algorithm 1): sensors switched on together must not start aligned.
+        self._offset = int(self.rng.integers(total_frames))
+
+    @property
+    def offset(self) -> int:
+        """First active slot of the next period, in ``[0, total_frames)``."""
+        return self._offset
+
+    def update(self, flags: Sequence[bool] | np.ndarray) -> int:
+        """Take the detections of the period that ended (time order) and return the new offset."""
+        checked = check_flags(flags, self.active_frames)
+        shift = self._shift(checked)
+        self._offset = (self._offset + int(shift)) % self.total_frames
+        return self._offset
+
+    @abstractmethod
+    def _shift(self, flags: list[bool]) -> int:
+        """Slots to move the window: positive = later in the period, negative = earlier."""
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(n={self.active_frames}/{self.total_frames}, offset={self._offset})"

@@ -1,0 +1,69 @@
+"""``"damped"``: d2sr's default controller. Decentralized: it sees only its own detections.
+
+It keeps Algorithm 1's core, a push away from where interference falls in the window
+(``delta = hits in the first half - hits in the second half``), because that push balances a crowded
+period well: a window squeezed from both sides settles where both overlaps are equal. It fixes the
+rule's four failure modes, each measured in the sweep (docs/desync.md):
+
+1. **Stay put once clean, and under noise.** No detections: no move (as Algorithm 1). A single flag
+   in the middle of the window is taken for a false alarm: real interference from a neighbour's
+   window enters at an edge of ours or covers several frames.
+2. **Balanced squeeze is a steady state, not a stall.** Hits on both sides in equal number
+   (``delta = 0``) mean the window is as well placed as its neighbours allow: stay.
+3. **Symmetric stall: randomized escape.** When (almost) every frame is hit and the halves are equal,
+   another window covers ours and Algorithm 1 would sit there forever. Jump by a random amount (at
+   least a window, at most the period minus a window) with probability ``escape``, so that of two
+   identical sensors one usually leaves and the other stays.
+4. **Oscillation: damping.** When the push reverses the previous move, halve it (at least one slot):
+   two windows that overshoot past each other meet in the middle instead of bouncing.
+
+The number of interferers is not needed: with more of them, more of the window is hit and the pushes
+from both sides add up.
+"""
+
+from __future__ import annotations
+
+from d2sr.desync.base import Controller
+from d2sr.errors import ConfigError
+
+__all__ = ["DampedController"]
+
+
+class DampedController(Controller):
+    """Algorithm 1's push with noise rejection, randomized escape and damping (see module docstring)."""
+
+    name = "damped"
+
+    def __init__(
+        self,
+        total_frames: int = 30,
+        active_frames: int = 15,
+        seed: int | None = 0,
+        escape: float = 0.5,
+    ) -> None:
+        super().__init__(total_frames, active_frames, seed)
+        if not 0.0 <= escape <= 1.0:
+            raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
+        self.escape = escape
+        self.last = 0  # the previous move, to spot a reversal
+
+    def _shift(self, flags: list[bool]) -> int:
+        self.last = self._decide(flags)
+        return self.last
+
+    def _decide(self, flags: list[bool]) -> int:
+        n, t = self.active_frames, self.total_frames
+        hits = sum(flags)
+        if hits == 0 or (hits == 1 and not (flags[0] or flags[-1])):
+            return 0
+        half = n // 2
+        head, tail = sum(flags[:half]), sum(flags[n - half :])
+        if head == tail:
+            if hits < n - 1 or self.rng.random() >= self.escape:
+                return 0
+            lo = min(n, t // 2)
+            return int(self.rng.integers(lo, max(lo, t - n) + 1))
+        delta = head - tail
+        if self.last and (delta > 0) != (self.last > 0):
+            delta = int(delta / 2) or (1 if delta > 0 else -1)
+        return delta

@@ -1,0 +1,17 @@
+"""One exception family. The CLI turns any D2SRError into a one-line message and exit code 2."""
+
+from __future__ import annotations
+
+__all__ = ["ConfigError", "D2SRError", "InputError"]
+
+
+class D2SRError(Exception):
+    """Base of every error d2sr raises on purpose (bad input, bad settings)."""
+
+
+class ConfigError(D2SRError, ValueError):
+    """A setting or argument is out of range or unknown."""
+
+
+class InputError(D2SRError, ValueError):
+    """An input (file, array, sequence) is unusable."""

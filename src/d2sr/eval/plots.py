@@ -1,0 +1,167 @@
+"""Plots of the de-synchronization experiments (matplotlib, Agg; files written atomically)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.figure import Figure
+
+from d2sr.eval.desync import FPS, SENSORS, CellResult
+from d2sr.sim.timing import TimingRun
+
+__all__ = ["convergence_cdf", "fig9", "paired", "ratio_over_time", "save", "sensor_timeline"]
+
+#: The only Fig. 9 values the paper states in its text (Section VI-A): N = 2 at 15 fps, 29.7%.
+PAPER_POINTS = {("stationary", 2, 15): 0.297}
+LABELS = {"static": "static (no D2SR)", "d2sr": "d2sr (paper Alg. 1)", "oracle": "oracle (global)"}
+
+
+def save(fig: Figure, path: Path) -> Path:
+    """Write a figure to a temporary name and rename, so a killed run leaves no half-written PNG."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def _label(name: str, default: str) -> str:
+    return LABELS.get(name, f"{name} (ours, default)" if name == default else name)
+
+
+def fig9(results: Sequence[CellResult], default: str, profile: str = "default") -> Figure:
+    """Interference ratio against frame rate, one line per N, one panel per scenario and controller."""
+    rows = [r for r in results if r.profile == profile]
+    scenarios = sorted({r.scenario for r in rows}, reverse=True)
+    controllers = list(dict.fromkeys(r.controller for r in rows))
+    fig, axes = plt.subplots(
+        len(scenarios),
+        len(controllers),
+        figsize=(3.4 * len(controllers), 3.0 * len(scenarios)),
+        sharex=True,
+        sharey=True,
+        squeeze=False,
+    )
+    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(SENSORS)))
+    for a, sc in enumerate(scenarios):
+        for b, ctrl in enumerate(controllers):
+            ax = axes[a, b]
+            for n, colour in zip(SENSORS, colours, strict=True):
+                pts = sorted(
+                    (r.fps, r.whole, r.whole_ci)
+                    for r in rows
+                    if r.scenario == sc and r.controller == ctrl and r.sensors == n
+                )
+                if pts:
+                    f, y, e = map(np.array, zip(*pts, strict=True))
+                    ax.errorbar(
+                        f, y, yerr=e, color=colour, marker="o", ms=3, lw=1.2, capsize=2, label=f"N={n}"
+                    )
+            if ctrl == "d2sr":
+                for (psc, n, f), v in PAPER_POINTS.items():
+                    if psc == sc:
+                        ax.plot([f], [v], "r*", ms=11, label=f"paper, N={n}")
+            ax.set_title(f"{sc}: {_label(ctrl, default)}", fontsize=9)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_xticks(FPS)
+            ax.grid(alpha=0.3)
+            if a == len(scenarios) - 1:
+                ax.set_xlabel("frame rate (active frames per 1 s period)")
+            if b == 0:
+                ax.set_ylabel("interference ratio (whole run)")
+    axes[0, -1].legend(fontsize=7, loc="upper left")
+    fig.suptitle(f"Interference ratio vs frame rate and sensors (paper Fig. 9), profile '{profile}'")
+    return fig
+
+
+def paired(results: Sequence[CellResult], default: str, profile: str = "default") -> Figure:
+    """Whole-run ratio of the default against Algorithm 1 and against the oracle, one point per cell."""
+    by = {(r.scenario, r.fps, r.sensors, r.controller): r for r in results if r.profile == profile}
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    for ax, ref in zip(axes, ("d2sr", "oracle"), strict=True):
+        for sc, marker in (("stationary", "o"), ("moving", "s")):
+            pts = [
+                (by[k].whole, by[(k[0], k[1], k[2], default)].whole, by[k].slack)
+                for k in by
+                if k[3] == ref and k[0] == sc and (k[0], k[1], k[2], default) in by
+            ]
+            if not pts:
+                continue
+            x, y, slack = map(np.array, zip(*pts, strict=True))
+            ax.scatter(x[slack], y[slack], marker=marker, c="tab:green", label=f"{sc}, slack")
+            ax.scatter(x[~slack], y[~slack], marker=marker, c="tab:red", label=f"{sc}, oversubscribed")
+        ax.plot([0, 1], [0, 1], "k--", lw=0.8, label="equal")
+        if ref == "oracle":
+            ax.plot([0, 1 / 1.5], [0, 1], "k:", lw=0.8, label="1.5 x oracle")
+        ax.set_xlabel(f"{_label(ref, default)}: whole-run ratio")
+        ax.set_ylabel(f"{_label(default, default)}: whole-run ratio")
+        ax.set_xlim(-0.02, 1.02)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"Default controller against Algorithm 1 and the oracle, every cell, profile '{profile}'")
+    return fig
+
+
+def convergence_cdf(results: Sequence[CellResult], default: str) -> Figure:
+    """Distribution of convergence time over replicas of the stationary slack cells, per controller."""
+    fig, ax = plt.subplots(figsize=(6, 4))
+    rows = [
+        r
+        for r in results
+        if r.profile == "default" and r.scenario == "stationary" and r.slack and r.sensors > 1
+    ]
+    for ctrl in dict.fromkeys(r.controller for r in rows):
+        conv = np.concatenate([np.array(r.converged) for r in rows if r.controller == ctrl])
+        if conv.size == 0:
+            continue
+        x = np.sort(np.where(np.isfinite(conv), conv, np.inf))
+        y = np.arange(1, x.size + 1) / x.size
+        ax.step(x[np.isfinite(x)], y[np.isfinite(x)], where="post", label=_label(ctrl, default))
+    ax.axvline(10, color="k", ls=":", lw=0.8, label="bar: median <= 10")
+    ax.set_xlabel("periods until the 5-period interference ratio stays <= 5%")
+    ax.set_ylabel("fraction of rooms")
+    ax.set_title("Convergence, stationary rooms with slack (N >= 2)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def sensor_timeline(run: TimingRun, sensors: Sequence[int], periods: int, title: str) -> Figure:
+    """Each sensor's frames over time on its own period grid: clean, interfered, and idle slots."""
+    if run.frames is None:
+        raise ValueError("sensor_timeline needs a run made with record_frames=True")
+    total = run.config.total_frames
+    fig, axes = plt.subplots(
+        len(sensors), 1, figsize=(9, 0.9 * len(sensors) + 0.8), sharex=True, squeeze=False
+    )
+    cmap = matplotlib.colors.ListedColormap(["#eeeeee", "#4c9f70", "#d1495b"])
+    for ax, s in zip(axes[:, 0], sensors, strict=True):
+        img = run.frames[s, : periods * total].reshape(periods, total).T
+        ax.imshow(img, aspect="auto", cmap=cmap, vmin=0, vmax=2, interpolation="nearest")
+        ax.set_ylabel(f"sensor {s}\nslot", fontsize=8)
+        ax.set_yticks([0, total - 1])
+    axes[-1, 0].set_xlabel("period (1 s)   green: clean frame, red: interfered frame, grey: laser idle")
+    fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def ratio_over_time(series: dict[str, np.ndarray], default: str, title: str) -> Figure:
+    """Mean interference ratio per period, one line per controller."""
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for name, y in series.items():
+        ax.plot(np.arange(y.size), y, label=_label(name, default), lw=1.5)
+    ax.set_xlabel("period (1 s)")
+    ax.set_ylabel("interfered / captured frames")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=10)
+    return fig
