@@ -46,13 +46,22 @@ class Controller(ABC):
 
     name: str = ""
 
-    def __init__(self, total_frames: int = 30, active_frames: int = 15, seed: int | None = 0) -> None:
+    def __init__(
+        self, total_frames: int = 30, active_frames: int = 15, seed: int | None = 0, offset: int | None = None
+    ) -> None:
         check_window(total_frames, active_frames)
         self.total_frames = int(total_frames)
         self.active_frames = int(active_frames)
         self.rng = np.random.default_rng(seed)
         # Random initial offset (Algorithm 1): sensors switched on together must not start aligned.
-        self._offset = int(self.rng.integers(total_frames))
+        start = int(self.rng.integers(total_frames))
+        if offset is not None:
+            if isinstance(offset, bool) or not isinstance(offset, int | np.integer):
+                raise ConfigError(f"offset must be an integer, got {offset!r}")
+            if not 0 <= offset < total_frames:
+                raise ConfigError(f"offset must be in 0..{total_frames - 1}, got {offset}")
+            start = int(offset)
+        self._offset = start
 
     @property
     def offset(self) -> int:

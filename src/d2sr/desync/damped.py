@@ -39,9 +39,10 @@ class DampedController(Controller):
         total_frames: int = 30,
         active_frames: int = 15,
         seed: int | None = 0,
+        offset: int | None = None,
         escape: float = 0.5,
     ) -> None:
-        super().__init__(total_frames, active_frames, seed)
+        super().__init__(total_frames, active_frames, seed, offset)
         if not 0.0 <= escape <= 1.0:
             raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
         self.escape = escape

@@ -207,7 +207,8 @@ def simulate(
         t = (s + 0.5) * step
         g = np.floor((t - t0) / tau).astype(np.int64)
         here = graph.present_at(t)
-        done = np.flatnonzero((g != g_prev) & (g_prev >= 0) & (g_prev < slots))
+        changed = g != g_prev
+        done = np.flatnonzero(changed & (g_prev >= 0) & (g_prev < slots))
         if done.size:
             gp = g_prev[done]
             slot, per = gp % total, gp // total
@@ -228,16 +229,17 @@ def simulate(
             flags[done, slot] = det
             if frames is not None:
                 frames[done, gp] = cap.astype(np.int8) + bad
-            edge_cnt[e_sel] = 0
-            sub_cnt[done] = 0
             for i in done[slot == total - 1]:
                 _end_period(
                     i, ctrls, flags, offset, n_act, active, laser, offsets, g, cfg, scheduler, here, t
                 )
-        valid = (g >= 0) & (g < slots)
+        # a new frame starts counting from zero (also a sensor's very first frame)
+        edge_cnt[changed[dst]] = 0
+        sub_cnt[changed] = 0
+        # lasers run on after a sensor's last recorded period, so every recorded frame has full company
+        on = (g >= 0) & laser[rows, g % total]
         if here is not None:
-            valid &= here
-        on = valid & laser[rows, g % total]
+            on &= here
         if src.size:
             live = graph.live_at(t)
             edge_cnt += on[src] if live is None else on[src] & live

@@ -1,0 +1,44 @@
+"""The stage cores (sim, desync, graph helpers) must run where torch is not installed."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "d2sr"
+CORES = ["sim", "desync", "graphs.py", "errors.py", "config.py"]
+
+
+def test_core_sources_do_not_import_torch():
+    offenders = []
+    for core in CORES:
+        path = SRC / core
+        for f in [path] if path.is_file() else sorted(path.rglob("*.py")):
+            for node in ast.walk(ast.parse(f.read_text())):
+                names = []
+                if isinstance(node, ast.Import):
+                    names = [a.name for a in node.names]
+                elif isinstance(node, ast.ImportFrom) and node.module:
+                    names = [node.module]
+                offenders += [f"{f.name}: {n}" for n in names if n.split(".")[0] == "torch"]
+    assert offenders == []
+
+
+def test_importing_cores_never_loads_torch():
+    # A finder that fails any torch import: catches indirect imports through other modules too.
+    code = """
+import sys
+class Block:
+    def find_spec(self, name, path=None, target=None):
+        if name.split('.')[0] == 'torch':
+            raise ImportError('torch was imported')
+sys.meta_path.insert(0, Block())
+import d2sr.sim, d2sr.desync, d2sr.sim.timing, d2sr.eval.desync
+from d2sr.sim import OverlapGraph, simulate
+simulate(OverlapGraph.complete(2), 'damped', duration_s=2)
+assert 'torch' not in sys.modules
+print('ok')
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "ok"
