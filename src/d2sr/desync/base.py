@@ -32,6 +32,8 @@ def check_flags(flags: Sequence[bool] | np.ndarray, n: int) -> list[bool]:
     """The period's n detections as plain bools; anything else is an error, never a silent fix."""
     if len(flags) != n:
         raise ConfigError(f"update() needs the {n} detections of the window, got {len(flags)}")
+    if isinstance(flags, np.ndarray) and flags.dtype == np.bool_ and flags.ndim == 1:
+        return flags.tolist()  # the timing world's fast path
     out = []
     for f in flags:
         if isinstance(f, bool | np.bool_) or (isinstance(f, int | np.integer) and f in (0, 1)):

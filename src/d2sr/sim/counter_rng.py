@@ -26,10 +26,10 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return z ^ (z >> np.uint64(31))
 
 
-def uniform(seed: int, stream: int, sensor: np.ndarray, frame: np.ndarray) -> np.ndarray:
-    """Uniform numbers in [0, 1), one per (sensor, frame) pair, fixed by seed and stream."""
+def uniform(seed: int, sensor: np.ndarray, frame: np.ndarray, streams: int = 1) -> np.ndarray:
+    """Uniform numbers in [0, 1), shape (streams, len(sensor)), fixed by seed, sensor, frame and stream."""
     with np.errstate(over="ignore"):
-        base = _mix(np.uint64(seed & 0xFFFFFFFFFFFFFFFF) * _GOLDEN + np.uint64(stream) * _STREAM)
-        z = base ^ (sensor.astype(np.uint64) * _SENSOR) ^ _mix(frame.astype(np.uint64) * _FRAME + _GOLDEN)
-        z = _mix(z + _GOLDEN)
-    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+        base = _mix(np.array([seed & 0xFFFFFFFFFFFFFFFF], dtype=np.uint64) * _GOLDEN + _STREAM)
+        z = _mix(base ^ (sensor.astype(np.uint64) * _SENSOR) + frame.astype(np.uint64) * _FRAME)
+        out = _mix(z[None, :] + np.arange(1, streams + 1, dtype=np.uint64)[:, None] * _GOLDEN)
+    return (out >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)

@@ -19,6 +19,7 @@ hash, so runs that differ only in their controllers share their luck.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -33,8 +34,6 @@ from d2sr.sim.counter_rng import uniform
 from d2sr.sim.overlap import OverlapGraph
 
 __all__ = ["TimingConfig", "TimingRun", "simulate"]
-
-_HIT, _DETECT, _DROP = 1, 2, 3
 
 
 class TimingConfig(Settings):
@@ -125,8 +124,15 @@ def _controllers(
     return ctrls
 
 
+@functools.lru_cache(maxsize=4096)
+def _window_slots(offset: int, n: int, total: int) -> np.ndarray:
+    """The slots of a window in time order (cached)."""
+    return (offset + np.arange(n)) % total
+
+
+@functools.lru_cache(maxsize=4096)
 def _masks(offset: int, n: int, setup: int, total: int) -> tuple[np.ndarray, np.ndarray]:
-    """(frame slots, laser-on slots) of one period as boolean rows."""
+    """(frame slots, laser-on slots) of one period as boolean rows (cached: read-only, copied on use)."""
     active = np.zeros(total, dtype=bool)
     active[(offset + np.arange(n)) % total] = True
     laser = np.zeros(total, dtype=bool)
@@ -192,35 +198,44 @@ def simulate(
     offsets[:, 0] = offset
     frames = np.zeros((n_sens, slots), dtype=np.int8) if record_frames else None
 
-    src, dst = graph.src, graph.dst
+    # edges sorted by destination (CSR): finishing a frame touches only the edges into that sensor
+    by_dst = np.argsort(graph.dst, kind="stable")
+    src, dst = graph.src[by_dst], graph.dst[by_dst]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(dst, minlength=n_sens))])
+    # schedules as contiguous rows per step: one cheap row view per time step instead of a strided column
+    live_rows = None if graph.live is None else np.ascontiguousarray(graph.live[by_dst].T)
+    here_rows = None if graph.present is None else np.ascontiguousarray(graph.present.T)
+    laser_flat = laser.reshape(-1)  # a view: _end_period edits laser rows in place
+    row_base = np.arange(n_sens) * total
     edge_cnt = np.zeros(src.size, dtype=np.int32)
     sub_cnt = np.zeros(n_sens, dtype=np.int32)
     flags = np.zeros((n_sens, total), dtype=bool)
     g_prev = np.full(n_sens, -1, dtype=np.int64)
-    rows = np.arange(n_sens)
     miss = 1.0 - cfg.hit_prob
     step = period_s / total / k_sub
     n_steps = int(np.ceil(float(np.max(t0 + slots * tau)) / step)) + 1
     report_every = max(1, n_steps // 200)
 
+    inv_tau, t0_slots = 1.0 / tau, t0 / tau
+    live_step, live_idx, live_src = -1, src[:0], src[:0]
     for s in range(n_steps):
         t = (s + 0.5) * step
-        g = np.floor((t - t0) / tau).astype(np.int64)
-        here = graph.present_at(t)
+        g = np.floor(t * inv_tau - t0_slots).astype(np.int64)
+        sched = int(t / graph.dt)
+        here = None if here_rows is None else here_rows[min(sched, len(here_rows) - 1)]
         changed = g != g_prev
         done = np.flatnonzero(changed & (g_prev >= 0) & (g_prev < slots))
         if done.size:
             gp = g_prev[done]
             slot, per = gp % total, gp // total
             was_active = active[done, slot] if here is None else active[done, slot] & here[done]
-            into = np.zeros(n_sens, dtype=bool)
-            into[done] = True
-            e_sel = into[dst]
-            hit_e = e_sel & (edge_cnt >= np.maximum(1.0, cfg.min_overlap * sub_cnt[dst]))
-            k_hit = np.bincount(dst[hit_e], minlength=n_sens)[done]
-            cap = was_active & (uniform(seed, _DROP, done, gp) >= cfg.drop)
-            bad = cap & (uniform(seed, _HIT, done, gp) < 1.0 - miss**k_hit)
-            u_det = uniform(seed, _DETECT, done, gp)
+            e_idx, owner = _edges_into(done, indptr)
+            need = np.maximum(1.0, cfg.min_overlap * sub_cnt[done])
+            hit_e = edge_cnt[e_idx] >= need[owner]
+            k_hit = np.bincount(owner, weights=hit_e, minlength=done.size)
+            u_drop, u_hit, u_det = uniform(seed, done, gp, streams=3)
+            cap = was_active & (u_drop >= cfg.drop)
+            bad = cap & (u_hit < 1.0 - miss**k_hit)
             det = cap & np.where(bad, u_det < cfg.recall, u_det < cfg.false_alarm)
             captured[done, per] += cap
             interfered[done, per] += bad
@@ -234,15 +249,26 @@ def simulate(
                     i, ctrls, flags, offset, n_act, active, laser, offsets, g, cfg, scheduler, here, t
                 )
         # a new frame starts counting from zero (also a sensor's very first frame)
-        edge_cnt[changed[dst]] = 0
-        sub_cnt[changed] = 0
+        if done.size == np.count_nonzero(changed):  # the usual case: only finished frames restart
+            if done.size:
+                edge_cnt[e_idx] = 0
+                sub_cnt[done] = 0
+        else:
+            fresh = np.flatnonzero(changed)
+            edge_cnt[_edges_into(fresh, indptr)[0]] = 0
+            sub_cnt[fresh] = 0
         # lasers run on after a sensor's last recorded period, so every recorded frame has full company
-        on = (g >= 0) & laser[rows, g % total]
+        on = (g >= 0) & laser_flat.take(row_base + g % total)
         if here is not None:
             on &= here
-        if src.size:
-            live = graph.live_at(t)
-            edge_cnt += on[src] if live is None else on[src] & live
+        if live_rows is None:
+            edge_cnt += on.take(src)
+        else:
+            if sched != live_step:  # the schedule moves once per dt: only live edges are counted
+                live_step = sched
+                live_idx = np.flatnonzero(live_rows[min(sched, len(live_rows) - 1)])
+                live_src = src[live_idx]
+            edge_cnt[live_idx] += on.take(live_src)
         sub_cnt += 1
         g_prev = g
         if progress is not None and s % report_every == 0:
@@ -250,6 +276,15 @@ def simulate(
     if progress is not None:
         progress(1.0)
     return TimingRun(cfg, graph, captured, interfered, detected, true_det, offsets, n_act, t0, drift, frames)
+
+
+def _edges_into(sensors: np.ndarray, indptr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the edges into each of ``sensors`` (CSR by destination) and the position that owns each."""
+    starts = indptr[sensors]
+    counts = indptr[sensors + 1] - starts
+    owner = np.repeat(np.arange(sensors.size), counts)
+    first = np.cumsum(counts) - counts
+    return np.arange(owner.size) + np.repeat(starts - first, counts), owner
 
 
 def _end_period(
@@ -270,7 +305,7 @@ def _end_period(
     """Sensor i finished a period: hand its flags to its controller and apply the new window."""
     total = cfg.total_frames
     nxt = int(g[i]) // total  # the period that starts now
-    window = flags[i, (offset[i] + np.arange(n_act[i])) % total]
+    window = flags[i].take(_window_slots(int(offset[i]), int(n_act[i]), total))
     flags[i] = False
     ctrl = ctrls[i]
     if here is None or here[i]:

@@ -1,0 +1,33 @@
+"""Benchmark: the timing world at warehouse scale (1,000 sensors for 600 s; bar: under 60 s on 2 cores).
+
+Run:  .venv/bin/python bench/timing_world.py --json docs/results/bench_timing.json
+Same as `d2sr bench`; kept here so every benchmark lives under bench/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from d2sr.bench import bench_timing
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sensors", type=int, default=1000)
+    ap.add_argument("--seconds", type=float, default=600.0)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args()
+    result = bench_timing(args.sensors, args.seconds, args.repeats)
+    text = json.dumps(result, indent=1)
+    print(text)
+    if args.json:
+        tmp = args.json.with_name(args.json.name + ".tmp")
+        tmp.write_text(text + "\n")
+        tmp.replace(args.json)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,3 @@
+from d2sr.cli import main
+
+main()

@@ -1,0 +1,85 @@
+import json
+import subprocess
+import sys
+
+import pytest
+
+from d2sr import __version__
+
+
+def d2sr(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "d2sr", *args],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+def test_version_and_help():
+    res = d2sr("--version")
+    assert res.returncode == 0 and res.stdout.strip() == f"d2sr {__version__}"
+    res = d2sr("--help")
+    assert res.returncode == 0
+    for cmd in ("demo", "desync", "bench"):
+        assert cmd in res.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["desync", "sweep", "--controllers", "nope", "--replicas", "2"], "unknown nope"),
+        (["desync", "sweep", "--fps", "0"], "fps in 1..30"),
+        (["desync", "sweep", "--fps", "six"], "comma-separated integers"),
+        (["demo", "--fps", "31"], "active_frames"),
+        (["demo", "--sensors", "0"], "at least 1"),
+        (["bench", "--sensors", "0"], "sensors >= 1"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
+    res = d2sr(*args, "--out", str(tmp_path / "o")) if args[0] != "bench" else d2sr(*args)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("d2sr: error:") and message in lines[0]
+    assert "Traceback" not in res.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_demo_prints_table_and_writes_plots(tmp_path):
+    res = d2sr("demo", "--out", str(tmp_path), "--seconds", "8", "--rooms", "2", "--sensors", "2")
+    assert res.returncode == 0, res.stderr
+    for name in ("static", "d2sr", "damped", "oracle"):
+        assert name in res.stdout
+        assert (tmp_path / f"timeline_{name}.png").stat().st_size > 1000
+    assert (tmp_path / "ratio_over_time.png").exists()
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_sweep_writes_results_and_checks_bars(tmp_path):
+    res = d2sr(
+        "desync", "sweep", "--out", str(tmp_path), "--replicas", "2", "--duration", "12",
+        "--fps", "6,15", "--sensors", "1,2", "--jobs", "1",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    rows = json.loads((tmp_path / "sweep.json").read_text())
+    # 2 scenarios x 2 fps x 2 N x 4 controllers, plus the harsh profile for d2sr and the default
+    assert len(rows) == 2 * 2 * 2 * 4 + 2 * 2 * 2 * 2
+    assert {r["controller"] for r in rows} == {"static", "d2sr", "damped", "oracle"}
+    assert all(0.0 <= r["whole"] <= 1.0 for r in rows)
+    one = [r for r in rows if r["sensors"] == 1]
+    assert all(r["whole"] == 0.0 for r in one)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["bars"] and "damped" in summary["headline_reduction_N2_15fps"]
+    assert (tmp_path / "sweep.csv").read_text().startswith("scenario,fps,sensors,controller")
+    for png in ("fig9_default.png", "fig9_harsh.png", "paired_default.png", "convergence.png"):
+        assert (tmp_path / png).stat().st_size > 1000
+
+
+def test_bench_json(tmp_path):
+    out = tmp_path / "b.json"
+    res = d2sr("bench", "--sensors", "60", "--seconds", "5", "--repeats", "1", "--json", str(out))
+    assert res.returncode == 0, res.stderr
+    data = json.loads(out.read_text())
+    assert data["sensors"] == 60 and data["run_s_median"] > 0 and 0 <= data["interference_ratio"] <= 1
