@@ -141,3 +141,14 @@ def test_oracle_standalone_does_not_move():
     assert c.update([True] * 6) == 3
     c.assign(37)
     assert c.offset == 7
+
+
+def test_damped_freezes_when_the_period_is_saturated():
+    c = make_controller("damped", 30, 10, offset=5)
+    squeezed = [True] * 3 + [False] + [True] * 6  # head 4, tail 5: pushes 1 earlier when not congested
+    assert c.update(squeezed) == 4 and c.load < 0.75
+    for _ in range(12):  # nine of ten frames hit, period after period
+        c.update([True] * 9 + [False])
+    assert c.load > 0.75
+    before = c.offset
+    assert c.update(squeezed) == before  # saturated and squeezed: stays

@@ -16,6 +16,11 @@ rule's four failure modes, each measured in the sweep (docs/desync.md):
    identical sensors one usually leaves and the other stays.
 4. **Oscillation: damping.** When the push reverses the previous move, halve it (at least one slot):
    two windows that overshoot past each other meet in the middle instead of bouncing.
+5. **Congestion freeze.** It keeps a running estimate of how crowded the period is (``load``, the
+   fraction of its frames flagged, averaged over about five periods). Above ``freeze`` (75%) a window
+   squeezed from both sides stops pushing: in a saturated period pushing only spreads the windows
+   evenly, which covers every slot twice; random static offsets do better there, and so does staying.
+   ``load`` is also what a user reads to learn that the frame rate is too high for the room.
 
 The number of interferers is not needed: with more of them, more of the window is hit and the pushes
 from both sides add up.
@@ -41,11 +46,14 @@ class DampedController(Controller):
         seed: int | None = 0,
         offset: int | None = None,
         escape: float = 0.5,
+        freeze: float = 0.75,
     ) -> None:
         super().__init__(total_frames, active_frames, seed, offset)
         if not 0.0 <= escape <= 1.0:
             raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
         self.escape = escape
+        self.freeze = freeze
+        self.load = 0.0  # running fraction of our frames flagged: how crowded the period is
         self.last = 0  # the previous move, to spot a reversal
 
     def _shift(self, flags: list[bool]) -> int:
@@ -55,6 +63,7 @@ class DampedController(Controller):
     def _decide(self, flags: list[bool]) -> int:
         n, t = self.active_frames, self.total_frames
         hits = sum(flags)
+        self.load += 0.2 * (hits / n - self.load)
         if hits == 0 or (hits == 1 and not (flags[0] or flags[-1])):
             return 0
         half = n // 2
@@ -64,6 +73,8 @@ class DampedController(Controller):
                 return 0
             lo = min(n, t // 2)
             return int(self.rng.integers(lo, max(lo, t - n) + 1))
+        if head and tail and self.load > self.freeze:
+            return 0
         delta = head - tail
         if self.last and (delta > 0) != (self.last > 0):
             delta = int(delta / 2) or (1 if delta > 0 else -1)

@@ -81,6 +81,8 @@ class CellResult:
     never_converged: float
     #: per replica: first converged period (inf = never); stationary rooms only are meaningful
     converged: tuple[float, ...] = ()
+    #: per replica whole-run ratio (replicas are paired across controllers of a cell: same seed)
+    per_replica: tuple[float, ...] = ()
 
 
 def has_slack(sensors: int, fps: int, setup: int = 2, total: int = 30) -> bool:
@@ -156,6 +158,7 @@ def run_cell(cell: Cell, **overrides: float) -> CellResult:
         float(np.quantile(conv, 0.9)) if finite.size == conv.size else float("inf"),
         float(np.mean(~np.isfinite(conv))),
         tuple(float(c) for c in conv),
+        tuple(float(w) for w in whole),
     )
 
 
@@ -171,7 +174,8 @@ def cells(
 ) -> list[Cell]:
     """The grid of cells, slowest (oracle, many sensors) first so parallel workers finish together."""
     grid = [
-        Cell(sc, f, n, c, p, replicas, duration_s, seed)
+        # only the robot counts in the moving scenario: five times the rooms for a comparable interval
+        Cell(sc, f, n, c, p, replicas * (5 if sc == "moving" else 1), duration_s, seed)
         for p in profiles
         for sc in scenarios
         for f in fps
@@ -225,7 +229,7 @@ def write_csv(results: list[CellResult], path: Path) -> None:
 
     tmp = path.with_name(path.name + ".tmp")
     with tmp.open("w", newline="") as fh:
-        fields = [f for f in CellResult.__dataclass_fields__ if f != "converged"]
+        fields = [f for f in CellResult.__dataclass_fields__ if f not in ("converged", "per_replica")]
         w = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
         for r in results:
@@ -270,6 +274,7 @@ def check_bars(
                     "value": r.whole,
                     "reference": ref.whole,
                     "ok": r.whole < ref.whole,
+                    **_paired(r, ref),
                 }
             )
         if orc and not r.slack:
@@ -296,6 +301,19 @@ def check_bars(
                     }
                 )
     return checks
+
+
+def _paired(r: CellResult, ref: CellResult) -> dict:
+    """Mean per-room difference r - ref with its 95% interval (rooms share seeds: paired)."""
+    diff = np.array(r.per_replica) - np.array(ref.per_replica)
+    if diff.size < 2:
+        return {}
+    half = float(1.96 * diff.std(ddof=1) / np.sqrt(diff.size))
+    return {
+        "paired_diff": float(diff.mean()),
+        "paired_ci95": half,
+        "significantly_worse": bool(diff.mean() > half),
+    }
 
 
 def headline(results: list[CellResult], default: str = DEFAULT_CONTROLLER) -> dict[str, float]:
