@@ -33,8 +33,14 @@ def test_version_and_help():
         (["desync", "sweep", "--controllers", "nope", "--replicas", "2"], "unknown nope"),
         (["desync", "sweep", "--fps", "0"], "fps in 1..30"),
         (["desync", "sweep", "--fps", "six"], "comma-separated integers"),
-        (["demo", "--fps", "31"], "active_frames"),
-        (["demo", "--sensors", "0"], "at least 1"),
+        (["desync", "run", "--fps", "31"], "active_frames"),
+        (["desync", "run", "--sensors", "0"], "--sensors >= 1"),
+        (["desync", "run", "--recall", "1.5"], "recall"),
+        (["desync", "run", "--false-alarm", "-0.1"], "false_alarm"),
+        (["desync", "run", "--scenario", "orbit"], "--scenario"),
+        (["desync", "run", "--controllers", "d2sr,nope"], "unknown nope"),
+        (["desync", "run", "--seconds", "0"], "duration"),
+        (["desync", "run", "--config", "/nonexistent.toml"], "no such file"),
         (["bench", "--sensors", "0"], "sensors >= 1"),
     ],
 )
@@ -47,8 +53,40 @@ def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_bad_toml_and_unknown_key(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("recall = [")
+    res = d2sr("desync", "run", "--config", str(bad), "--out", str(tmp_path / "o"))
+    assert (
+        res.returncode == 2 and "not valid TOML" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    )
+    bad.write_text("recal = 0.5\n")
+    res = d2sr("desync", "run", "--config", str(bad), "--out", str(tmp_path / "o"))
+    assert res.returncode == 2 and "recal" in res.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_desync_run_with_config_moving(tmp_path):
+    cfg = tmp_path / "room.toml"
+    cfg.write_text("recall = 0.8\nfalse_alarm = 0.02\nsetup = 1\n")
+    res = d2sr(
+        "desync", "run", "--scenario", "moving", "--sensors", "3", "--fps", "10", "--seconds", "8",
+        "--rooms", "2", "--controllers", "d2sr,damped", "--config", str(cfg), "--out", str(tmp_path / "o"),
+        "--json", str(tmp_path / "r.json"),
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "robot's frames only" in res.stdout
+    rows = json.loads((tmp_path / "r.json").read_text())
+    assert [r["controller"] for r in rows] == ["d2sr", "damped"] and all(
+        r["scenario"] == "moving" for r in rows
+    )
+    assert (tmp_path / "o" / "timeline_damped.png").exists() and not (
+        tmp_path / "o" / "timeline_static.png"
+    ).exists()
+
+
 def test_demo_prints_table_and_writes_plots(tmp_path):
-    res = d2sr("demo", "--out", str(tmp_path), "--seconds", "8", "--rooms", "2", "--sensors", "2")
+    res = d2sr("demo", "--out", str(tmp_path))
     assert res.returncode == 0, res.stderr
     for name in ("static", "d2sr", "damped", "oracle"):
         assert name in res.stdout

@@ -14,7 +14,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from d2sr import __version__
+from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
+from d2sr.sim.timing import TimingConfig
 
 app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
 desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
@@ -72,29 +74,29 @@ def _ints(value: str, what: str) -> list[int]:
         raise ConfigError(f"--{what} takes comma-separated integers, got {value!r}") from None
 
 
-@app.command()
-def demo(
-    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/demo"),
-    sensors: Annotated[int, typer.Option(help="Sensors sharing one room.")] = 3,
-    fps: Annotated[int, typer.Option(help="Active frames per 1 s period (30 = always on).")] = 6,
-    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 30.0,
-    rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+def _compare(
+    out: Path,
+    scenario: str,
+    sensors: int,
+    fps: int,
+    seconds: float,
+    rooms: int,
+    controllers: list[str],
+    config: TimingConfig,
+    seed: int,
+    json_out: Path | None = None,
 ) -> None:
-    """Simulate sensors sharing a room under each controller; print a table and write plots."""
-    from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
-    from d2sr.eval.desync import convergence_periods
+    """Run each controller on the same rooms; print a table, write timelines and the ratio over time."""
+    from d2sr.desync import DEFAULT_CONTROLLER
+    from d2sr.eval.desync import Cell, simulate_cell, summarize
     from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
-    from d2sr.sim import OverlapGraph, TimingConfig, simulate
 
-    if sensors < 1 or rooms < 1:
-        raise ConfigError("--sensors and --rooms must be at least 1")
-    cfg = TimingConfig.make(active_frames=fps)
-    graph = OverlapGraph.complete(sensors).replicate(rooms)
-    names = ["static", "d2sr", DEFAULT_CONTROLLER, "oracle"]
-    assert all(n in CONTROLLERS for n in names)
+    if sensors < 1 or rooms < 2:
+        raise ConfigError("need --sensors >= 1 and --rooms >= 2")
+    where = "a robot among fixed sensors" if scenario == "moving" else "one room"
     table = Table(
-        title=f"{sensors} sensors in one room, {fps} of 30 frames per second, {seconds:g} s, {rooms} rooms"
+        title=f"{sensors} sensors in {where}, {fps} of {config.total_frames} frames per second, "
+        f"{seconds:g} s, {rooms} rooms"
     )
     for col in (
         "controller",
@@ -103,37 +105,37 @@ def demo(
         "median convergence",
         "vs static",
     ):
-        table.add_column(col, justify="right" if col != "controller" else "left")
-    series, base = {}, None
-    written = []
+        table.add_column(col, justify="left" if col == "controller" else "right")
+    series, rows, written = {}, [], []
+    base = None
     with _progress() as bar:
-        task = bar.add_task("simulating", total=len(names))
-        for name in names:
-            run = simulate(graph, name, cfg, seconds, seed=seed, record_frames=True)
-            _, per_room = run.group_ratios()
-            series[name] = per_room.mean(axis=0)
-            whole, steady = run.ratio(), run.ratio(start=run.periods // 2)
-            base = whole if name == "static" else base
-            conv = convergence_periods(per_room)
-            med = float(np.median(conv))
-            label = name + (" (ours, default)" if name == DEFAULT_CONTROLLER else "")
-            label += " (paper Alg. 1)" if name == "d2sr" else ""
-            label += " (global knowledge)" if name == "oracle" else ""
+        task = bar.add_task("simulating", total=len(controllers))
+        for name in controllers:
+            cell = Cell(scenario, fps, sensors, name, replicas=rooms, duration_s=seconds, seed=seed)
+            cfg, graph, run = simulate_cell(cell, config, record_frames=True)
+            result, ratios = summarize(cell, cfg, graph, run)
+            series[name] = ratios.mean(axis=0)
+            base = result.whole if name == "static" else base
+            rows.append(result)
+            note = {
+                "d2sr": " (paper Alg. 1)",
+                "oracle": " (global knowledge)",
+                DEFAULT_CONTROLLER: " (ours, default)",
+            }
+            med = result.converged_median
             table.add_row(
-                label,
-                f"{whole:.1%}",
-                f"{steady:.1%}",
-                "never" if med == float("inf") else f"{med:.0f} periods",
-                "" if name == "static" or not base else f"-{1 - whole / base:.0%}",
+                name + note.get(name, ""),
+                f"{result.whole:.1%} ± {result.whole_ci:.1%}",
+                f"{result.steady:.1%}",
+                "never" if not np.isfinite(med) else f"{med:.0f} periods",
+                f"-{1 - result.whole / base:.0%}" if base and name != "static" else "",
             )
-            periods = min(run.periods, 30)
+            shown = list(range(min(sensors, 5)))
+            title = f"{name}: room 0, each sensor's slots over time" + (
+                " (sensor 0 = robot)" if scenario == "moving" else ""
+            )
             written.append(
-                save(
-                    sensor_timeline(
-                        run, list(range(sensors)), periods, f"{name}: room 0, each sensor's slots over time"
-                    ),
-                    out / f"timeline_{name}.png",
-                )
+                save(sensor_timeline(run, shown, min(run.periods, 30), title), out / f"timeline_{name}.png")
             )
             bar.advance(task)
     written.append(
@@ -143,7 +145,69 @@ def demo(
         )
     )
     console.print(table)
+    if scenario == "moving":
+        console.print("Moving robot: the ratios count the robot's frames only (as in the paper).")
     console.print("Plots: " + ", ".join(str(p) for p in written))
+    if json_out:
+        from d2sr.eval.desync import to_json
+
+        _atomic_write(json_out, to_json(rows))
+        console.print(f"Results: {json_out}")
+
+
+@app.command()
+def demo(
+    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/demo"),
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+) -> None:
+    """The short scenario: 3 sensors in one room at 6 fps, every controller; a table and plots."""
+    from d2sr.desync import DEFAULT_CONTROLLER
+
+    names = ["static", "d2sr", DEFAULT_CONTROLLER, "oracle"]
+    _compare(out, "stationary", 3, 6, 30.0, 20, names, TimingConfig.make(active_frames=6), seed)
+
+
+@desync_app.command("run")
+def desync_run(
+    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/desync"),
+    scenario: Annotated[
+        str, typer.Option(help="stationary (everyone overlaps) or moving (a robot).")
+    ] = "stationary",
+    sensors: Annotated[int, typer.Option(help="Sensors (moving: the robot plus N-1 fixed ones).")] = 3,
+    fps: Annotated[int, typer.Option(help="Active frames per period (total_frames = always on).")] = 6,
+    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 60.0,
+    rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
+    controllers: Annotated[str, typer.Option(help="Comma-separated; default: all.")] = "",
+    config: Annotated[
+        Path | None, typer.Option(help="TOML with timing-world settings (TimingConfig).")
+    ] = None,
+    recall: Annotated[float | None, typer.Option(help="Detector recall.")] = None,
+    false_alarm: Annotated[float | None, typer.Option(help="Detector false-alarm rate.")] = None,
+    hit_prob: Annotated[float | None, typer.Option(help="P(frame corrupted | overlapped).")] = None,
+    drift_ppm: Annotated[float | None, typer.Option(help="Clock drift range, +- ppm.")] = None,
+    drop: Annotated[float | None, typer.Option(help="P(frame dropped).")] = None,
+    setup: Annotated[int | None, typer.Option(help="Laser start-up slots before a window.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Also write the results as JSON.")] = None,
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+) -> None:
+    """Compare controllers on one scenario with your own settings (flags override --config)."""
+    from d2sr.desync import CONTROLLERS
+    from d2sr.eval import desync as ev
+
+    if scenario not in ev.SCENARIOS:
+        raise ConfigError(f"--scenario must be one of {', '.join(ev.SCENARIOS)}, got {scenario!r}")
+    names = _split(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
+    base = load_toml(TimingConfig, config).model_dump() if config else {}
+    flags = {
+        "recall": recall,
+        "false_alarm": false_alarm,
+        "hit_prob": hit_prob,
+        "drift_ppm": drift_ppm,
+        "drop": drop,
+        "setup": setup,
+    }
+    values = {**base, **{k: v for k, v in flags.items() if v is not None}, "active_frames": fps}
+    _compare(out, scenario, sensors, fps, seconds, rooms, names, TimingConfig.make(**values), seed, json_out)
 
 
 @desync_app.command("sweep")

@@ -26,7 +26,7 @@ import numpy as np
 
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.timing import TimingConfig, simulate
+from d2sr.sim.timing import TimingConfig, TimingRun, simulate
 
 __all__ = [
     "CONTROLLERS",
@@ -37,6 +37,8 @@ __all__ = [
     "CellResult",
     "convergence_periods",
     "run_cell",
+    "simulate_cell",
+    "summarize",
     "sweep",
 ]
 
@@ -119,12 +121,28 @@ def _graph(cell: Cell) -> OverlapGraph:
     raise ValueError(f"unknown scenario {cell.scenario!r}")
 
 
-def run_cell(cell: Cell, **overrides: float) -> CellResult:
-    """Simulate one cell and summarize it."""
-    params = {**PROFILES[cell.profile], **overrides}
-    cfg = TimingConfig.make(active_frames=cell.fps, **params)
+def run_cell(cell: Cell, config: TimingConfig | None = None, **overrides: float) -> CellResult:
+    """Simulate one cell and summarize it. ``config`` replaces the profile (its fps is the cell's)."""
+    return summarize(cell, *simulate_cell(cell, config, **overrides))[0]
+
+
+def simulate_cell(
+    cell: Cell, config: TimingConfig | None = None, record_frames: bool = False, **overrides: float
+) -> tuple[TimingConfig, OverlapGraph, TimingRun]:
+    """The cell's rooms in one timing world, run with the cell's controller."""
+    if config is None:
+        config = TimingConfig.make(active_frames=cell.fps, **{**PROFILES[cell.profile], **overrides})
     graph = _graph(cell)
-    run = simulate(graph, cell.controller, cfg, cell.duration_s, seed=cell.seed)
+    run = simulate(
+        graph, cell.controller, config, cell.duration_s, seed=cell.seed, record_frames=record_frames
+    )
+    return config, graph, run
+
+
+def summarize(
+    cell: Cell, cfg: TimingConfig, graph: OverlapGraph, run: TimingRun
+) -> tuple[CellResult, np.ndarray]:
+    """The cell's metrics, and each room's per-period interference ratio (rooms x periods)."""
     per_room = graph.n // cell.replicas
     room = np.arange(graph.n) // per_room
     focus = graph.focus if graph.focus is not None else np.arange(graph.n)
@@ -159,7 +177,7 @@ def run_cell(cell: Cell, **overrides: float) -> CellResult:
         float(np.mean(~np.isfinite(conv))),
         tuple(float(c) for c in conv),
         tuple(float(w) for w in whole),
-    )
+    ), ratios
 
 
 def cells(
