@@ -58,7 +58,6 @@ class OracleScheduler:
         seed: int = 0,
         max_search: int = 8,
         refresh_s: float = 30.0,
-        weights: np.ndarray | None = None,
     ) -> None:
         self.t0, self.tau, self.n = np.asarray(t0, float), np.asarray(tau, float), np.asarray(n)
         self.setup, self.total = int(setup), int(total_frames)
@@ -70,8 +69,6 @@ class OracleScheduler:
         self.component = components(size, self.pairs)
         self.colour = greedy_colouring(size, self.pairs)
         self.period = self.total * float(np.mean(self.tau))
-        # what a lost frame costs per sensor: the streams a scenario reports on weigh more
-        self.weights = np.ones(size) if weights is None else np.asarray(weights, dtype=float)
         self._targets: dict[int, tuple[float, dict[int, float]]] = {}
 
     def offset_for(self, i: int, now: float, offsets: np.ndarray) -> int:
@@ -153,7 +150,7 @@ class OracleScheduler:
             for u in others:
                 per_frame = np.bincount(fid[sel], weights=laser[u, offs[u]][sel], minlength=n)
                 hits += per_frame >= need
-            return float(self.weights[members[j]] * np.sum(1.0 - self.miss**hits))
+            return float(np.sum(1.0 - self.miss**hits))
 
         def total_cost(offs: np.ndarray) -> float:
             return sum(cost_of(j, offs) for j in range(k))

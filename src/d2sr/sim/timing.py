@@ -192,7 +192,6 @@ def simulate(
             cfg.hit_prob,
             cfg.min_overlap,
             seed,
-            weights=_focus_weights(graph),
         )
         if oracle_ids
         else None
@@ -285,14 +284,6 @@ def simulate(
     if progress is not None:
         progress(1.0)
     return TimingRun(cfg, graph, captured, interfered, detected, true_det, offsets, n_act, t0, drift, frames)
-
-
-def _focus_weights(graph: OverlapGraph) -> np.ndarray | None:
-    if graph.focus is None:
-        return None
-    w = np.ones(graph.n)
-    w[graph.focus] = 10.0
-    return w
 
 
 def _edges_into(sensors: np.ndarray, indptr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
