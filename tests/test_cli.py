@@ -113,6 +113,18 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
     assert (tmp_path / "sweep.csv").read_text().startswith("scenario,fps,sensors,controller")
     for png in ("fig9_default.png", "fig9_harsh.png", "paired_default.png", "convergence.png"):
         assert (tmp_path / png).stat().st_size > 1000
+    report = (tmp_path / "README.md").read_text()
+    assert "## stationary" in report and "## Bars" in report and "desync sweep" in report
+    # the report is rebuilt from sweep.json alone, identically
+    (tmp_path / "README.md").unlink()
+    res = d2sr("desync", "report", str(tmp_path))
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "README.md").read_text() == report
+    (tmp_path / "sweep.json").write_text('[{"scenario": 1}]')
+    res = d2sr("desync", "report", str(tmp_path))
+    assert res.returncode == 2 and "not a sweep.json" in res.stderr
+    res = d2sr("desync", "report", str(tmp_path / "nowhere"))
+    assert res.returncode == 2 and "no such file" in res.stderr
 
 
 def test_bench_json(tmp_path):

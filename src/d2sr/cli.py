@@ -228,7 +228,6 @@ def desync_sweep(
     """Interference ratio against frame rate and N for every controller (paper Fig. 9 and ours)."""
     from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
     from d2sr.eval import desync as ev
-    from d2sr.eval import plots
 
     ctrl = _split(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
     prof = _split(profiles, "profiles", tuple(ev.PROFILES))
@@ -253,32 +252,55 @@ def desync_sweep(
         results = ev.sweep(grid, jobs or None, progress=lambda _: bar.advance(task))
     order = {c: i for i, c in enumerate(ctrl)}
     results.sort(key=lambda r: (r.profile, r.scenario, r.fps, r.sensors, order.get(r.controller, 99)))
+    command = ("d2sr desync sweep " + " ".join(sys.argv[3:])).strip()
+    _report(results, out, command)
+
+
+@desync_app.command("report")
+def desync_report(
+    folder: Annotated[Path, typer.Argument(help="A sweep's output folder (holds sweep.json).")],
+) -> None:
+    """Rebuild a sweep's summary, README.md and plots from its sweep.json (no simulation)."""
+    from d2sr.eval import desync as ev
+
+    path = folder / "sweep.json"
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such file (run d2sr desync sweep --out {folder} first)")
+    results = ev.from_json(path.read_text())
+    if not results:
+        raise ConfigError(f"{path}: no results in it")
+    old = folder / "summary.json"
+    command = json.loads(old.read_text()).get("command", "") if old.is_file() else ""
+    _report(results, folder, command or "d2sr desync sweep")
+
+
+def _report(results: list, out: Path, command: str) -> None:
+    """Write CSV, JSON, summary with the bar checks, README.md and plots of sweep results."""
+    from d2sr.desync import DEFAULT_CONTROLLER
+    from d2sr.eval import desync as ev
+    from d2sr.eval import plots
+
     out.mkdir(parents=True, exist_ok=True)
     ev.write_csv(results, out / "sweep.csv")
     checks = ev.check_bars(results, DEFAULT_CONTROLLER)
     head = ev.headline(results, DEFAULT_CONTROLLER)
-    command = "d2sr desync sweep " + " ".join(sys.argv[3:])
-    summary = {
-        "command": command.strip(),
-        "headline_reduction_N2_15fps": head,
-        "bars": checks,
-        "bars_failed": [c for c in checks if not c["ok"]],
-    }
+    failed = [c for c in checks if not c["ok"]]
+    summary = {"command": command, "headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed}
     _atomic_write(out / "sweep.json", ev.to_json(results))
     _atomic_write(out / "summary.json", json.dumps(summary, indent=1, default=float))
-    for p in prof:
+    _atomic_write(out / "README.md", ev.markdown(results, checks, head, command))
+    for p in dict.fromkeys(r.profile for r in results):
         plots.save(plots.fig9(results, DEFAULT_CONTROLLER, p), out / f"fig9_{p}.png")
         plots.save(plots.paired(results, DEFAULT_CONTROLLER, p), out / f"paired_{p}.png")
     plots.save(plots.convergence_cdf(results, DEFAULT_CONTROLLER), out / "convergence.png")
-    failed = summary["bars_failed"]
     console.print(
         f"{len(results)} cells; bars: {len(checks) - len(failed)}/{len(checks)} pass; "
-        f"headline (N=2, 15 fps, reduction vs static): " + ", ".join(f"{k} {v:.1%}" for k, v in head.items())
+        "headline (N=2, 15 fps, reduction vs static): " + ", ".join(f"{k} {v:.1%}" for k, v in head.items())
     )
     for c in failed:
         ref = c.get("reference", float("nan"))
         console.print(f"  [red]fails[/red] {c['bar']}: {c['cell']} value={c['value']:.3f} ref={ref:.3f}")
-    console.print(f"Wrote {out}/sweep.csv, sweep.json, summary.json and PNG plots")
+    console.print(f"Wrote {out}/README.md, sweep.csv, sweep.json, summary.json and PNG plots")
 
 
 @app.command()
