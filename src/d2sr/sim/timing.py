@@ -225,7 +225,9 @@ def simulate(
     report_every = max(1, n_steps // 200)
 
     inv_tau, t0_slots = 1.0 / tau, t0 / tau
-    live_step, live_idx, live_src = -1, src[:0], src[:0]
+    # live edges, sorted by destination, and their CSR; a static graph has them all, always
+    live_step, live_idx, live_src, l_indptr = -1, np.arange(src.size), src, indptr
+    was_live = np.zeros(src.size, dtype=bool)
     for s in range(n_steps):
         t = (s + 0.5) * step
         g = np.floor(t * inv_tau - t0_slots).astype(np.int64)
@@ -237,7 +239,8 @@ def simulate(
             gp = g_prev[done]
             slot, per = gp % total, gp // total
             was_active = active[done, slot] if here is None else active[done, slot] & here[done]
-            e_idx, owner = _edges_into(done, indptr)
+            pos, owner = _edges_into(done, l_indptr)
+            e_idx = live_idx[pos]
             need = np.maximum(1.0, cfg.min_overlap * sub_cnt[done])
             hit_e = edge_cnt[e_idx] >= need[owner]
             k_hit = np.bincount(owner, weights=hit_e, minlength=done.size)
@@ -263,8 +266,17 @@ def simulate(
                 sub_cnt[done] = 0
         else:
             fresh = np.flatnonzero(changed)
-            edge_cnt[_edges_into(fresh, indptr)[0]] = 0
+            edge_cnt[live_idx[_edges_into(fresh, l_indptr)[0]]] = 0
             sub_cnt[fresh] = 0
+        if live_rows is not None and sched != live_step:
+            # the schedule moves once per dt: index only the live edges (a robot meets hundreds over a run)
+            live_step = sched
+            row = live_rows[min(sched, len(live_rows) - 1)]
+            edge_cnt[row & ~was_live] = 0  # an edge coming back starts from zero
+            was_live = row
+            live_idx = np.flatnonzero(row)  # still sorted by destination
+            live_src = src[live_idx]
+            l_indptr = np.concatenate([[0], np.cumsum(np.bincount(dst[live_idx], minlength=n_sens))])
         # lasers run on after a sensor's last recorded period, so every recorded frame has full company
         on = (g >= 0) & laser_flat.take(row_base + g % total)
         if here is not None:
@@ -272,10 +284,6 @@ def simulate(
         if live_rows is None:
             edge_cnt += on.take(src)
         else:
-            if sched != live_step:  # the schedule moves once per dt: only live edges are counted
-                live_step = sched
-                live_idx = np.flatnonzero(live_rows[min(sched, len(live_rows) - 1)])
-                live_src = src[live_idx]
             edge_cnt[live_idx] += on.take(live_src)
         sub_cnt += 1
         g_prev = g
