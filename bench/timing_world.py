@@ -10,6 +10,8 @@ import argparse
 import json
 from pathlib import Path
 
+from rich.progress import Progress, TimeElapsedColumn
+
 from d2sr.bench import bench_timing
 
 
@@ -20,7 +22,11 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
-    result = bench_timing(args.sensors, args.seconds, args.repeats)
+    with Progress(*Progress.get_default_columns(), TimeElapsedColumn()) as bar:
+        task = bar.add_task("warehouse", total=1.0)
+        result = bench_timing(
+            args.sensors, args.seconds, args.repeats, progress=lambda f: bar.update(task, completed=f)
+        )
     text = json.dumps(result, indent=1)
     print(text)
     if args.json:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import platform
 import statistics
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -16,7 +17,12 @@ __all__ = ["bench_timing"]
 
 
 def bench_timing(
-    sensors: int = 1000, seconds: float = 600.0, repeats: int = 3, seed: int = 0, fps: int = 6
+    sensors: int = 1000,
+    seconds: float = 600.0,
+    repeats: int = 3,
+    seed: int = 0,
+    fps: int = 6,
+    progress: Callable[[float], None] | None = None,
 ) -> dict:
     """The warehouse: ``sensors`` sensors (20% on robots, ~3 neighbours each) for ``seconds`` seconds."""
     t = time.perf_counter()
@@ -26,7 +32,8 @@ def bench_timing(
     times, ratio = [], 0.0
     for r in range(repeats):
         t = time.perf_counter()
-        run = simulate(graph, DEFAULT_CONTROLLER, cfg, seconds, seed=seed + r)
+        report = None if progress is None else (lambda f, r=r: progress((r + f) / repeats))
+        run = simulate(graph, DEFAULT_CONTROLLER, cfg, seconds, seed=seed + r, progress=report)
         times.append(time.perf_counter() - t)
         ratio = run.ratio()
     degree = np.bincount(graph.dst, minlength=sensors)

@@ -315,7 +315,9 @@ def bench(
 
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
-    result = bench_timing(sensors, seconds, repeats)
+    with _progress() as bar:
+        task = bar.add_task(f"{sensors} sensors x {seconds:g} s, {repeats} runs", total=1.0)
+        result = bench_timing(sensors, seconds, repeats, progress=lambda f: bar.update(task, completed=f))
     console.print_json(json.dumps(result))
     if json_out:
         _atomic_write(json_out, json.dumps(result, indent=1) + "\n")

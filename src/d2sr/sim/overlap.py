@@ -165,18 +165,6 @@ class OverlapGraph:
         )
 
     # ----------------------------------------------------------------- queries
-    def live_at(self, t: float) -> np.ndarray | None:
-        """Which edges are live at time t (None = all)."""
-        if self.live is None:
-            return None
-        return self.live[:, min(int(t / self.dt), self.live.shape[1] - 1)]
-
-    def present_at(self, t: float) -> np.ndarray | None:
-        """Which sensors are switched on at time t (None = all)."""
-        if self.present is None:
-            return None
-        return self.present[:, min(int(t / self.dt), self.present.shape[1] - 1)]
-
     def union_pairs(self) -> np.ndarray:
         """Every pair that overlaps at some time, as (k, 2) undirected pairs."""
         ever = np.ones(self.src.size, dtype=bool) if self.live is None else self.live.any(axis=1)

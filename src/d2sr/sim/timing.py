@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -76,10 +76,6 @@ class TimingRun:
     drifts: np.ndarray
     #: Optional per-frame record (sensors x slots): 1 = captured clean, 2 = interfered, 0 = no frame.
     frames: np.ndarray | None = None
-    group: np.ndarray = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.group = self.graph.components()
 
     @property
     def periods(self) -> int:
@@ -90,21 +86,6 @@ class TimingRun:
         rows = slice(None) if sensors is None else sensors
         cap = self.captured[rows, start:stop].sum()
         return float(self.interfered[rows, start:stop].sum() / cap) if cap else 0.0
-
-    def group_ratios(self, sensors: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Per connected group: (group ids, per-period interference ratio, groups x periods)."""
-        keep = (
-            np.ones(self.graph.n, dtype=bool)
-            if sensors is None
-            else np.isin(np.arange(self.graph.n), sensors)
-        )
-        ids = np.unique(self.group[keep])
-        cap = np.zeros((ids.size, self.periods))
-        bad = np.zeros((ids.size, self.periods))
-        pos = np.searchsorted(ids, self.group[keep])
-        np.add.at(cap, pos, self.captured[keep])
-        np.add.at(bad, pos, self.interfered[keep])
-        return ids, np.divide(bad, cap, out=np.zeros_like(bad), where=cap > 0)
 
 
 def _controllers(
