@@ -288,7 +288,7 @@ def _report(results: list, out: Path, command: str) -> None:
     summary = {"command": command, "headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed}
     _atomic_write(out / "sweep.json", ev.to_json(results))
     _atomic_write(out / "summary.json", json.dumps(summary, indent=1, default=float))
-    _atomic_write(out / "README.md", ev.markdown(results, checks, head, command))
+    _atomic_write(out / "README.md", ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
     for p in dict.fromkeys(r.profile for r in results):
         plots.save(plots.fig9(results, DEFAULT_CONTROLLER, p), out / f"fig9_{p}.png")
         plots.save(plots.paired(results, DEFAULT_CONTROLLER, p), out / f"paired_{p}.png")

@@ -54,14 +54,13 @@ class OracleScheduler:
         setup: int,
         total_frames: int,
         hit_prob: float = 0.9,
-        min_overlap: float = 0.25,
         seed: int = 0,
         max_search: int = 8,
         refresh_s: float = 30.0,
     ) -> None:
         self.t0, self.tau, self.n = np.asarray(t0, float), np.asarray(tau, float), np.asarray(n)
         self.setup, self.total = int(setup), int(total_frames)
-        self.miss, self.min_overlap = 1.0 - hit_prob, min_overlap
+        self.miss = 1.0 - hit_prob
         self.max_search, self.refresh_s = max_search, refresh_s
         self.rng = np.random.default_rng(seed)
         size = len(self.t0)
@@ -93,19 +92,19 @@ class OracleScheduler:
             return self._packed_by_colour(members, now)
         return self._searched(members, now, current)
 
-    def _grid_phase(self, m: int, now: float) -> float:
+    def _period_start(self, m: int, now: float) -> float:
         """Where sensor m's current period started, in seconds on the circle (offsets count from there)."""
         g = np.floor((now - self.t0[m]) / (self.total * self.tau[m])) * self.total
         return float((self.t0[m] + g * self.tau[m]) % self.period)
 
     def _packed_by_colour(self, members: np.ndarray, now: float) -> dict[int, float]:
-        start = self._grid_phase(int(members[0]), now)
+        start = self._period_start(int(members[0]), now)
         out: dict[int, float] = {}
         for c in sorted({int(self.colour[m]) for m in members}):
             ends = []
             for m in members[self.colour[members] == c]:
                 slot = self.tau[m]
-                phase = self._grid_phase(int(m), now)
+                phase = self._period_start(int(m), now)
                 s = start + (phase - start) % slot
                 out[int(m)] = s
                 ends.append(s + (self.n[m] + self.setup) * slot)
@@ -122,7 +121,7 @@ class OracleScheduler:
         for a, b in self.pairs:
             if int(a) in local and int(b) in local:
                 adj[local[int(a)], local[int(b)]] = adj[local[int(b)], local[int(a)]] = True
-        base = np.array([round(self._grid_phase(int(m), now) / self.period * bins) for m in members])
+        base = np.array([round(self._period_start(int(m), now) / self.period * bins) for m in members])
         # laser[j, o] and frames[j, o] for each member j and slot offset o, as bin masks on the circle
         laser = np.zeros((k, total, bins), dtype=bool)
         frame_id = np.full((k, total, bins), -1, dtype=np.int64)
@@ -135,8 +134,6 @@ class OracleScheduler:
                 laser[j, o, on] = True
                 fr = (first + np.arange(n * bps)) % bins
                 frame_id[j, o, fr] = np.arange(n * bps) // bps
-        # any touch counts: the bins are coarse (1/8 slot), and the oracle can afford to be strict
-        need = 1
 
         def cost_of(j: int, offs: np.ndarray) -> float:
             """Expected interfered frames of member j given everyone's offsets."""
@@ -149,7 +146,7 @@ class OracleScheduler:
             sel = fid >= 0
             for u in others:
                 per_frame = np.bincount(fid[sel], weights=laser[u, offs[u]][sel], minlength=n)
-                hits += per_frame >= need
+                hits += per_frame > 0  # any touch counts: bins are coarse, the oracle can be strict
             return float(np.sum(1.0 - self.miss**hits))
 
         def total_cost(offs: np.ndarray) -> float:

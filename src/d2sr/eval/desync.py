@@ -365,10 +365,15 @@ def headline(results: list[CellResult], default: str = DEFAULT_CONTROLLER) -> di
     return out
 
 
-def markdown(results: list[CellResult], checks: list[dict], head: dict[str, float], command: str) -> str:
+def markdown(
+    results: list[CellResult],
+    checks: list[dict],
+    head: dict[str, float],
+    command: str,
+    default: str = DEFAULT_CONTROLLER,
+) -> str:
     """A readable report of a sweep: tables of whole-run ratios, the bar checks, the headline."""
     by = _index(results)
-    default = next((r.controller for r in results if r.controller not in ("static", "d2sr", "oracle")), "")
     lines = [
         "# De-synchronization sweep",
         "",

@@ -161,7 +161,6 @@ def simulate(
     laser = np.zeros((n_sens, total), dtype=bool)
     for i in range(n_sens):
         active[i], laser[i] = _masks(int(offset[i]), int(n_act[i]), setup, total)
-    oracle_ids = [i for i, c in enumerate(ctrls) if getattr(c, "global_knowledge", False)]
     scheduler = (
         OracleScheduler(
             graph.union_pairs(),
@@ -171,10 +170,9 @@ def simulate(
             setup,
             total,
             cfg.hit_prob,
-            cfg.min_overlap,
             seed,
         )
-        if oracle_ids
+        if any(getattr(c, "global_knowledge", False) for c in ctrls)
         else None
     )
 
