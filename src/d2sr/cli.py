@@ -14,6 +14,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from d2sr import __version__
+from d2sr.atomic import atomic_write
 from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
 from d2sr.sim.timing import TimingConfig
@@ -47,13 +48,6 @@ def _progress() -> Progress:
         TimeElapsedColumn(),
         console=console,
     )
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def _split(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
@@ -151,7 +145,7 @@ def _compare(
     if json_out:
         from d2sr.eval.desync import to_json
 
-        _atomic_write(json_out, to_json(rows))
+        atomic_write(json_out, to_json(rows))
         console.print(f"Results: {json_out}")
 
 
@@ -286,9 +280,9 @@ def _report(results: list, out: Path, command: str) -> None:
     head = ev.headline(results, DEFAULT_CONTROLLER)
     failed = [c for c in checks if not c["ok"]]
     summary = {"command": command, "headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed}
-    _atomic_write(out / "sweep.json", ev.to_json(results))
-    _atomic_write(out / "summary.json", json.dumps(summary, indent=1, default=float))
-    _atomic_write(out / "README.md", ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
+    atomic_write(out / "sweep.json", ev.to_json(results))
+    atomic_write(out / "summary.json", json.dumps(summary, indent=1, default=float))
+    atomic_write(out / "README.md", ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
     for p in dict.fromkeys(r.profile for r in results):
         plots.save(plots.fig9(results, DEFAULT_CONTROLLER, p), out / f"fig9_{p}.png")
         plots.save(plots.paired(results, DEFAULT_CONTROLLER, p), out / f"paired_{p}.png")
@@ -320,7 +314,7 @@ def bench(
         result = bench_timing(sensors, seconds, repeats, progress=lambda f: bar.update(task, completed=f))
     console.print_json(json.dumps(result))
     if json_out:
-        _atomic_write(json_out, json.dumps(result, indent=1) + "\n")
+        atomic_write(json_out, json.dumps(result, indent=1) + "\n")
 
 
 def main() -> None:

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from d2sr.atomic import atomic_file
 from d2sr.eval.desync import FPS, SENSORS, CellResult
 from d2sr.sim.timing import TimingRun
 
@@ -24,11 +25,11 @@ LABELS = {"static": "static (no D2SR)", "d2sr": "d2sr (paper Alg. 1)", "oracle":
 
 def save(fig: Figure, path: Path) -> Path:
     """Write a figure to a temporary name and rename, so a killed run leaves no half-written PNG."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_file(path) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
     return path
 
 

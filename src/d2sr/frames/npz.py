@@ -1,0 +1,90 @@
+"""One ``.npz`` file per recording: ``depth`` (frames, height, width), ``names``, ``timestamps_ns``
+(-1 = unknown), ``depth_scale`` and optional ``intrinsics`` (JSON text)."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.errors import InputError
+from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, check_scale
+
+__all__ = ["NpzReader", "NpzWriter"]
+
+
+class NpzReader(Reader):
+    def __init__(self, path: Path) -> None:
+        super().__init__(path)
+        try:
+            with np.load(self.path, allow_pickle=False) as z:
+                if "depth" not in z.files:
+                    raise InputError(
+                        f"{self.path}: npz has no 'depth' array (has: {', '.join(z.files) or 'none'})"
+                    )
+                self.depth = z["depth"]
+                n = len(self.depth)
+                self.names = (
+                    [str(s) for s in z["names"]] if "names" in z.files else [f"{i:06d}" for i in range(n)]
+                )
+                self.stamps = z["timestamps_ns"] if "timestamps_ns" in z.files else np.full(n, -1)
+                scale = float(z["depth_scale"]) if "depth_scale" in z.files else None
+                intr = json.loads(str(z["intrinsics"])) if "intrinsics" in z.files else None
+        except InputError:
+            raise
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, json.JSONDecodeError) as exc:
+            raise InputError(f"{self.path}: corrupt or truncated npz: {exc}") from None
+        if self.depth.ndim == 2:
+            self.depth = self.depth[None]
+        if self.depth.ndim != 3 or len(self.depth) == 0:
+            raise InputError(f"{self.path}: 'depth' must be (frames, height, width), got {self.depth.shape}")
+        check_depth(self.depth[0], str(self.path))
+        if len(self.names) != len(self.depth) or len(self.stamps) != len(self.depth):
+            raise InputError(f"{self.path}: names/timestamps_ns do not match the number of frames")
+        self.depth_scale = check_scale(scale, str(self.path))
+        self.intrinsics = Intrinsics.from_dict(intr) if intr else None
+
+    def __len__(self) -> int:
+        return len(self.depth)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.depth.shape[1:]  # type: ignore[return-value]
+
+    def __iter__(self) -> Iterator[Frame]:
+        for i, d in enumerate(self.depth):
+            s = int(self.stamps[i])
+            yield Frame(self.names[i], check_depth(d, f"{self.path}: frame {i}"), None if s < 0 else s)
+
+
+class NpzWriter(Writer):
+    """Frames are collected in memory and saved (compressed) on close: npz cannot be appended to."""
+
+    def __init__(self, path: Path, depth_scale: float, intrinsics: Intrinsics | None = None) -> None:
+        super().__init__(path, depth_scale, intrinsics)
+        self._frames: list[Frame] = []
+
+    def _write(self, frame: Frame) -> None:
+        if self._frames and frame.depth.dtype != self._frames[0].depth.dtype:
+            raise InputError(f"{self.path}: frame {frame.name} is {frame.depth.dtype}, earlier frames differ")
+        self._frames.append(frame)
+
+    def _finish(self) -> None:
+        if not self._frames:
+            raise InputError(f"{self.path}: no frames to write")
+        arrays: dict[str, np.ndarray] = {
+            "depth": np.stack([f.depth for f in self._frames]),
+            "names": np.array([f.name for f in self._frames]),
+            "timestamps_ns": np.array(
+                [-1 if f.timestamp_ns is None else f.timestamp_ns for f in self._frames]
+            ),
+            "depth_scale": np.array(self.depth_scale),
+        }
+        if self.intrinsics is not None:
+            arrays["intrinsics"] = np.array(json.dumps(self.intrinsics.to_dict()))
+        assert self._tmp is not None
+        with self._tmp.open("wb") as fh:
+            np.savez_compressed(fh, **arrays)  # type: ignore[arg-type]

@@ -1,0 +1,143 @@
+"""Folders of 16-bit PNG depth images (sorted file names are time order), with an optional ``meta.json``
+(depth scale, intrinsics, per-frame timestamps). RealSense-style ``intrinsics.json`` is read too."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.errors import InputError
+from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_scale, stamp_from_name
+
+__all__ = ["PngReader", "PngWriter", "decode_png", "encode_png"]
+
+_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+META = "meta.json"
+
+
+def decode_png(data: bytes, where: str, dtype: type = np.uint16) -> np.ndarray:
+    """Decode one single-channel PNG of ``dtype``; a clear one-line error for anything else."""
+    if not data.startswith(_SIGNATURE):
+        raise InputError(f"{where}: not a PNG file")
+    if b"IEND" not in data[-16:]:
+        raise InputError(f"{where}: truncated PNG (no end marker)")
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise InputError(f"{where}: corrupt PNG (cannot decode)")
+    if img.ndim != 2:
+        raise InputError(f"{where}: PNG has {img.shape[2]} channels; depth needs one 16-bit channel")
+    if img.dtype != dtype:
+        bits = {np.uint8: 8, np.uint16: 16}.get(img.dtype.type, img.dtype)
+        want = {np.uint8: 8, np.uint16: 16}[dtype]
+        raise InputError(f"{where}: {bits}-bit PNG; expected {want}-bit single-channel")
+    return img
+
+
+def encode_png(img: np.ndarray, where: str) -> bytes:
+    """Encode uint16 (depth) or uint8 (masks) losslessly; fast compression (these are written by the
+    thousand)."""
+    if img.dtype not in (np.uint16, np.uint8):
+        raise InputError(f"{where}: PNG stores uint8 or uint16 images, got {img.dtype}")
+    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:  # pragma: no cover - OpenCV fails only on invalid arrays, which we have ruled out
+        raise InputError(f"{where}: could not encode PNG")
+    return buf.tobytes()
+
+
+def read_meta(folder: Path) -> dict:
+    """``meta.json`` (ours) or ``intrinsics.json`` (RealSense tools); {} when neither exists."""
+    for name in (META, "intrinsics.json"):
+        f = folder / name
+        if f.is_file():
+            try:
+                meta = json.loads(f.read_text())
+            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise InputError(f"{f}: not valid JSON: {exc}") from None
+            if not isinstance(meta, dict):
+                raise InputError(f"{f}: expected a JSON object")
+            if name == "intrinsics.json":
+                meta = {"depth_scale": meta.get("depth_scale"), "intrinsics": meta}
+            return meta
+    return {}
+
+
+class PngReader(Reader):
+    """A folder of 16-bit single-channel PNGs. Every frame must have the size of the first."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path)
+        if not self.path.is_dir():
+            raise InputError(f"{self.path}: not a folder")
+        self.files = sorted(p for p in self.path.iterdir() if p.suffix.lower() == ".png" and p.is_file())
+        if not self.files:
+            raise InputError(f"{self.path}: no PNG depth frames in this folder")
+        meta = read_meta(self.path)
+        self.depth_scale = check_scale(meta.get("depth_scale"), str(self.path))
+        intr = meta.get("intrinsics")
+        self.intrinsics = Intrinsics.from_dict(intr) if intr and "fx" in intr else None
+        self._frame_meta = {
+            f["name"]: f for f in meta.get("frames", []) if isinstance(f, dict) and "name" in f
+        }
+        self._shape: tuple[int, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.files)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        if self._shape is None:
+            self._shape = self.read(0).depth.shape  # type: ignore[assignment]
+        return self._shape  # type: ignore[return-value]
+
+    def read(self, i: int) -> Frame:
+        f = self.files[i]
+        try:
+            data = f.read_bytes()
+        except OSError as exc:
+            raise InputError(f"{f}: cannot read: {exc.strerror}") from None
+        depth = decode_png(data, str(f))
+        if self._shape is not None and depth.shape != self._shape:
+            raise InputError(
+                f"{f}: frame is {depth.shape[1]}x{depth.shape[0]}, earlier frames are "
+                f"{self._shape[1]}x{self._shape[0]}"
+            )
+        self._shape = depth.shape  # type: ignore[assignment]
+        m = self._frame_meta.get(f.stem, {})
+        stamp = m.get("timestamp_ns", stamp_from_name(f.stem))
+        return Frame(f.stem, depth, None if stamp is None else int(stamp), m)
+
+    def __iter__(self) -> Iterator[Frame]:
+        for i in range(len(self.files)):
+            yield self.read(i)
+
+
+class PngWriter(Writer):
+    """``<name>.png`` per frame and ``meta.json``; the folder appears when the writer closes."""
+
+    is_dir = True
+
+    def __init__(self, path: Path, depth_scale: float, intrinsics: Intrinsics | None = None) -> None:
+        super().__init__(path, depth_scale, intrinsics)
+        self._frames: list[dict] = []
+
+    def _write(self, frame: Frame) -> None:
+        if frame.depth.dtype != np.uint16:
+            raise InputError(
+                f"{self.path}: PNG folders store uint16 depth; frame {frame.name} is {frame.depth.dtype}"
+            )
+        assert self._tmp is not None
+        (self._tmp / f"{frame.name}.png").write_bytes(encode_png(frame.depth, f"{self.path}/{frame.name}"))
+        self._frames.append({"name": frame.name, "timestamp_ns": frame.timestamp_ns, **frame.meta})
+
+    def _finish(self) -> None:
+        assert self._tmp is not None
+        meta = {
+            "depth_scale": self.depth_scale,
+            "intrinsics": None if self.intrinsics is None else self.intrinsics.to_dict(),
+            "frames": self._frames,
+        }
+        (self._tmp / META).write_text(json.dumps(meta, indent=1) + "\n")
