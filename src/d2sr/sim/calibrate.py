@@ -1,0 +1,166 @@
+"""Calibrate the sensor model against real recordings: per-frame zero fraction, dropout flicker, and
+per-pixel temporal noise against range. ``d2sr calibrate`` runs the fit and writes the plot."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from d2sr.sim.scene import Pose, Renderer, SensorModel, SensorNoise, make_room
+
+__all__ = ["BINS", "SequenceStats", "calibrate", "sequence_stats", "simulated_stats", "static_camera"]
+
+#: Range bins (m) of the noise-against-range statistic.
+BINS = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+
+
+@dataclass
+class SequenceStats:
+    """Statistics of a static sequence, computed in one streaming pass."""
+
+    zero_frac: float
+    flicker: float
+    noise: np.ndarray  # median per-pixel temporal sd (m) per range bin; NaN where too few pixels
+    pixels: np.ndarray  # pixels per range bin
+    frames: int
+
+    def to_dict(self) -> dict:
+        return {
+            "zero_frac": self.zero_frac,
+            "flicker": self.flicker,
+            "noise_mm": [None if np.isnan(v) else round(float(v) * 1000, 3) for v in self.noise],
+            "pixels": self.pixels.tolist(),
+            "frames": self.frames,
+        }
+
+
+def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels: int = 2000) -> SequenceStats:
+    """Zero fraction (median over frames), flicker (median fraction of pixels switching between return and
+    no return from one frame to the next) and temporal sd against range of pixels returning in >= 50% of
+    frames. Memory: a few float64 images, whatever the length."""
+    n = 0
+    zero, flick = [], []
+    prev: np.ndarray | None = None
+    count = mean = m2 = None
+    for f in frames:
+        d = f.astype(np.float64) / depth_scale
+        ok = d > 0
+        if count is None:
+            count, mean, m2 = np.zeros(d.shape), np.zeros(d.shape), np.zeros(d.shape)
+        zero.append(1 - ok.mean())
+        if prev is not None:
+            flick.append(float((ok != prev).mean()))
+        prev = ok
+        count += ok
+        delta = np.where(ok, d - mean, 0)
+        mean += delta / np.maximum(count, 1)
+        m2 += delta * np.where(ok, d - mean, 0)
+        n += 1
+    if n < 2 or count is None:
+        raise ValueError("need at least two frames")
+    steady = count >= max(n / 2, 2)
+    sd = np.sqrt(m2 / np.maximum(count - 1, 1))
+    which = np.digitize(mean, BINS) - 1
+    noise, pixels = np.full(len(BINS) - 1, np.nan), np.zeros(len(BINS) - 1, int)
+    for b in range(len(BINS) - 1):
+        sel = steady & (which == b)
+        pixels[b] = int(sel.sum())
+        if pixels[b] >= min_pixels:
+            noise[b] = float(np.median(sd[sel]))
+    return SequenceStats(float(np.median(zero)), float(np.median(flick)), noise, pixels, n)
+
+
+def static_camera(seed: int) -> tuple[Renderer, float]:
+    """A camera by one wall of a random room, looking across it (like the shared captures)."""
+    rng = np.random.default_rng([seed, 0xCA1])
+    pose0 = Pose(0.3, 0.0, float(rng.uniform(1.0, 1.6)), 0.0, float(rng.uniform(-0.15, 0.0)))
+    room = make_room(seed, people=0, size=(float(rng.uniform(4.5, 6.5)), float(rng.uniform(4.0, 6.0)), 2.8))
+    pose = Pose(
+        pose0.x,
+        float(rng.uniform(1.5, room.size[1] - 1.5)),
+        pose0.z,
+        float(rng.uniform(-0.3, 0.3)),
+        pose0.pitch,
+    )
+    room = make_room(seed, cameras=[pose], people=0, size=room.size)
+    return Renderer(room, pose=pose), 0.0
+
+
+def simulated_stats(model: SensorModel, rooms: int = 4, frames: int = 40, seed: int = 0) -> SequenceStats:
+    """The statistics of ``rooms`` simulated static sequences, pooled (medians over rooms)."""
+    stats = []
+    for k in range(rooms):
+        cam, _ = static_camera(seed + k)
+        r = cam.render(0.0)
+        noise = SensorNoise(model, r.depth.shape, seed + k)
+        stats.append(sequence_stats((noise.observe(r) for _ in range(frames)), model.depth_scale))
+    return SequenceStats(
+        float(np.median([s.zero_frac for s in stats])),
+        float(np.median([s.flicker for s in stats])),
+        _nanmedian(np.stack([s.noise for s in stats])),
+        np.sum([s.pixels for s in stats], axis=0),
+        rooms * frames,
+    )
+
+
+def _nanmedian(a: np.ndarray) -> np.ndarray:
+    out = np.full(a.shape[1], np.nan)
+    for j in range(a.shape[1]):
+        col = a[:, j][~np.isnan(a[:, j])]
+        if col.size:
+            out[j] = np.median(col)
+    return out
+
+
+def _bisect(f: Callable[[float], float], lo: float, hi: float, target: float, steps: int, log: bool) -> float:
+    """x in [lo, hi] with f(x) ~ target for monotone f (increasing or decreasing)."""
+    flo = f(lo)
+    for _ in range(steps):
+        mid = float(np.sqrt(lo * hi) if log else (lo + hi) / 2)
+        fm = f(mid)
+        if (fm < target) == (flo < target):
+            lo, flo = mid, fm
+        else:
+            hi = mid
+    return float(np.sqrt(lo * hi) if log else (lo + hi) / 2)
+
+
+def calibrate(
+    real: SequenceStats,
+    base: SensorModel | None = None,
+    rooms: int = 4,
+    frames: int = 40,
+    steps: int = 6,
+    progress: Callable[[float], None] | None = None,
+) -> SensorModel:
+    """Fit the return law's ``signal_ref`` to the zero fraction and the speckle correlation ``flicker`` to
+    the flicker rate (coordinate bisection, twice round); the noise slope comes from the real noise
+    against range by least squares."""
+    model = base or SensorModel()
+    x, y = (BINS[:-1] + BINS[1:]) / 2, real.noise
+    ok = ~np.isnan(y)
+    if ok.sum() >= 2:
+        slope, icpt = np.polyfit(x[ok], y[ok], 1)
+        model = model.model_copy(
+            update={"noise_per_m": float(max(slope, 0)), "noise_base": float(max(icpt, 0))}
+        )
+    total, done = 2 * 2 * (steps + 1), 0
+
+    def stat(name: str, field: str) -> Callable[[float], float]:
+        def f(v: float) -> float:
+            nonlocal done
+            done += 1
+            if progress:
+                progress(min(done / total, 1.0))
+            return getattr(simulated_stats(model.model_copy(update={field: v}), rooms, frames), name)
+
+        return f
+
+    for _ in range(2):
+        ref = _bisect(stat("zero_frac", "signal_ref"), 0.002, 0.5, real.zero_frac, steps, log=True)
+        model = model.model_copy(update={"signal_ref": ref})
+        rho = _bisect(stat("flicker", "flicker"), 0.0, 0.98, real.flicker, steps, log=False)
+        model = model.model_copy(update={"flicker": rho})
+    return model
