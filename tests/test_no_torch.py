@@ -1,4 +1,4 @@
-"""The stage cores (sim, desync, graph helpers) must run where torch is not installed."""
+"""The stage cores (sim, desync, labels, frames, graph helpers) must run where torch is not installed."""
 
 import ast
 import subprocess
@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "d2sr"
-CORES = ["sim", "desync", "graphs.py", "errors.py", "config.py"]
+CORES = ["sim", "desync", "frames", "graphs.py", "errors.py", "config.py", "labels.py", "atomic.py"]
 
 
 def test_core_sources_do_not_import_torch():
@@ -33,7 +33,8 @@ class Block:
         if name.split('.')[0] == 'torch':
             raise ImportError('torch was imported')
 sys.meta_path.insert(0, Block())
-import d2sr.sim, d2sr.desync, d2sr.sim.timing, d2sr.eval.desync
+import d2sr.sim, d2sr.desync, d2sr.sim.timing, d2sr.eval.desync, d2sr.labels, d2sr.frames.png
+import d2sr.sim.scene, d2sr.sim.interference, d2sr.sim.world, d2sr.sim.record, d2sr.frames.rosbag
 from d2sr.sim import OverlapGraph, simulate
 simulate(OverlapGraph.complete(2), 'damped', duration_s=2)
 assert 'torch' not in sys.modules

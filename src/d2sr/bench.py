@@ -52,3 +52,33 @@ def bench_timing(
         "fps": fps,
         "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
     }
+
+
+def bench_simulate(frames: int = 1000, repeats: int = 3, workers: int = 2, seed: int = 0) -> dict:
+    """Seconds to write ``frames`` simulated 640x480 frames (depth, clean and mask PNGs per frame) with
+    ``d2sr simulate``'s code path: 2 sensors at 25 fps in one room, static offsets."""
+    import tempfile
+    from pathlib import Path
+
+    from d2sr.sim.record import record
+    from d2sr.sim.world import make_rig
+
+    rig = make_rig(seed, 2, people=2)
+    seconds = frames / (2 * 25)
+    times, written = [], 0
+    for r in range(repeats):
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            summary = record(rig, Path(tmp) / "sim", seconds, 25, "static", seed + r, workers=workers)
+            times.append(time.perf_counter() - t0)
+            written = summary["frames"]
+    med = float(np.median(times))
+    return {
+        "benchmark": "simulate 640x480 (depth + clean + mask PNG per frame)",
+        "frames": written,
+        "workers": workers,
+        "seconds_median": round(med, 2),
+        "seconds_runs": [round(t, 2) for t in times],
+        "seconds_per_1000_frames": round(med * 1000 / max(written, 1), 2),
+        "bar_seconds_per_1000_frames": 60.0,
+    }

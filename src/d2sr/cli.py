@@ -9,20 +9,25 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from d2sr import __version__
+from d2sr import __version__, cli_data
 from d2sr.atomic import atomic_write
 from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
 from d2sr.sim.timing import TimingConfig
+from d2sr.ui import console, progress_bar
 
 app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
 desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
 app.add_typer(desync_app, name="desync")
-console = Console()
+eval_app = typer.Typer(help="Evaluations that write JSON and plots.", no_args_is_help=True)
+app.add_typer(eval_app, name="eval")
+app.command("simulate")(cli_data.simulate)
+app.command("label")(cli_data.label)
+app.command("calibrate")(cli_data.calibrate)
+app.command("gallery")(cli_data.gallery)
+eval_app.command("labels")(cli_data.eval_labels)
 
 
 def _version(value: bool) -> None:
@@ -38,16 +43,6 @@ def _root(
     ] = False,
 ) -> None:
     """d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
-
-
-def _progress() -> Progress:
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-    )
 
 
 def _split(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
@@ -102,7 +97,7 @@ def _compare(
         table.add_column(col, justify="left" if col == "controller" else "right")
     series, rows, written = {}, [], []
     base = None
-    with _progress() as bar:
+    with progress_bar() as bar:
         task = bar.add_task("simulating", total=len(controllers))
         for name in controllers:
             cell = Cell(scenario, fps, sensors, name, replicas=rooms, duration_s=seconds, seed=seed)
@@ -241,7 +236,7 @@ def desync_sweep(
             duration,
             seed,
         )
-    with _progress() as bar:
+    with progress_bar() as bar:
         task = bar.add_task("cells", total=len(grid))
         results = ev.sweep(grid, jobs or None, progress=lambda _: bar.advance(task))
     order = {c: i for i, c in enumerate(ctrl)}
@@ -300,18 +295,31 @@ def _report(results: list, out: Path, command: str) -> None:
 @app.command()
 def bench(
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results to this JSON file.")] = None,
+    what: Annotated[
+        str, typer.Option(help="Benchmarks to run: timing, simulate (comma-separated).")
+    ] = "timing",
     sensors: Annotated[int, typer.Option(help="Sensors in the timing-world benchmark.")] = 1000,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 600.0,
     repeats: Annotated[int, typer.Option(help="Repeats (median reported).")] = 3,
 ) -> None:
-    """Benchmarks: the timing world at warehouse scale (later: each learned stage)."""
-    from d2sr.bench import bench_timing
+    """Benchmarks: the timing world at warehouse scale; writing simulated 640x480 recordings."""
+    from d2sr.bench import bench_simulate, bench_timing
 
+    names = _split(what, "benchmark", ("timing", "simulate"))
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
-    with _progress() as bar:
-        task = bar.add_task(f"{sensors} sensors x {seconds:g} s, {repeats} runs", total=1.0)
-        result = bench_timing(sensors, seconds, repeats, progress=lambda f: bar.update(task, completed=f))
+    results = {}
+    with progress_bar() as bar:
+        if "timing" in names:
+            task = bar.add_task(f"{sensors} sensors x {seconds:g} s, {repeats} runs", total=1.0)
+            results["timing"] = bench_timing(
+                sensors, seconds, repeats, progress=lambda f: bar.update(task, completed=f)
+            )
+        if "simulate" in names:
+            task = bar.add_task(f"simulate 1000 frames, {repeats} runs", total=None)
+            results["simulate"] = bench_simulate(1000, repeats)
+            bar.update(task, total=1, completed=1)
+    result = results[names[0]] if len(names) == 1 else results
     console.print_json(json.dumps(result))
     if json_out:
         atomic_write(json_out, json.dumps(result, indent=1) + "\n")

@@ -14,9 +14,19 @@ from matplotlib.figure import Figure
 
 from d2sr.atomic import atomic_file
 from d2sr.eval.desync import FPS, SENSORS, CellResult
+from d2sr.sim.calibrate import BINS, SequenceStats
 from d2sr.sim.timing import TimingRun
 
-__all__ = ["convergence_cdf", "fig9", "paired", "ratio_over_time", "save", "sensor_timeline"]
+__all__ = [
+    "calibration",
+    "convergence_cdf",
+    "fig9",
+    "label_f1",
+    "paired",
+    "ratio_over_time",
+    "save",
+    "sensor_timeline",
+]
 
 #: The only Fig. 9 values the paper states in its text (Section VI-A): N = 2 at 15 fps, 29.7%.
 PAPER_POINTS = {("stationary", 2, 15): 0.297}
@@ -165,4 +175,49 @@ def ratio_over_time(series: dict[str, np.ndarray], default: str, title: str) -> 
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(title, fontsize=10)
+    return fig
+
+
+def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
+    """Real vs simulated sensor statistics: zero fraction, flicker, temporal noise against range."""
+    fig, ax = plt.subplots(1, 5, figsize=(20, 3.8))
+    names = [*real, "simulated"]
+    allst = [*real.values(), sim]
+    colours = [f"C{i}" for i in range(len(real))] + ["k"]
+    for a, key, title in (
+        (ax[0], "zero_frac", "zero fraction per frame"),
+        (ax[1], "flicker", "dropout flicker"),
+    ):
+        vals = [getattr(s, key) for s in allst]
+        a.bar(names, vals, color=colours)
+        mean = float(np.mean([getattr(s, key) for s in real.values()]))
+        a.axhspan(0.8 * mean, 1.2 * mean, color="0.85", zorder=0, label="real mean +-20%")
+        a.set_title(title, fontsize=9)
+        a.legend(loc="lower right", fontsize=8)
+    centres = (BINS[:-1] + BINS[1:]) / 2
+    for (name, s), c in zip(zip(names, allst, strict=True), colours, strict=True):
+        ax[4].plot(centres, s.noise * 1000, "o-", color=c, label=name)
+    ax[4].set_xlabel("range (m)")
+    ax[4].set_ylabel("per-pixel temporal sd (mm)")
+    ax[4].set_title("range noise")
+    ax[4].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def label_f1(results: dict[str, dict[str, dict[str, float]]]) -> Figure:
+    """Mask F1 per case and labelling method (the bars: 0.85 simulated, 0.8 real)."""
+    cases = list(results)
+    methods = list(next(iter(results.values())))
+    fig, ax = plt.subplots(figsize=(max(6, 1.3 * len(cases)), 3.8))
+    width = 0.8 / len(methods)
+    for k, m in enumerate(methods):
+        ax.bar(np.arange(len(cases)) + k * width, [results[c][m]["f1"] for c in cases], width, label=m)
+    ax.axhline(0.85, color="k", ls="--", lw=1, label="bar, simulated (0.85)")
+    ax.axhline(0.80, color="k", ls=":", lw=1, label="bar, real (0.80)")
+    ax.set_xticks(np.arange(len(cases)) + 0.4 - width / 2, cases)
+    ax.set_ylabel("mask F1")
+    ax.set_ylim(0, 1)
+    ax.legend(fontsize=7, ncol=2, loc="lower left")
+    fig.tight_layout()
     return fig

@@ -13,7 +13,7 @@ import numpy as np
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_scale, stamp_from_name
 
-__all__ = ["PngReader", "PngWriter", "decode_png", "encode_png"]
+__all__ = ["PngReader", "PngWriter", "decode_png", "encode_png", "write_meta"]
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 META = "meta.json"
@@ -135,9 +135,14 @@ class PngWriter(Writer):
 
     def _finish(self) -> None:
         assert self._tmp is not None
-        meta = {
-            "depth_scale": self.depth_scale,
-            "intrinsics": None if self.intrinsics is None else self.intrinsics.to_dict(),
-            "frames": self._frames,
-        }
-        (self._tmp / META).write_text(json.dumps(meta, indent=1) + "\n")
+        write_meta(self._tmp, self.depth_scale, self.intrinsics, self._frames)
+
+
+def write_meta(folder: Path, depth_scale: float, intrinsics: Intrinsics | None, frames: list[dict]) -> None:
+    """The ``meta.json`` of a PNG folder: depth scale, intrinsics, per-frame name, timestamp and extras."""
+    meta = {
+        "depth_scale": depth_scale,
+        "intrinsics": None if intrinsics is None else intrinsics.to_dict(),
+        "frames": frames,
+    }
+    (folder / META).write_text(json.dumps(meta, indent=1) + "\n")

@@ -32,7 +32,8 @@ __all__ = [
 
 #: Mean of the two shared L515 captures' intrinsics (../shared/data/l515/*/intrinsics.json).
 L515_INTRINSICS = Intrinsics(640, 480, 457.4, 457.3, 312.9, 250.1)
-_FAR = np.float32(1e9)
+#: Share of surfaces that are dark to the sensor (checked by ``d2sr calibrate``).
+DARK = 0.35
 
 
 @dataclass(frozen=True)
@@ -135,9 +136,15 @@ def _furniture(rng: np.random.Generator, size: np.ndarray, keep_out: list[np.nda
                 cy = 0.35 if side == 2 else size[1] - 0.35 if side == 3 else cy
             if all(np.hypot(cx - k[0], cy - k[1]) > 1.0 for k in keep_out):
                 break
-        r = float(rng.choice([rng.uniform(0.05, 0.15), rng.uniform(0.3, 0.9)], p=[0.2, 0.8]))
+        r = _reflectivity(rng)
         out += _piece(str(kind), cx, cy, yaw, r, rng)
     return out
+
+
+def _reflectivity(rng: np.random.Generator, dark: float = DARK) -> float:
+    """Indoor surfaces are either dark to the sensor's infrared (black plastic, glass, screens: almost no
+    return) or reasonably bright; that split is what makes real L515 frames about two-thirds zeros."""
+    return float(rng.uniform(0.005, 0.03) if rng.random() < dark else rng.uniform(0.3, 1.0))
 
 
 def _piece(kind: str, cx: float, cy: float, yaw: float, refl: float, rng: np.random.Generator) -> list[Box]:
@@ -179,7 +186,7 @@ def make_room(
     rng = np.random.default_rng([seed, 0x5CE])
     dims = np.array(size or (rng.uniform(4.0, 8.0), rng.uniform(4.0, 7.0), rng.uniform(2.5, 3.2)))
     keep = [np.array([p.x, p.y]) for p in cameras or []]
-    faces = (*tuple(float(v) for v in rng.uniform(0.25, 0.85, 4)), float(rng.uniform(0.1, 0.4)), 0.7)
+    faces = (*(_reflectivity(rng) for _ in range(4)), _reflectivity(rng, 0.5), 0.7)
     boxes = tuple(_furniture(rng, dims, keep))
     n_people = int(rng.integers(0, 3)) if people is None else people
     walkers = []
@@ -341,12 +348,12 @@ class SensorModel(Settings):
     depth_scale: float = Field(4000.0, gt=0, description="units per metre of the output (L515: 4000)")
     max_range: float = Field(9.0, gt=0, description="no return beyond this range (m)")
     min_range: float = Field(0.25, ge=0, description="no return closer than this (m)")
-    noise_base: float = Field(0.0015, ge=0, description="range noise floor, sd in metres")
-    noise_per_m: float = Field(0.0024, ge=0, description="range noise sd growth per metre of range")
-    signal_ref: float = Field(0.035, gt=0, description="signal refl*cos/r^2 at which 63% of pixels return")
-    signal_shape: float = Field(1.2, gt=0, description="steepness of the return probability in signal")
+    noise_base: float = Field(0.003921, ge=0, description="range noise floor, sd in metres")
+    noise_per_m: float = Field(0.001782, ge=0, description="range noise sd growth per metre of range")
+    signal_ref: float = Field(0.036524, gt=0, description="signal refl*cos/r^2 at which 63% of pixels return")
+    signal_shape: float = Field(2.0, gt=0, description="steepness of the return probability in signal")
     speckle_px: float = Field(2.0, gt=0, description="size of dropout speckles (Gaussian sigma, pixels)")
-    flicker: float = Field(0.75, ge=0, lt=1, description="frame-to-frame correlation of the speckle field")
+    flicker: float = Field(0.666094, ge=0, lt=1, description="frame-to-frame correlation of speckle")
     edge_drop: float = Field(0.7, ge=0, le=1, description="chance a pixel on a depth edge drops out")
     edge_jump: float = Field(0.06, gt=0, description="relative depth jump that counts as an edge")
 

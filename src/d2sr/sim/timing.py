@@ -76,6 +76,8 @@ class TimingRun:
     drifts: np.ndarray
     #: Optional per-frame record (sensors x slots): 1 = captured clean, 2 = interfered, 0 = no frame.
     frames: np.ndarray | None = None
+    #: With ``frames`` and at most 63 sensors: bit i set when sensor i's laser overlapped the frame.
+    hits: np.ndarray | None = None
 
     @property
     def periods(self) -> int:
@@ -184,6 +186,7 @@ def simulate(
     offsets = np.zeros(shape, dtype=np.int64)
     offsets[:, 0] = offset
     frames = np.zeros((n_sens, slots), dtype=np.int8) if record_frames else None
+    hits = np.zeros((n_sens, slots), dtype=np.int64) if record_frames and n_sens <= 63 else None
 
     # edges sorted by destination (CSR): finishing a frame touches only the edges into that sensor
     by_dst = np.argsort(graph.dst, kind="stable")
@@ -234,6 +237,10 @@ def simulate(
             flags[done, slot] = det
             if frames is not None:
                 frames[done, gp] = cap.astype(np.int8) + bad
+            if hits is not None:
+                bits = np.zeros(done.size, dtype=np.int64)
+                np.bitwise_or.at(bits, owner[hit_e], np.left_shift(1, live_src[pos][hit_e]).astype(np.int64))
+                hits[done, gp] = np.where(cap, bits, 0)
             for i in done[slot == total - 1]:
                 _end_period(
                     i, ctrls, flags, offset, n_act, active, laser, offsets, g, cfg, scheduler, here, t
@@ -270,7 +277,9 @@ def simulate(
             progress(s / n_steps)
     if progress is not None:
         progress(1.0)
-    return TimingRun(cfg, graph, captured, interfered, detected, true_det, offsets, n_act, t0, drift, frames)
+    return TimingRun(
+        cfg, graph, captured, interfered, detected, true_det, offsets, n_act, t0, drift, frames, hits
+    )
 
 
 def _edges_into(sensors: np.ndarray, indptr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

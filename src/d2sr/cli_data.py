@@ -1,0 +1,318 @@
+"""CLI commands for data: ``simulate``, ``label``, ``calibrate``, ``gallery`` and ``eval labels``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from d2sr.atomic import atomic_dir, atomic_write
+from d2sr.errors import ConfigError, InputError
+from d2sr.ui import console, progress_bar
+
+__all__ = ["calibrate", "eval_labels", "gallery", "label", "simulate"]
+
+#: Statistics the calibration checks against the real captures (besides noise against range).
+STATS = ("zero_frac", "flicker", "rare", "reliable")
+Topic = Annotated[str | None, typer.Option(help="Stream to read from a ROS bag.")]
+
+
+def _resolution(value: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in value.lower().split("x"))
+    except ValueError:
+        raise ConfigError(f"resolution must look like 640x480, got {value!r}") from None
+    if w < 16 or h < 16 or w > 4096 or h > 4096:
+        raise ConfigError(f"resolution {value} out of range (16..4096 per side)")
+    return w, h
+
+
+def simulate(
+    out: Annotated[Path, typer.Option(help="Output folder (written atomically).")],
+    sensors: Annotated[int, typer.Option(help="Sensors in the room.")] = 3,
+    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 10.0,
+    fps: Annotated[int, typer.Option(help="Frames per second each sensor captures (of 30 slots).")] = 15,
+    controller: Annotated[
+        str, typer.Option(help="De-synchronization controller of every sensor.")
+    ] = "static",
+    moving_robot: Annotated[
+        bool, typer.Option(help="The last sensor drives a loop through the room.")
+    ] = False,
+    people: Annotated[
+        int | None, typer.Option(help="People walking in the room (default: 0-2, random).")
+    ] = None,
+    resolution: Annotated[str, typer.Option(help="Image size, e.g. 640x480 or 320x240.")] = "640x480",
+    fmt: Annotated[
+        str, typer.Option("--format", help="png, or ros2 (depth as a ROS 2 bag, millimetres).")
+    ] = "png",
+    seed: Annotated[int, typer.Option(help="Random seed (room, poses, noise, interference).")] = 0,
+    workers: Annotated[int, typer.Option(help="Worker processes (0: one per core, at most 2).")] = 0,
+) -> None:
+    """Write recordings of a simulated multi-sensor room: per sensor depth/, clean/ and masks/ PNG folders
+    with meta.json (timestamps, interfered frames), and scene.json."""
+    from d2sr.desync import CONTROLLERS
+    from d2sr.sim.record import record
+    from d2sr.sim.scene import L515
+    from d2sr.sim.world import make_rig
+
+    if controller not in CONTROLLERS:
+        raise ConfigError(f"unknown controller {controller!r}; choose from {', '.join(CONTROLLERS)}")
+    if fmt not in ("png", "ros2"):
+        raise ConfigError(f"--format must be png or ros2, got {fmt!r}")
+    if sensors < 1 or sensors > 63 or seconds <= 0 or not 1 <= fps <= 30 or workers < 0:
+        raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= fps <= 30 and workers >= 0")
+    w, h = _resolution(resolution)
+    from d2sr.sim.scene import L515_INTRINSICS
+
+    rig = make_rig(seed, sensors, moving_robot, people, L515_INTRINSICS.scaled(w, h))
+    model = L515.model_copy(update={"depth_scale": 1000.0}) if fmt == "ros2" else L515
+    with progress_bar() as bar:
+        task = bar.add_task(f"{sensors} sensors x {seconds:g} s at {fps} fps", total=None)
+
+        def tick(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        summary = record(
+            rig, out, seconds, fps, controller, seed, model, workers=workers or None, progress=tick
+        )
+        if fmt == "ros2":
+            _to_bags(out, sensors)
+    n, bad = summary["frames"], summary["interfered_frames"]
+    console.print(f"Wrote {n} frames ({bad} interfered) of {sensors} sensors to {out}")
+
+
+def _to_bags(out: Path, sensors: int) -> None:
+    """Replace each sensor's depth/ PNG folder by a ROS 2 bag depth_ros2/ (millimetres, 16UC1)."""
+    import shutil
+
+    from d2sr.frames import open_frames, open_writer
+
+    for i in range(sensors):
+        src = out / f"sensor{i}" / "depth"
+        reader = open_frames(src)
+        with open_writer(out / f"sensor{i}" / "depth_ros2", "ros2", 1000.0, reader.intrinsics) as w:
+            for f in reader:
+                w.write(f)
+        shutil.rmtree(src)
+
+
+def _open(path: Path, topic: str | None, scale: float | None, what: str) -> tuple[object, float]:
+    from d2sr.frames import open_frames
+
+    reader = open_frames(path, topic=topic)
+    use = scale if scale is not None else reader.depth_scale
+    if use is None:
+        raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
+    if not (np.isfinite(use) and use > 0):
+        raise InputError(f"--depth-scale must be a positive number, got {use}")
+    if len(reader) == 0:
+        raise InputError(f"{path}: the {what} sequence is empty")
+    return reader, float(use)
+
+
+def _counts(reader: object, what: str) -> Iterator[np.ndarray]:
+    for f in reader:  # type: ignore[attr-defined]
+        if f.depth.dtype != np.uint16:
+            raise InputError(f"{f.name}: {what} frame is {f.depth.dtype}; d2sr label needs 16-bit depth")
+        yield f.depth
+
+
+def label(
+    clean: Annotated[Path, typer.Option(help="Clean static sequence (PNG folder or any recording).")],
+    interfered: Annotated[Path, typer.Option(help="Interfered frames of the same view.")],
+    out: Annotated[Path, typer.Option(help="Output folder: masks/ and depth/ (written atomically).")],
+    depth_scale: Annotated[
+        float | None, typer.Option(help="Units per metre (default: what the recording says).")
+    ] = None,
+    threshold: Annotated[
+        str, typer.Option(help="mu, mu+sigma or mu+2sigma (the paper's thresholds).")
+    ] = "mu+sigma",
+    method: Annotated[str, typer.Option(help="stats (ours, default) or paper (Section V-C.1).")] = "stats",
+    topic: Topic = None,
+    memory_mb: Annotated[float, typer.Option(help="Memory for the clean sequence's statistics.")] = 64.0,
+) -> None:
+    """Ground truth from recordings: interference masks and depth for each interfered frame."""
+    from d2sr.frames.png import encode_png, write_meta
+    from d2sr.labels import Labeller, clean_stats, label_frames
+
+    if memory_mb <= 0:
+        raise ConfigError("--memory-mb must be positive")
+    creader, scale = _open(clean, topic, depth_scale, "clean")
+    ireader, _ = _open(interfered, topic, scale, "interfered")
+    cshape, ishape = creader.shape, ireader.shape  # type: ignore[attr-defined]
+    if cshape and ishape and cshape != ishape:
+        raise InputError(
+            f"clean frames are {cshape[1]}x{cshape[0]} but interfered frames are {ishape[1]}x{ishape[0]}"
+        )
+    with progress_bar() as bar:
+        task = bar.add_task("clean statistics", total=1.0)
+        stats = clean_stats(
+            lambda: _counts(creader, "clean"), scale, memory_mb, lambda f: bar.update(task, completed=f)
+        )
+        lab = Labeller(stats, method, threshold)
+
+        def refs() -> Iterator[np.ndarray]:
+            while True:
+                yield from _counts(creader, "clean")
+
+        frames = ((f.name, f.depth) for f in ireader)  # type: ignore[attr-defined]
+        rows = []
+        task2 = bar.add_task("labelling", total=len(ireader))  # type: ignore[arg-type]
+        with atomic_dir(out) as tmp:
+            (tmp / "masks").mkdir()
+            (tmp / "depth").mkdir()
+            references = refs() if method == "paper" else None
+            for name, mask, gt in label_frames(lab, frames, scale, references):
+                (tmp / "masks" / f"{name}.png").write_bytes(encode_png(mask, name))
+                (tmp / "depth" / f"{name}.png").write_bytes(encode_png(gt, name))
+                rows.append({"name": name, "mask_share": round(float((mask > 0).mean()), 5)})
+                bar.advance(task2)
+            write_meta(tmp / "depth", scale, getattr(ireader, "intrinsics", None), rows)
+            info = {
+                "method": method,
+                "threshold": threshold,
+                "depth_scale": scale,
+                "clean_frames": stats.frames,
+                "clean": str(clean),
+                "interfered": str(interfered),
+                "frames": rows,
+            }
+            (tmp / "label.json").write_text(json.dumps(info, indent=1) + "\n")
+    share = np.mean([r["mask_share"] for r in rows]) if rows else 0.0
+    console.print(
+        f"Labelled {len(rows)} frames ({method}, {threshold}): mean mask share {share:.1%}; wrote {out}"
+    )
+
+
+def calibrate(
+    real: Annotated[
+        list[Path], typer.Option(help="Clean static recordings of the real sensor (repeatable).")
+    ],
+    out: Annotated[Path, typer.Option(help="Folder for calibration.json and calibration.png.")],
+    skip: Annotated[int, typer.Option(help="Frames to skip at the start of each recording.")] = 45,
+    rooms: Annotated[int, typer.Option(help="Simulated rooms per evaluation.")] = 8,
+    frames: Annotated[int, typer.Option(help="Frames per simulated room.")] = 24,
+) -> None:
+    """Fit the sensor model to real captures; plot real vs simulated statistics (bar: within 20%)."""
+    from d2sr.eval.plots import calibration as plot
+    from d2sr.eval.plots import save
+    from d2sr.sim.calibrate import calibrate as fit
+    from d2sr.sim.calibrate import sequence_stats, simulated_stats
+
+    real_stats = {}
+    for path in real:
+        reader, scale = _open(path, None, None, "clean")
+        real_stats[path.name] = sequence_stats(
+            (d for i, d in enumerate(_counts(reader, "clean")) if i >= skip), scale
+        )
+    keys = list(real_stats)
+    target = real_stats[keys[0]]
+    if len(keys) > 1:
+        from d2sr.sim.calibrate import SequenceStats
+
+        allst = list(real_stats.values())
+        target = SequenceStats(
+            float(np.mean([s.zero_frac for s in allst])),
+            float(np.mean([s.flicker for s in allst])),
+            _nanmean(np.stack([s.noise for s in allst])),
+            np.sum([s.pixels for s in allst], axis=0),
+            sum(s.frames for s in allst),
+            float(np.mean([s.rare for s in allst])),
+            float(np.mean([s.reliable for s in allst])),
+        )
+    with progress_bar() as bar:
+        task = bar.add_task("fitting the sensor model", total=1.0)
+        model = fit(target, rooms=rooms, frames=frames, progress=lambda f: bar.update(task, completed=f))
+    sim = simulated_stats(model, rooms, frames, seed=100)  # rooms not used by the fit
+    checks = {}
+    for key in STATS:
+        ratio = getattr(sim, key) / getattr(target, key)
+        checks[key] = {
+            "real": getattr(target, key),
+            "sim": getattr(sim, key),
+            "ratio": ratio,
+            "pass": bool(abs(ratio - 1) <= 0.2),
+        }
+    ok = ~np.isnan(target.noise) & ~np.isnan(sim.noise)
+    ratios = sim.noise[ok] / target.noise[ok]
+    checks["noise"] = {"ratios": ratios.round(3).tolist(), "pass": bool(np.all(np.abs(ratios - 1) <= 0.2))}
+    result = {
+        "command": "d2sr calibrate " + " ".join(f"--real {p}" for p in real) + f" --out {out}",
+        "real": {k: v.to_dict() for k, v in real_stats.items()},
+        "target": target.to_dict(),
+        "simulated": sim.to_dict(),
+        "model": model.model_dump(),
+        "checks": checks,
+    }
+    atomic_write(out / "calibration.json", json.dumps(result, indent=1) + "\n")
+    save(plot(real_stats, sim), out / "calibration.png")
+    t = Table("statistic", "real", "simulated", "ratio", "within 20%")
+    for key in STATS:
+        c = checks[key]
+        t.add_row(
+            key, f"{c['real']:.3f}", f"{c['sim']:.3f}", f"{c['ratio']:.2f}", "yes" if c["pass"] else "NO"
+        )
+    t.add_row(
+        "noise vs range",
+        "",
+        "",
+        ", ".join(f"{r:.2f}" for r in ratios),
+        "yes" if checks["noise"]["pass"] else "NO",
+    )
+    console.print(t)
+    console.print(
+        "Fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in model.model_dump().items() if isinstance(v, float))
+    )
+
+
+def _nanmean(a: np.ndarray) -> np.ndarray:
+    """Column means ignoring NaN; NaN where a column has no value."""
+    ok = ~np.isnan(a)
+    n = ok.sum(axis=0)
+    return np.where(n > 0, np.where(ok, a, 0).sum(axis=0) / np.maximum(n, 1), np.nan)
+
+
+def gallery(
+    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("docs/results/sim/gallery.png"),
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+) -> None:
+    """A gallery of simulated frames: each interference kind, clean / interfered / true mask."""
+    from d2sr.eval.plots import save
+    from d2sr.eval.sim_gallery import gallery_figure
+
+    save(gallery_figure(seed), out)
+    console.print(f"Wrote {out}")
+
+
+def eval_labels(
+    out: Annotated[Path, typer.Option(help="Folder for labels.json and labels.png.")],
+    real: Annotated[
+        Path | None, typer.Option(help="Folder holding the L515 captures dev0/ and dev1/.")
+    ] = None,
+    sims: Annotated[int, typer.Option(help="Simulated static rooms.")] = 4,
+) -> None:
+    """Mask F1 of the labelling methods on simulated static sequences and on real captures with simulated
+    interference (per threshold for the paper's method)."""
+    from d2sr.eval.labels import run_all
+    from d2sr.eval.plots import label_f1, save
+
+    if sims < 0:
+        raise ConfigError("--sims must be >= 0")
+    if real is not None and not real.is_dir():
+        raise InputError(f"{real}: not a folder")
+    with progress_bar() as bar:
+        task = bar.add_task("cases", total=sims + (2 if real else 0))
+        results = run_all(real, sims, progress=lambda _: bar.advance(task))
+    t = Table("case", *next(iter(results.values())).keys())
+    for case, row in results.items():
+        t.add_row(case, *(f"{v['f1']:.3f}" for v in row.values()))
+    console.print(t)
+    cmd = f"d2sr eval labels --out {out}" + (f" --real {real}" if real else "") + f" --sims {sims}"
+    atomic_write(out / "labels.json", json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
+    save(label_f1(results), out / "labels.png")
+    console.print(f"Wrote {out}/labels.json and labels.png")

@@ -1,0 +1,202 @@
+"""Ground truth from recordings (paper Section V-C.1 and V-C.2), numpy only.
+
+Two methods, both fed by one streaming pass over the clean static sequence in row stripes, so memory is
+bounded by ``memory_mb`` whatever the sequence length (exact medians and quantiles, no float64 stack):
+
+* ``paper``: per-pixel median of the clean sequence; per-pixel mean absolute error of the clean frames
+  against it; thresholds mu, mu+sigma, mu+2sigma of that error's distribution give the random-error mask;
+  an interfered frame's error mask uses the same threshold; interference = error mask minus random-error
+  mask. On the L515 (about 67% zeros, heavy flicker) most pixels are "random error", so it misses a lot.
+* ``stats`` (default, ours): per-pixel statistics of the clean sequence (how often the pixel returns, the
+  2nd-98th percentile of its returned depths). A pixel of an interfered frame is interference when it
+  drops out although the pixel almost always returns, returns although it never does, or returns a depth
+  outside its clean range by more than the range noise; then isolated hits are removed, since
+  interference comes in bands and clusters, not single pixels.
+
+Ground-truth depth (V-C.2): ``paper`` samples the clean frame with the same position in the sequence;
+``stats`` uses the per-pixel median of returned depths (denoised). Outside the mask, pixels where the
+input or the reference has no return take the input's value, so zeros do not inflate the RMSE.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from d2sr.errors import ConfigError, InputError
+
+__all__ = ["METHODS", "THRESHOLDS", "CleanStats", "Labeller", "clean_stats", "f1", "label_frames"]
+
+METHODS = ("stats", "paper")
+THRESHOLDS = ("mu", "mu+sigma", "mu+2sigma")
+
+
+@dataclass
+class CleanStats:
+    """Per-pixel statistics of a clean static sequence (depths in metres, float32)."""
+
+    median: np.ndarray  # median over all frames, zeros included (the paper's reference frame)
+    nz_median: np.ndarray  # median of returned depths (0 where never returned)
+    lo: np.ndarray  # 2nd percentile of returned depths
+    hi: np.ndarray  # 98th percentile of returned depths
+    rate: np.ndarray  # share of frames with a return
+    mean_err: np.ndarray  # mean |frame - median| (the paper's random-error statistic)
+    frames: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.median.shape  # type: ignore[return-value]
+
+
+def clean_stats(
+    frames: Callable[[], Iterable[np.ndarray]],
+    depth_scale: float,
+    memory_mb: float = 64.0,
+    progress: Callable[[float], None] | None = None,
+) -> CleanStats:
+    """Statistics of a clean sequence. ``frames`` returns a fresh iterator over the uint16 frames each time
+    it is called: the sequence is read once per stripe of rows that fits in ``memory_mb``."""
+    if depth_scale <= 0 or not np.isfinite(depth_scale):
+        raise InputError(f"depth scale must be a positive number, got {depth_scale}")
+    first = iter(frames())
+    f0 = next(first, None)
+    if f0 is None:
+        raise InputError("the clean sequence is empty")
+    n = 1 + sum(1 for _ in first)
+    if n < 3:
+        raise InputError(f"the clean sequence needs at least 3 frames, got {n}")
+    h, w = f0.shape
+    rows = int(max(1, min(h, memory_mb * 2**20 // (n * w * 2 * 2))))  # the stripe and its sorted copy
+    out = {k: np.zeros((h, w), np.float32) for k in ("median", "nz_median", "lo", "hi", "rate", "mean_err")}
+    for r0 in range(0, h, rows):
+        r1 = min(h, r0 + rows)
+        stack = np.empty((n, r1 - r0, w), np.uint16)
+        for i, f in enumerate(frames()):
+            if f.shape != (h, w):
+                raise InputError(f"clean frame {i} is {f.shape[1]}x{f.shape[0]}, the first is {w}x{h}")
+            stack[i] = f[r0:r1]
+        srt = np.sort(stack, axis=0)
+        k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
+        med = _at(srt, np.full(k.shape, (n - 1) / 2))
+        sl = np.s_[r0:r1]
+        out["median"][sl] = med
+        for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
+            out[name][sl] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0)
+        out["rate"][sl] = k / n
+        err = np.abs(stack.astype(np.float32) - med[None])
+        out["mean_err"][sl] = err.mean(axis=0)
+        if progress:
+            progress(r1 / h)
+    scaled = {k: v / np.float32(depth_scale) if k != "rate" else v for k, v in out.items()}
+    return CleanStats(frames=n, **scaled)
+
+
+def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:
+    """Linear interpolation at fractional index ``pos`` along axis 0 of a sorted stack."""
+    lo = np.minimum(np.floor(pos).astype(np.int64), srt.shape[0] - 1)
+    hi = np.minimum(lo + 1, srt.shape[0] - 1)
+    f = (pos - lo).astype(np.float32)
+    a = np.take_along_axis(srt, lo[None], 0)[0].astype(np.float32)
+    b = np.take_along_axis(srt, hi[None], 0)[0].astype(np.float32)
+    return a + f * (b - a)
+
+
+class Labeller:
+    """Labels interfered frames of the same static view against the clean sequence's statistics."""
+
+    def __init__(
+        self,
+        stats: CleanStats,
+        method: str = "stats",
+        threshold: str = "mu+sigma",
+        reliable: float = 0.9,
+        rare: float = 0.02,
+        tol_abs: float = 0.02,
+        tol_rel: float = 0.01,
+        min_density: float = 0.15,
+        likely: float = 0.45,
+    ) -> None:
+        if method not in METHODS:
+            raise ConfigError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+        if threshold not in THRESHOLDS:
+            raise ConfigError(f"unknown threshold {threshold!r}; choose from {', '.join(THRESHOLDS)}")
+        self.s, self.method, self.threshold, self.likely = stats, method, threshold, likely
+        self.reliable, self.rare, self.tol_abs, self.tol_rel, self.min_density = (
+            reliable,
+            rare,
+            tol_abs,
+            tol_rel,
+            min_density,
+        )
+        e = stats.mean_err
+        mu, sd = float(e.mean()), float(e.std())
+        self.thr = {"mu": mu, "mu+sigma": mu + sd, "mu+2sigma": mu + 2 * sd}[threshold]
+        self.random_error = e > self.thr
+
+    def mask(self, frame_m: np.ndarray) -> np.ndarray:
+        """Boolean interference mask of one frame (metres, 0 = no return)."""
+        if frame_m.shape != self.s.shape:
+            raise InputError(
+                f"interfered frame is {frame_m.shape[1]}x{frame_m.shape[0]}, the clean sequence is "
+                f"{self.s.shape[1]}x{self.s.shape[0]}"
+            )
+        s = self.s
+        if self.method == "paper":
+            return (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
+        has = frame_m > 0
+        tol = self.tol_abs + self.tol_rel * s.nz_median
+        dropout = ~has & (s.rate >= self.reliable)
+        spurious = has & (s.rate <= self.rare) & ((s.rate == 0) | (np.abs(frame_m - s.nz_median) > tol))
+        wrong = has & (s.rate > self.rare) & ((frame_m < s.lo - tol) | (frame_m > s.hi + tol))
+        raw = dropout | spurious | wrong
+        if self.min_density <= 0:
+            return raw
+        density = cv2.blur(raw.astype(np.float32), (7, 7))
+        # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
+        # the interference than the pixel's own flicker.
+        likely = ~has & (s.rate >= self.likely) & (density >= 2 * self.min_density)
+        return (raw & (density >= self.min_density)) | likely
+
+    def depth(
+        self, frame_m: np.ndarray, mask: np.ndarray, reference_m: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Ground-truth depth (metres): the reference inside the mask, zero-matched to the input outside."""
+        ref = self.s.nz_median * (self.s.rate >= 0.5) if self.method == "stats" else reference_m
+        if ref is None:
+            raise ConfigError("the paper's method samples a clean frame: pass reference_m")
+        gt = ref.astype(np.float32).copy()
+        out = ~mask & ((frame_m == 0) | (gt == 0))
+        gt[out] = frame_m[out]
+        return gt
+
+
+def f1(pred: np.ndarray, true: np.ndarray) -> tuple[float, float, float]:
+    """(precision, recall, F1) of boolean masks; 1.0 where there is nothing to find and nothing found."""
+    tp = float(np.count_nonzero(pred & true))
+    fp = float(np.count_nonzero(pred & ~true))
+    fn = float(np.count_nonzero(~pred & true))
+    p = tp / (tp + fp) if tp + fp else 1.0
+    r = tp / (tp + fn) if tp + fn else 1.0
+    return p, r, (2 * p * r / (p + r) if p + r else 0.0)
+
+
+def label_frames(
+    labeller: Labeller,
+    frames: Iterable[tuple[str, np.ndarray]],
+    depth_scale: float,
+    references: Iterator[np.ndarray] | None = None,
+) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
+    """(name, mask uint8 255 = interference, ground-truth depth in the input's units) per frame."""
+    for name, f in frames:
+        fm = f.astype(np.float32) / np.float32(depth_scale)
+        ref = None
+        if references is not None:
+            r = next(references, None)
+            ref = None if r is None else r.astype(np.float32) / np.float32(depth_scale)
+        m = labeller.mask(fm)
+        gt = labeller.depth(fm, m, ref)
+        counts = np.clip(np.rint(gt * depth_scale), 0, 65535).astype(np.uint16)
+        yield name, m.astype(np.uint8) * 255, counts

@@ -1,0 +1,192 @@
+"""Recordings of a simulated multi-sensor room (``d2sr simulate``).
+
+The timing world decides, from every sensor's active window, which frames exist and which lasers
+overlapped each of them; the scene model renders the frames; the interference model corrupts the
+overlapped ones where the interferers' light lands. Per sensor: ``depth/`` (what the sensor delivers),
+``clean/`` (the same frames without interference), ``masks/`` (uint8, 255 = interference), each a PNG
+folder with ``meta.json``; ``scene.json`` describes the room, poses, overlap graph and timing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.atomic import atomic_dir
+from d2sr.errors import ConfigError
+from d2sr.frames.png import encode_png, write_meta
+from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
+from d2sr.sim.scene import L515, Renderer, SensorModel, SensorNoise
+from d2sr.sim.timing import TimingConfig, TimingRun, simulate
+from d2sr.sim.world import Rig, direct_view, lit_region, overlap_graph
+
+__all__ = ["record", "render_frames"]
+
+EPOCH_NS = 1_700_000_000_000_000_000  # timestamps start here (any fixed origin would do)
+CHUNK = 40
+
+
+def _interferer(
+    rig: Rig,
+    victim: int,
+    source: int,
+    seed: int,
+    shape: tuple[int, int],
+    direct: tuple[float, float] | None,
+    cfg: InterferenceConfig,
+) -> Interferer:
+    # One persistent pattern per (victim, source) pair and sequence: bands drift instead of jumping.
+    return Interferer.draw(shape, seed * 7919 + victim * 97 + source, cfg, direct_at=direct)
+
+
+def render_frames(
+    rig: Rig,
+    sensor: int,
+    slots: np.ndarray,
+    run: TimingRun,
+    seed: int,
+    model: SensorModel,
+    cfg: InterferenceConfig,
+) -> list[tuple[str, int, np.ndarray, np.ndarray, np.ndarray, list[int]]]:
+    """Frames of one sensor at the given slots: (name, timestamp, depth, clean, mask, interferers)."""
+    tau = (1.0 + run.drifts[sensor]) / run.config.fps
+    cam = Renderer(rig.room, rig.intr)
+    small = rig.intr.scaled(160, 120)
+    others = {j: Renderer(rig.room, small) for j in range(rig.n) if j != sensor}
+    noise = SensorNoise(
+        model, (rig.intr.height, rig.intr.width), seed * 1_000_003 + sensor * 10_007 + int(slots[0])
+    )
+    out = []
+    assert run.frames is not None
+    for g in slots:
+        t = float(run.phases[sensor] + g * tau)
+        pose = rig.pose(sensor, t)
+        if cam.pose != pose:
+            cam.move(pose)
+        scene = cam.render(t)
+        clean = noise.observe(scene)
+        depth, mask, srcs = clean, np.zeros(clean.shape, bool), []
+        if run.frames[sensor, g] == 2:
+            bits = int(run.hits[sensor, g]) if run.hits is not None else 0
+            srcs = [j for j in range(rig.n) if bits >> j & 1]
+            region = np.zeros(clean.shape, bool)
+            its = []
+            for j in srcs:
+                o = others[j]
+                pj = rig.pose(j, t)
+                if o.pose != pj:
+                    o.move(pj)
+                region |= lit_region(cam, scene.depth, o, o.static().depth, model.max_range)
+                direct = direct_view(cam, scene.depth, o)
+                its.append(_interferer(rig, sensor, j, seed, clean.shape, direct, cfg))  # type: ignore[arg-type]
+                if direct is not None:
+                    region |= its[-1].pattern(int(g))
+            depth, mask = interfere(clean, model.depth_scale, its, int(g), seed * 31 + sensor, region, cfg)
+        out.append((f"{int(g):06d}", EPOCH_NS + round(t * 1e9), depth, clean, mask, srcs))
+    return out
+
+
+def _work(args: tuple) -> list[dict]:
+    rig, sensor, slots, run, seed, model, cfg, root = args
+    rows = []
+    for name, stamp, depth, clean, mask, srcs in render_frames(rig, sensor, slots, run, seed, model, cfg):
+        base = Path(root) / f"sensor{sensor}"
+        (base / "depth" / f"{name}.png").write_bytes(encode_png(depth, name))
+        (base / "clean" / f"{name}.png").write_bytes(encode_png(clean, name))
+        (base / "masks" / f"{name}.png").write_bytes(encode_png(mask.astype(np.uint8) * 255, name))
+        rows.append(
+            {
+                "name": name,
+                "timestamp_ns": stamp,
+                "interfered": bool(mask.any()),
+                "interferers": srcs,
+                "mask_share": round(float(mask.mean()), 5),
+            }
+        )
+    return rows
+
+
+def record(
+    rig: Rig,
+    out: Path,
+    seconds: float,
+    active_frames: int = 15,
+    controller: str = "static",
+    seed: int = 0,
+    model: SensorModel = L515,
+    interference: InterferenceConfig | None = None,
+    timing: TimingConfig | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    finish: Callable[[Path], None] | None = None,
+) -> dict:
+    """Write the recordings of every sensor of ``rig`` into ``out`` (atomically); returns the summary.
+    ``finish`` runs on the complete temporary folder before it is moved into place."""
+    cfg = interference or InterferenceConfig()
+    tcfg = timing or TimingConfig(fps=30.0, active_frames=active_frames)
+    if active_frames < 1 or active_frames > tcfg.total_frames:
+        raise ConfigError(f"active frames must be in 1..{tcfg.total_frames}, got {active_frames}")
+    tcfg = tcfg.model_copy(update={"active_frames": active_frames})
+    graph = overlap_graph(rig, seconds)
+    run = simulate(graph, controller, tcfg, duration_s=seconds, seed=seed, record_frames=True)
+    assert run.frames is not None
+    jobs = []
+    for i in range(rig.n):
+        slots = np.flatnonzero(run.frames[i] > 0)
+        jobs += [(i, slots[k : k + CHUNK]) for k in range(0, slots.size, CHUNK)]
+    total = sum(len(s) for _, s in jobs)
+    if total == 0:
+        raise ConfigError("the simulated run delivered no frames (too short?)")
+    rows: dict[int, list[dict]] = {i: [] for i in range(rig.n)}
+    with atomic_dir(out) as tmp:
+        for i in range(rig.n):
+            for sub in ("depth", "clean", "masks"):
+                (tmp / f"sensor{i}" / sub).mkdir(parents=True)
+        args = [(rig, i, s, run, seed, model, cfg, str(tmp)) for i, s in jobs]
+        done = 0
+        n_work = workers or min(2, os.cpu_count() or 1)
+        if n_work > 1:
+            with ProcessPoolExecutor(n_work) as pool:
+                for (i, s), got in zip(jobs, pool.map(_work, args), strict=True):
+                    rows[i] += got
+                    done += len(s)
+                    if progress:
+                        progress(done, total)
+        else:
+            for (i, s), a in zip(jobs, args, strict=True):
+                rows[i] += _work(a)
+                done += len(s)
+                if progress:
+                    progress(done, total)
+        for i in range(rig.n):
+            for sub in ("depth", "clean"):
+                write_meta(tmp / f"sensor{i}" / sub, model.depth_scale, rig.intr, rows[i])
+            write_meta(tmp / f"sensor{i}" / "masks", 1.0, rig.intr, [{"name": r["name"]} for r in rows[i]])
+        summary = {
+            "sensors": rig.n,
+            "seconds": seconds,
+            "active_frames": active_frames,
+            "controller": controller,
+            "seed": seed,
+            "frames": total,
+            "interfered_frames": int(sum(r["interfered"] for v in rows.values() for r in v)),
+            "depth_scale": model.depth_scale,
+            "intrinsics": rig.intr.to_dict(),
+            "overlap_edges": [[int(a), int(b)] for a, b in zip(graph.src, graph.dst, strict=True)],
+            "room": asdict(rig.room),
+            "poses": [asdict(p) for p in rig.poses],
+            "moving": [tr is not None for tr in rig.trajectories],
+            "sensor_model": model.model_dump(),
+            "interference": cfg.model_dump(),
+            "timing": tcfg.model_dump(),
+        }
+        (tmp / "scene.json").write_text(json.dumps(summary, indent=1) + "\n")
+        if finish is not None:  # e.g. convert to another format, still before the output appears
+            finish(tmp)
+    return summary

@@ -1,0 +1,192 @@
+"""Ground-truth labelling: streaming statistics, both methods, the CLI and its bad inputs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from d2sr.errors import ConfigError, InputError
+from d2sr.eval.labels import evaluate, sim_case
+from d2sr.labels import Labeller, clean_stats, f1
+
+
+def _seq(n=30, shape=(24, 32), seed=0) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    base = rng.integers(8000, 16000, shape)
+    out = []
+    for _ in range(n):
+        f = (base + rng.normal(0, 20, shape)).astype(np.uint16)
+        f[:, :4] = 0  # never returns
+        f[:, 4:8] *= (rng.random((shape[0], 4)) < 0.5).astype(np.uint16)  # flickers
+        out.append(f)
+    return out
+
+
+def test_clean_stats_exact_with_any_stripe_size():
+    seq = _seq()
+    big = clean_stats(lambda: iter(seq), 4000.0, memory_mb=64)
+    tiny = clean_stats(lambda: iter(seq), 4000.0, memory_mb=0.001)  # one row per stripe
+    stack = np.stack(seq).astype(np.float64) / 4000
+    assert np.allclose(big.median, np.median(stack, axis=0), atol=1e-6)
+    for a, b in (
+        (big.median, tiny.median),
+        (big.lo, tiny.lo),
+        (big.rate, tiny.rate),
+        (big.mean_err, tiny.mean_err),
+    ):
+        assert np.array_equal(a, b)
+    nz = np.where(stack > 0, stack, np.nan)[:, :, 10]
+    assert np.allclose(big.nz_median[:, 10], np.nanmedian(nz, axis=0), atol=1e-6)
+    assert (big.rate[:, :4] == 0).all() and (big.rate[:, 10] == 1).all()
+
+
+def test_clean_stats_reads_the_sequence_in_stripes():
+    seq = _seq(n=40)
+    calls = []
+
+    def frames():
+        calls.append(1)
+        return iter(seq)
+
+    clean_stats(frames, 4000.0, memory_mb=40 * 32 * 2 * 2 * 6 / 2**20)  # room for 6 rows
+    assert len(calls) == 1 + 4  # one count pass, then 24 rows in stripes of 6
+
+
+def test_stats_method_finds_a_corrupted_block():
+    seq = _seq()
+    stats = clean_stats(lambda: iter(seq[:25]), 4000.0)
+    f = seq[27].copy()
+    f[8:16, 12:24] = (f[8:16, 12:24] * 0.5).astype(np.uint16)  # too short
+    f[16:20, 12:24] = 0  # dropout on reliable pixels
+    true = np.zeros(f.shape, bool)
+    true[8:20, 12:24] = True
+    lab = Labeller(stats)
+    pred = lab.mask(f.astype(np.float32) / 4000)
+    assert f1(pred, true)[2] > 0.95
+    gt = lab.depth(f.astype(np.float32) / 4000, pred)
+    assert np.allclose(gt[10, 15], stats.nz_median[10, 15])
+    assert gt[2, 2] == 0  # zero-matched outside the mask
+
+
+def test_paper_method_and_options():
+    seq = _seq()
+    stats = clean_stats(lambda: iter(seq[:25]), 4000.0)
+    f = seq[27].copy()
+    f[8:16, 12:24] = 0
+    masks = [Labeller(stats, "paper", t).mask(f / np.float32(4000)) for t in ("mu", "mu+sigma", "mu+2sigma")]
+    assert masks[0][10, 15] and not np.array_equal(masks[0], masks[2])
+    with pytest.raises(ConfigError, match="threshold"):
+        Labeller(stats, "paper", "mu+3sigma")
+    with pytest.raises(ConfigError, match="method"):
+        Labeller(stats, "magic")
+    with pytest.raises(InputError, match="32x24"):
+        Labeller(stats).mask(np.zeros((10, 10), np.float32))
+    with pytest.raises(InputError, match="at least 3"):
+        clean_stats(lambda: iter(seq[:2]), 4000.0)
+
+
+def test_labelling_beats_the_paper_on_a_simulated_room():
+    res = evaluate(sim_case(0, clean=40, interfered=6))
+    assert res["stats"]["f1"] > 0.7
+    assert res["stats"]["f1"] > max(v["f1"] for k, v in res.items() if k.startswith("paper"))
+
+
+def _write(folder: Path, frames: list[np.ndarray]) -> Path:
+    folder.mkdir(parents=True)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(folder / f"{i:04d}.png"), f)
+    return folder
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "d2sr", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_label_cli(tmp_path):
+    seq = _seq()
+    clean = _write(tmp_path / "clean", seq[:25])
+    bad = [f.copy() for f in seq[25:]]
+    for f in bad:
+        f[8:16, 12:24] = 0
+    inter = _write(tmp_path / "inter", bad)
+    out = tmp_path / "out"
+    r = _cli(
+        "label", "--clean", str(clean), "--interfered", str(inter), "--depth-scale", "4000", "--out", str(out)
+    )
+    assert r.returncode == 0, r.stderr
+    masks = sorted((out / "masks").glob("*.png"))
+    assert [p.name for p in masks] == [f"{i:04d}.png" for i in range(5)]
+    m = cv2.imread(str(masks[0]), cv2.IMREAD_UNCHANGED)
+    assert m.dtype == np.uint8 and set(np.unique(m)) <= {0, 255} and m[10, 15] == 255
+    d = cv2.imread(str(out / "depth" / "0000.png"), cv2.IMREAD_UNCHANGED)
+    assert d.dtype == np.uint16 and d[10, 15] > 0
+    info = json.loads((out / "label.json").read_text())
+    assert info["method"] == "stats" and len(info["frames"]) == 5
+    r = _cli(
+        "label",
+        "--clean",
+        str(clean),
+        "--interfered",
+        str(inter),
+        "--depth-scale",
+        "4000",
+        "--out",
+        str(tmp_path / "paper"),
+        "--method",
+        "paper",
+        "--threshold",
+        "mu",
+    )
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize(
+    ("setup", "message"),
+    [
+        (lambda c, i: cv2.imwrite(str(i / "0002.png"), np.zeros((10, 10), np.uint16)), "earlier frames"),
+        (lambda c, i: [p.unlink() for p in i.glob("*.png")], "no PNG depth frames"),
+        (lambda c, i: (c / "0001.png").write_bytes((c / "0001.png").read_bytes()[:100]), "truncated PNG"),
+        (
+            lambda c, i: [cv2.imwrite(str(p), np.zeros((12, 16), np.uint16)) for p in i.glob("*.png")],
+            "interfered frames are 16x12",
+        ),
+    ],
+)
+def test_label_cli_bad_input(tmp_path, setup, message):
+    seq = _seq()
+    clean = _write(tmp_path / "clean", seq[:5])
+    inter = _write(tmp_path / "inter", seq[5:8])
+    setup(clean, inter)
+    out = tmp_path / "out"
+    r = _cli(
+        "label", "--clean", str(clean), "--interfered", str(inter), "--depth-scale", "4000", "--out", str(out)
+    )
+    assert r.returncode == 2
+    assert message in r.stderr and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clean", "inter"]
+
+
+def test_label_cli_bad_scale(tmp_path):
+    seq = _seq()
+    clean = _write(tmp_path / "clean", seq[:5])
+    r = _cli(
+        "label",
+        "--clean",
+        str(clean),
+        "--interfered",
+        str(clean),
+        "--depth-scale",
+        "0",
+        "--out",
+        str(tmp_path / "o"),
+    )
+    assert r.returncode == 2 and "positive" in r.stderr
+    r = _cli("label", "--clean", str(clean), "--interfered", str(clean), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "depth scale" in r.stderr
