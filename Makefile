@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint sweep bench clean
+.PHONY: demo test lint sweep bench calibrate labels clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -29,6 +29,16 @@ sweep: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json
+	$(BIN)/python bench/simulate.py --json docs/results/bench_simulate.json
+
+# These read ../shared/data (real captures that must never be copied into the repository).
+REAL ?= ../shared/data/l515
+calibrate: $(STAMP)
+	$(BIN)/d2sr calibrate --real $(REAL)/dev0 --real $(REAL)/dev1 --out docs/results/sim
+	$(BIN)/d2sr gallery --out docs/results/sim/gallery.png
+
+labels: $(STAMP)
+	$(BIN)/d2sr eval labels --real $(REAL) --out docs/results/labels --sims 4
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache
