@@ -88,17 +88,20 @@ class Person:
     refl: float = 0.4
 
     def at(self, t: float) -> tuple[float, float]:
-        pts = np.array(self.waypoints + self.waypoints[:1], dtype=float)
-        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        total = seg.sum()
-        if total == 0:
-            return float(pts[0, 0]), float(pts[0, 1])
-        s = (t * self.speed) % total
-        i = int(np.searchsorted(np.cumsum(seg), s, side="right"))
-        i = min(i, len(seg) - 1)
-        f = (s - seg[:i].sum()) / max(seg[i], 1e-9)
-        p = pts[i] + f * (pts[i + 1] - pts[i])
+        p, _ = along_loop(self.waypoints, t * self.speed)
         return float(p[0]), float(p[1])
+
+
+def along_loop(waypoints: tuple[tuple[float, float], ...], s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position and heading after travelling ``s`` metres along a closed loop of waypoints."""
+    pts = np.array(waypoints + waypoints[:1], dtype=float)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    if seg.sum() == 0:
+        return pts[0], np.array([1.0, 0.0])
+    s %= seg.sum()
+    i = min(int(np.searchsorted(np.cumsum(seg), s, side="right")), len(seg) - 1)
+    f = (s - seg[:i].sum()) / max(seg[i], 1e-9)
+    return pts[i] + f * (pts[i + 1] - pts[i]), pts[i + 1] - pts[i]
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import numpy as np
 from d2sr.errors import ConfigError
 from d2sr.frames.base import Intrinsics
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.scene import L515_INTRINSICS, Pose, Renderer, Room, make_room
+from d2sr.sim.scene import L515_INTRINSICS, Pose, Renderer, Room, along_loop, make_room
 
 __all__ = ["Rig", "Trajectory", "direct_view", "lit_region", "make_rig", "overlap_graph"]
 
@@ -24,13 +24,7 @@ class Trajectory:
     height: float = 0.9
 
     def pose(self, t: float) -> Pose:
-        pts = np.array(self.waypoints + self.waypoints[:1], dtype=float)
-        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        s = (t * self.speed) % seg.sum()
-        i = min(int(np.searchsorted(np.cumsum(seg), s, side="right")), len(seg) - 1)
-        f = (s - seg[:i].sum()) / max(seg[i], 1e-9)
-        p = pts[i] + f * (pts[i + 1] - pts[i])
-        heading = pts[i + 1] - pts[i]
+        p, heading = along_loop(self.waypoints, t * self.speed)
         return Pose(float(p[0]), float(p[1]), self.height, float(np.arctan2(heading[1], heading[0])), -0.05)
 
 
