@@ -1,21 +1,9 @@
 import json
-import subprocess
-import sys
 
 import pytest
 
 from d2sr import __version__
-
-
-def d2sr(*args, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "d2sr", *args],
-        capture_output=True,
-        text=True,
-        check=False,
-        cwd=cwd,
-        timeout=300,
-    )
+from helpers import d2sr
 
 
 def test_version_and_help():

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -14,6 +12,7 @@ import pytest
 from d2sr.errors import ConfigError, InputError
 from d2sr.eval.labels import evaluate, sim_case
 from d2sr.labels import Labeller, clean_stats, f1
+from helpers import d2sr as _cli
 
 
 def _seq(n=30, shape=(24, 32), seed=0) -> list[np.ndarray]:
@@ -102,10 +101,6 @@ def _write(folder: Path, frames: list[np.ndarray]) -> Path:
     for i, f in enumerate(frames):
         cv2.imwrite(str(folder / f"{i:04d}.png"), f)
     return folder
-
-
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "d2sr", *args], capture_output=True, text=True, timeout=120)
 
 
 def test_label_cli(tmp_path):

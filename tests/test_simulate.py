@@ -3,17 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import cv2
 import numpy as np
 
 from d2sr.frames import open_frames
-
-
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "d2sr", *args], capture_output=True, text=True, timeout=300)
+from helpers import d2sr as _cli
 
 
 def test_simulate_writes_consistent_recordings(tmp_path):

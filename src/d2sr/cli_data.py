@@ -152,7 +152,11 @@ def label(
     with progress_bar() as bar:
         task = bar.add_task("clean statistics", total=1.0)
         stats = clean_stats(
-            lambda: _counts(creader, "clean"), scale, memory_mb, lambda f: bar.update(task, completed=f)
+            lambda: _counts(creader, "clean"),
+            scale,
+            memory_mb,
+            lambda f: bar.update(task, completed=f),
+            count=len(creader),  # type: ignore[arg-type]
         )
         lab = Labeller(stats, method, threshold)
 

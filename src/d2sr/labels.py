@@ -56,16 +56,18 @@ def clean_stats(
     depth_scale: float,
     memory_mb: float = 64.0,
     progress: Callable[[float], None] | None = None,
+    count: int | None = None,
 ) -> CleanStats:
     """Statistics of a clean sequence. ``frames`` returns a fresh iterator over the uint16 frames each time
-    it is called: the sequence is read once per stripe of rows that fits in ``memory_mb``."""
+    it is called: the sequence is read once per stripe of rows that fits in ``memory_mb``. Pass ``count``
+    when the reader knows it, to skip the pass that counts frames."""
     if depth_scale <= 0 or not np.isfinite(depth_scale):
         raise InputError(f"depth scale must be a positive number, got {depth_scale}")
     first = iter(frames())
     f0 = next(first, None)
     if f0 is None:
         raise InputError("the clean sequence is empty")
-    n = 1 + sum(1 for _ in first)
+    n = count if count is not None else 1 + sum(1 for _ in first)
     if n < 3:
         raise InputError(f"the clean sequence needs at least 3 frames, got {n}")
     h, w = f0.shape
@@ -74,10 +76,16 @@ def clean_stats(
     for r0 in range(0, h, rows):
         r1 = min(h, r0 + rows)
         stack = np.empty((n, r1 - r0, w), np.uint16)
+        seen = 0
         for i, f in enumerate(frames()):
             if f.shape != (h, w):
                 raise InputError(f"clean frame {i} is {f.shape[1]}x{f.shape[0]}, the first is {w}x{h}")
+            if i >= n:
+                break
             stack[i] = f[r0:r1]
+            seen = i + 1
+        if seen != n:
+            raise InputError(f"the clean sequence changed while being read ({seen} frames, expected {n})")
         srt = np.sort(stack, axis=0)
         k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
         med = _at(srt, np.full(k.shape, (n - 1) / 2))

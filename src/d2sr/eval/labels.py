@@ -38,7 +38,7 @@ def _corrupt(frames: list[np.ndarray], scale: float, seed: int) -> tuple[list[np
 
 
 def sim_case(seed: int, clean: int = 100, interfered: int = 30) -> Case:
-    cam, _ = static_camera(1000 + seed)
+    cam = static_camera(1000 + seed)
     r = cam.render(0.0)
     noise = SensorNoise(L515, r.depth.shape, seed)
     frames = [noise.observe(r) for _ in range(clean + interfered)]

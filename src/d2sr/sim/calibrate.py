@@ -78,7 +78,7 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
     return SequenceStats(float(np.median(zero)), float(np.median(flick)), noise, pixels, n, rare, reliable)
 
 
-def static_camera(seed: int) -> tuple[Renderer, float]:
+def static_camera(seed: int) -> Renderer:
     """A camera by one wall of a random room, looking across it (like the shared captures)."""
     rng = np.random.default_rng([seed, 0xCA1])
     pose0 = Pose(0.3, 0.0, float(rng.uniform(1.0, 1.6)), 0.0, float(rng.uniform(-0.15, 0.0)))
@@ -91,14 +91,14 @@ def static_camera(seed: int) -> tuple[Renderer, float]:
         pose0.pitch,
     )
     room = make_room(seed, cameras=[pose], people=0, size=room.size)
-    return Renderer(room, pose=pose), 0.0
+    return Renderer(room, pose=pose)
 
 
 def simulated_stats(model: SensorModel, rooms: int = 4, frames: int = 40, seed: int = 0) -> SequenceStats:
     """The statistics of ``rooms`` simulated static sequences, pooled (medians over rooms)."""
     stats = []
     for k in range(rooms):
-        cam, _ = static_camera(seed + k)
+        cam = static_camera(seed + k)
         r = cam.render(0.0)
         noise = SensorNoise(model, r.depth.shape, seed + k)
         stats.append(sequence_stats((noise.observe(r) for _ in range(frames)), model.depth_scale))

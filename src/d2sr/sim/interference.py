@@ -15,11 +15,11 @@ pattern, so more interferers corrupt more of the frame. The mask marks exactly t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from d2sr.config import Settings
 from d2sr.errors import InputError
@@ -46,12 +46,14 @@ class InterferenceConfig(Settings):
     )
     far_add: tuple[float, float] = Field((0.5, 3.0), description="metres a far return adds")
 
-    def model_post_init(self, _: object) -> None:
+    @model_validator(mode="after")
+    def _consistent(self) -> InterferenceConfig:
         bad = set(self.kinds) - set(KINDS)
         if bad or not self.kinds:
             raise ValueError(f"kinds must be among {KINDS}")
         if self.dropout + self.short + self.far > 1:
             raise ValueError("dropout + short + far must be <= 1")
+        return self
 
 
 @dataclass
@@ -65,6 +67,8 @@ class Interferer:
     coverage: float
     drift: float
     direct_at: tuple[float, float] | None = None
+    #: Where this interferer's light lands in the victim's image (None: anywhere).
+    region: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def draw(
@@ -73,12 +77,19 @@ class Interferer:
         seed: int,
         config: InterferenceConfig | None = None,
         direct_at: tuple[float, float] | None = None,
+        region: np.ndarray | None = None,
     ) -> Interferer:
         cfg = config or InterferenceConfig()
         rng = np.random.default_rng([seed, 0x1F])
         kind = "direct" if direct_at is not None else str(rng.choice(cfg.kinds))
         return cls(
-            shape, kind, seed, float(rng.uniform(*cfg.coverage)), float(rng.uniform(*cfg.drift_px)), direct_at
+            shape,
+            kind,
+            seed,
+            float(rng.uniform(*cfg.coverage)),
+            float(rng.uniform(*cfg.drift_px)),
+            direct_at,
+            region,
         )
 
     def pattern(self, t: int) -> np.ndarray:
@@ -170,15 +181,17 @@ def interfere(
     region: np.ndarray | None = None,
     config: InterferenceConfig | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Frame ``t`` of a sequence under the given interferers, limited to ``region`` (where the views
-    overlap; everywhere when None). Returns (corrupted uint16 frame, true mask)."""
+    """Frame ``t`` of a sequence under the given interferers, each limited to its own region, and all to
+    ``region`` (where the views overlap; everywhere when None).
+    Returns (corrupted uint16 frame, true mask)."""
     if depth.dtype != np.uint16 or depth.ndim != 2:
         raise InputError(f"interference works on uint16 depth images, got {depth.dtype} {depth.shape}")
     where = np.zeros(depth.shape, bool)
     for it in interferers:
         if it.shape != depth.shape:
             raise InputError(f"interferer pattern is {it.shape}, frame is {depth.shape}")
-        where |= it.pattern(t)
+        p = it.pattern(t)
+        where |= p if it.region is None else p & it.region
     if region is not None:
         where &= region
     if not where.any():

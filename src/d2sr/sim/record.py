@@ -32,19 +32,6 @@ EPOCH_NS = 1_700_000_000_000_000_000  # timestamps start here (any fixed origin 
 CHUNK = 40
 
 
-def _interferer(
-    rig: Rig,
-    victim: int,
-    source: int,
-    seed: int,
-    shape: tuple[int, int],
-    direct: tuple[float, float] | None,
-    cfg: InterferenceConfig,
-) -> Interferer:
-    # One persistent pattern per (victim, source) pair and sequence: bands drift instead of jumping.
-    return Interferer.draw(shape, seed * 7919 + victim * 97 + source, cfg, direct_at=direct)
-
-
 def render_frames(
     rig: Rig,
     sensor: int,
@@ -75,19 +62,23 @@ def render_frames(
         if run.frames[sensor, g] == 2:
             bits = int(run.hits[sensor, g]) if run.hits is not None else 0
             srcs = [j for j in range(rig.n) if bits >> j & 1]
-            region = np.zeros(clean.shape, bool)
             its = []
             for j in srcs:
                 o = others[j]
                 pj = rig.pose(j, t)
                 if o.pose != pj:
                     o.move(pj)
-                region |= lit_region(cam, scene.depth, o, o.static().depth, model.max_range)
                 direct = direct_view(cam, scene.depth, o)
-                its.append(_interferer(rig, sensor, j, seed, clean.shape, direct, cfg))  # type: ignore[arg-type]
-                if direct is not None:
-                    region |= its[-1].pattern(int(g))
-            depth, mask = interfere(clean, model.depth_scale, its, int(g), seed * 31 + sensor, region, cfg)
+                # Direct light bursts where the emitter sits; scattered light stays where j's laser lands.
+                lit = (
+                    None
+                    if direct is not None
+                    else lit_region(cam, scene.depth, o, o.static().depth, model.max_range)
+                )
+                # One persistent pattern per (victim, source) pair and sequence: bands drift, not jump.
+                pair = seed * 7919 + sensor * 97 + j
+                its.append(Interferer.draw(clean.shape, pair, cfg, direct_at=direct, region=lit))  # type: ignore[arg-type]
+            depth, mask = interfere(clean, model.depth_scale, its, int(g), seed * 31 + sensor, None, cfg)
         out.append((f"{int(g):06d}", EPOCH_NS + round(t * 1e9), depth, clean, mask, srcs))
     return out
 
