@@ -11,7 +11,7 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from d2sr import __version__, cli_data
+from d2sr import __version__, cli_data, cli_models, cli_train
 from d2sr.atomic import atomic_write
 from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
@@ -28,6 +28,12 @@ app.command("label")(cli_data.label)
 app.command("calibrate")(cli_data.calibrate)
 app.command("gallery")(cli_data.gallery)
 eval_app.command("labels")(cli_data.eval_labels)
+app.command("detect")(cli_models.detect)
+app.command("recover")(cli_models.recover)
+app.command("train")(cli_train.train)
+app.command("export")(cli_train.export)
+eval_app.command("detector")(cli_train.eval_detector)
+eval_app.command("recovery")(cli_train.eval_recovery)
 
 
 def _version(value: bool) -> None:

@@ -15,6 +15,9 @@ from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_scale, sta
 
 __all__ = ["PngReader", "PngWriter", "decode_png", "encode_png", "write_meta"]
 
+# Our own one-line errors say what is wrong with a file; OpenCV's log lines would only repeat it.
+cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 META = "meta.json"
 

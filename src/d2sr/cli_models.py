@@ -1,0 +1,174 @@
+"""``d2sr detect`` and ``d2sr recover``: the learned stages on a recording (any reader's input)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import queue
+import threading
+from collections import deque
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+from typing import Annotated, TypeVar
+
+import numpy as np
+import typer
+
+from d2sr.atomic import atomic_dir, atomic_write
+from d2sr.errors import InputError
+from d2sr.frames import Frame, check_depth, open_frames, to_metres
+from d2sr.frames.png import encode_png, write_meta
+from d2sr.ui import progress_bar
+
+__all__ = ["detect", "recover", "scale_for"]
+
+T = TypeVar("T")
+MODEL_CHOICES = ("unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32")
+PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
+
+Scale = Annotated[
+    float | None,
+    typer.Option(help="Units per metre (default: what the recording says, else 1000; raw L515 is 4000)."),
+]
+Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
+BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
+Weights = Annotated[Path | None, typer.Option(help="Folder with the models (default: the shipped ones).")]
+
+
+def scale_for(reader: object, depth_scale: float | None) -> float:
+    use = depth_scale if depth_scale is not None else (getattr(reader, "depth_scale", None) or 1000.0)
+    if not (np.isfinite(use) and use > 0):
+        raise InputError(f"--depth-scale must be a positive number, got {use}")
+    return float(use)
+
+
+def _frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
+    """Checked frames with their depth in metres; the first frame's median depth catches a wrong scale."""
+    first = True
+    for f in reader:
+        depth = check_depth(f.depth, f"frame {f.name}")
+        metres = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
+        if first:
+            valid = metres[metres > 0]
+            med = float(np.median(valid)) if valid.size else 0.0
+            if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
+                raise InputError(
+                    f"frame {f.name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
+                    "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
+                )
+            first = False
+        yield f, metres
+
+
+def _prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
+    """Decode ahead in a thread (PNG decoding releases the GIL), re-raising its errors here."""
+    q: queue.Queue = queue.Queue(depth)
+    done = object()
+
+    def run() -> None:
+        try:
+            for it in items:
+                q.put(it)
+        except BaseException as exc:
+            q.put(exc)
+        q.put(done)
+
+    threading.Thread(target=run, daemon=True).start()
+    while (it := q.get()) is not done:
+        if isinstance(it, BaseException):
+            raise it
+        yield it
+
+
+def _open(input: Path, topic: str | None, depth_scale: float | None) -> tuple[object, float]:
+    reader = open_frames(input, topic)
+    if len(reader) == 0:
+        raise InputError(f"{input}: no frames")
+    return reader, scale_for(reader, depth_scale)
+
+
+def detect(
+    input: Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.")],
+    out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
+    depth_scale: Scale = None,
+    threshold: Annotated[
+        float, typer.Option(help="Score at or above which a frame counts as interfered.")
+    ] = 0.5,
+    topic: Topic = None,
+    backend: BackendOpt = "auto",
+    weights: Weights = None,
+) -> None:
+    """Stage 1: score every frame (probability that it is interfered)."""
+    from d2sr.runtime.backends import WEIGHTS, open_backend
+
+    if not 0 < threshold < 1:
+        raise InputError(f"--threshold must be in (0, 1), got {threshold}")
+    reader, scale = _open(input, topic, depth_scale)
+    net = open_backend(None, backend, weights or WEIGHTS)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["frame", "score", "interfered"])
+    flagged = 0
+    with progress_bar() as bar:
+        task = bar.add_task(f"detecting ({net.name})", total=len(reader))  # type: ignore[arg-type]
+        for f, metres in _prefetch(_frames(reader, scale)):  # type: ignore[arg-type]
+            s = float(net.scores(metres[None])[0])
+            flagged += s >= threshold
+            w.writerow([f.name, f"{s:.6f}", int(s >= threshold)])
+            bar.advance(task)
+    atomic_write(out, buf.getvalue())
+    typer.echo(f"{flagged} of {len(reader)} frames interfered -> {out}")  # type: ignore[arg-type]
+
+
+def recover(
+    input: Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.")],
+    out: Annotated[Path, typer.Option(help="Output folder: <name>.png repaired, masks/<name>.png.")],
+    depth_scale: Scale = None,
+    every: Annotated[
+        bool, typer.Option("--all", help="Repair every frame, not only those the detector flags.")
+    ] = False,
+    model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODEL_CHOICES)}.")] = "unet8",
+    threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = 0.5,
+    topic: Topic = None,
+    backend: BackendOpt = "auto",
+    weights: Weights = None,
+) -> None:
+    """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside)."""
+    from d2sr.runtime.backends import WEIGHTS, open_backend, to_depth_units
+
+    if model not in MODEL_CHOICES:
+        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(MODEL_CHOICES)}")
+    if not 0 < threshold < 1:
+        raise InputError(f"--threshold must be in (0, 1), got {threshold}")
+    reader, scale = _open(input, topic, depth_scale)
+    net = open_backend(model, backend, weights or WEIGHTS)
+    rows, repaired = [], 0
+    with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
+        (tmp / "masks").mkdir()
+        task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))  # type: ignore[arg-type]
+        pending: deque[Future[None]] = deque()
+        for f, metres in _prefetch(_frames(reader, scale)):  # type: ignore[arg-type]
+            if f.depth.dtype != np.uint16:
+                raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
+            fix = every or float(net.scores(metres[None])[0]) >= threshold
+            if fix:
+                pred, mask = net.recover(metres[None])
+                depth, mask = to_depth_units(f.depth, pred[0], mask[0], scale), mask[0]
+                repaired += 1
+            else:
+                depth, mask = f.depth, np.zeros(f.depth.shape, bool)
+            pending.append(writer.submit(_write, tmp, f.name, depth, mask))
+            while len(pending) > 4:  # bounded: a slow disk must not pile frames up in memory
+                pending.popleft().result()
+            rows.append({"name": f.name, "timestamp_ns": f.timestamp_ns, "repaired": bool(fix)})
+            bar.advance(task)
+        for p in pending:
+            p.result()
+        write_meta(tmp, scale, getattr(reader, "intrinsics", None), rows)
+    typer.echo(f"repaired {repaired} of {len(rows)} frames -> {out}")
+
+
+def _write(root: Path, name: str, depth: np.ndarray, mask: np.ndarray) -> None:
+    (root / f"{name}.png").write_bytes(encode_png(depth, name))
+    (root / "masks" / f"{name}.png").write_bytes(encode_png(mask.astype(np.uint8) * 255, name))

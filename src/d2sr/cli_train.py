@@ -1,0 +1,266 @@
+"""``d2sr train`` and ``d2sr export``."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from d2sr.errors import ConfigError
+from d2sr.ui import console
+
+__all__ = ["export", "train"]
+
+
+def train(
+    task: Annotated[str, typer.Argument(help="detector or recovery.")],
+    out: Annotated[Path, typer.Option(help="Run folder: checkpoint.pt, <model>.safetensors and its card.")],
+    config: Annotated[Path | None, typer.Option(help="TOML file of TrainConfig settings.")] = None,
+    model: Annotated[str | None, typer.Option(help="Model name (overrides the config).")] = None,
+    steps: Annotated[int | None, typer.Option(help="Training steps (overrides the config).")] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed (overrides the config).")] = None,
+    synthetic: Annotated[int | None, typer.Option(help="Generated frames (overrides the config).")] = None,
+    minutes: Annotated[float | None, typer.Option(help="Stop after this many minutes (0: none).")] = None,
+) -> None:
+    """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes)."""
+    import tomllib
+
+    from d2sr.train.config import TrainConfig
+    from d2sr.train.loop import train as run
+
+    if task not in ("detector", "recovery"):
+        raise ConfigError(f"task must be detector or recovery, got {task!r}")
+    values: dict = {}
+    if config is not None:
+        try:
+            values = tomllib.loads(config.read_text())
+        except FileNotFoundError:
+            raise ConfigError(f"{config}: no such file") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{config}: not valid TOML: {exc}") from None
+    values["task"] = task
+    values.setdefault("model", "detector" if task == "detector" else "unet8")
+    for key, v in (
+        ("model", model),
+        ("steps", steps),
+        ("seed", seed),
+        ("synthetic", synthetic),
+        ("time_limit_min", minutes),
+    ):
+        if v is not None:
+            values[key] = v
+    cfg = TrainConfig.make(**values)
+    command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    summary = run(cfg, out, command)
+    console.print(
+        f"{cfg.model}: {summary['steps']} steps in {summary['minutes']} min, loss {summary['final_loss']}"
+    )
+
+
+def export(
+    weights: Annotated[
+        list[Path] | None, typer.Argument(help="Weights files (default: every shipped model).")
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="Folder for the .onnx files (default: next to the weights).")
+    ] = None,
+) -> None:
+    """Export models to ONNX (dynamic batch, height, width) after a parity check against torch."""
+    from d2sr.export import export as run
+    from d2sr.models.weights import SHIPPED
+
+    files = weights or sorted(SHIPPED.glob("*.safetensors"))
+    if not files:
+        raise ConfigError("no weights to export")
+    for w in files:
+        target = (out or w.parent) / (w.stem + ".onnx")
+        r = run(w, target)
+        console.print(f"{w.name} -> {target} (max |onnx - torch| = {r['max_abs_diff']:.1e})")
+
+
+REAL = Path("../shared/data/l515")
+
+
+def _weights_dir(weights: Path | None) -> Path:
+    from d2sr.models.weights import SHIPPED
+
+    return weights or SHIPPED
+
+
+def eval_detector(
+    out: Annotated[Path, typer.Option(help="Folder for detector.json and pr.png.")] = Path(
+        "docs/results/detector"
+    ),
+    models: Annotated[
+        str, typer.Option(help="Detectors to evaluate (comma-separated).")
+    ] = "detector,paper-detector",
+    weights: Annotated[Path | None, typer.Option(help="Folder of weights (default: shipped).")] = None,
+    real: Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")] = REAL,
+    cache: Annotated[Path, typer.Option(help="Where the generated test set is kept.")] = Path("out/data"),
+    threshold: Annotated[float, typer.Option(help="Operating threshold.")] = 0.5,
+    card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
+) -> None:
+    """Detector precision/recall on the generated test set and on real L515 frames with simulated
+    interference; PR curves."""
+    import json
+
+    import numpy as np
+
+    from d2sr.atomic import atomic_write
+    from d2sr.eval.model_plots import pr_curves
+    from d2sr.eval.models import detector_metrics, generated_set, l515_set
+    from d2sr.eval.plots import save
+    from d2sr.models.weights import write_card
+    from d2sr.runtime.backends import TorchBackend
+    from d2sr.ui import progress_bar
+
+    wdir = _weights_dir(weights)
+    sets = [generated_set(cache)] + ([l515_set(real)] if (real / "dev0").is_dir() else [])
+    results: dict[str, dict] = {}
+    with progress_bar() as bar:
+        for name in [m.strip() for m in models.split(",") if m.strip()]:
+            path = wdir / f"{name}.safetensors"
+            if not path.is_file():
+                console.print(f"[yellow]skipping {name}: no {path}[/yellow]")
+                continue
+            net = TorchBackend(path, None)
+            for ts in sets:
+                task = bar.add_task(f"{name} on {ts.name}", total=len(ts.frames))
+                scores = []
+                for i in range(len(ts.frames)):
+                    scores.append(float(net.scores(ts.metres(i)[None])[0]))
+                    bar.advance(task)
+                results[f"{name}/{ts.name}"] = detector_metrics(np.array(scores), ts, threshold)
+            if card:
+                write_card(
+                    path,
+                    metrics={
+                        f"{k.split('/')[1]}: precision / recall / false alarms": (
+                            f"{r['precision']:.3f} / {r['recall']:.3f} / {r['false_alarm_rate']:.3f}"
+                        )
+                        for k, r in results.items()
+                        if k.startswith(name + "/")
+                    },
+                )
+    out.mkdir(parents=True, exist_ok=True)
+    save(pr_curves(results), out / "pr.png")
+    slim = {k: {m: v for m, v in r.items() if m != "pr_curve"} for k, r in results.items()}
+    atomic_write(out / "detector.json", json.dumps(results, indent=1) + "\n")
+    for k, r in slim.items():
+        extra = f", people {r['false_alarm_rate_people']:.3f}" if "false_alarm_rate_people" in r else ""
+        console.print(
+            f"{k}: precision {r['precision']:.4f} recall {r['recall']:.4f} f1 {r['f1']:.4f} "
+            f"false alarms {r['false_alarm_rate']:.4f}{extra} ({r['frames']} frames)"
+        )
+
+
+def eval_recovery(
+    out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")] = Path(
+        "docs/results/recovery"
+    ),
+    models: Annotated[str, typer.Option(help="Recovery models (comma-separated).")] = "unet8,unet16,unet32",
+    weights: Annotated[Path | None, typer.Option(help="Folder of weights (default: shipped).")] = None,
+    real: Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")] = REAL,
+    cache: Annotated[Path, typer.Option(help="Where the generated test set is kept.")] = Path("out/data"),
+    limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
+    card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
+) -> None:
+    """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery."""
+    import json
+
+    import numpy as np
+
+    from d2sr.atomic import atomic_write
+    from d2sr.eval.model_plots import error_cdf, gallery
+    from d2sr.eval.models import generated_set, l515_set, recovery_metrics
+    from d2sr.eval.plots import save
+    from d2sr.models.weights import write_card
+    from d2sr.runtime.backends import TorchBackend, to_depth_units
+    from d2sr.ui import progress_bar
+
+    wdir = _weights_dir(weights)
+    names = [m.strip() for m in models.split(",") if m.strip()]
+    nets = {}
+    for name in names:
+        path = wdir / f"{name}.safetensors"
+        if path.is_file():
+            nets[name] = (
+                TorchBackend(wdir / "detector.safetensors", path)
+                if (wdir / "detector.safetensors").is_file()
+                else None
+            )
+    nets = {k: v for k, v in nets.items() if v is not None}
+    if not nets:
+        raise ConfigError(f"no recovery weights for {models} in {wdir}")
+
+    def repair_fn(net: TorchBackend, scale: float) -> object:
+        def fn(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            pred, mask = net.recover(x[None])
+            units = to_depth_units(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
+            return units.astype(np.float32) / np.float32(scale), mask[0]
+
+        return fn
+
+    sets = ([l515_set(real)] if (real / "dev0").is_dir() else []) + [generated_set(cache)]
+    tables: dict[str, dict] = {}
+    first = next(iter(nets))
+    out.mkdir(parents=True, exist_ok=True)
+    with progress_bar() as bar:
+        for ts in sets:
+            fns = {k: repair_fn(v, ts.scale) for k, v in nets.items()}
+            n = int(ts.labels.sum()) if not limit else min(limit, int(ts.labels.sum()))
+            task = bar.add_task(f"recovery on {ts.name}", total=n)
+            rows, errors = recovery_metrics(ts, fns, first, n, lambda task=task: bar.advance(task))  # type: ignore[misc]
+            tables[ts.name] = rows
+            keep = [
+                "identity",
+                *fns,
+                *(f"{b} (predicted mask)" for b in ("median", "nearest", "ip-basic", "inpaint")),
+            ]
+            save(
+                error_cdf({k: errors[k] for k in keep if k in errors}, f"Per-pixel error, {ts.name}"),
+                out / f"error_cdf_{ts.name}.png",
+            )
+            idx = [i for i in np.flatnonzero(ts.labels)][:: max(1, int(ts.labels.sum()) // 4)][:4]
+            rows_g = []
+            for i in idx:
+                x = ts.metres(i)
+                y = ts.clean[i].astype(np.float32) / np.float32(ts.scale)
+                o, m = fns[first](x)
+                rows_g.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
+            save(gallery(rows_g), out / f"gallery_{ts.name}.png")
+    atomic_write(out / "recovery.json", json.dumps(tables, indent=1) + "\n")
+    lines = []
+    for set_name, rows in tables.items():
+        lines += [
+            f"### {set_name}",
+            "",
+            "| method | RMSE (cm) | vs identity | mask precision | mask recall | mask F1 "
+            "| clean px changed >1 cm |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for k, r in rows.items():
+            lines.append(
+                f"| {k} | {r['rmse_cm']:.2f} | {100 * r['rmse_vs_identity']:+.1f}% "
+                f"| {r['mask_precision']:.3f} | "
+                f"{r['mask_recall']:.3f} | {r['mask_f1']:.3f} | {100 * r['clean_changed']:.2f}% |"
+            )
+        lines.append("")
+    atomic_write(out / "table.md", "\n".join(lines))
+    console.print("\n".join(lines))
+    if card:
+        for name in nets:
+            write_card(
+                wdir / f"{name}.safetensors",
+                metrics={
+                    f"{s}: RMSE cm (vs identity) / mask F1 / clean px changed": (
+                        f"{t[name]['rmse_cm']:.2f} ({100 * t[name]['rmse_vs_identity']:+.1f}%) / "
+                        f"{t[name]['mask_f1']:.3f} / "
+                        f"{100 * t[name]['clean_changed']:.2f}%"
+                    )
+                    for s, t in tables.items()
+                },
+            )

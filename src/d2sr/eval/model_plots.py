@@ -1,0 +1,67 @@
+"""Plots of the learned stages: precision-recall curves, error CDF (paper Fig. 10), repair gallery."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["error_cdf", "gallery", "pr_curves"]
+
+
+def pr_curves(results: dict[str, dict]) -> Figure:
+    """{set name: detector_metrics} -> precision against recall, with the operating point marked."""
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for name, r in results.items():
+        c = r["pr_curve"]
+        (line,) = ax.plot(c["recall"], c["precision"], label=name)
+        ax.plot([r["recall"]], [r["precision"]], "o", color=line.get_color())
+    ax.plot([0.82], [0.98], "k*", label="paper (real L515 test set)")
+    ax.set(
+        xlabel="recall",
+        ylabel="precision",
+        xlim=(0, 1.01),
+        ylim=(0.4, 1.01),
+        title="Detector (dots: threshold 0.5)",
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower left")
+    return fig
+
+
+def error_cdf(errors: dict[str, np.ndarray], title: str) -> Figure:
+    """Cumulative share of truly interfered valid pixels against their absolute error (paper Fig. 10)."""
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for name, e in errors.items():
+        if not e.size:
+            continue
+        s = np.sort(e * 100)
+        ax.plot(s, np.linspace(0, 1, len(s)), label=name)
+    ax.set(xscale="symlog", xlabel="absolute error (cm)", ylabel="share of interfered pixels", title=title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def gallery(rows: list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> Figure:
+    """rows of (title, input, true mask, predicted mask, repaired, ground truth) in metres / bool."""
+    cols = ("input", "true mask", "predicted mask", "repaired", "ground truth")
+    fig, axes = plt.subplots(len(rows), 5, figsize=(15, 2.6 * len(rows)), squeeze=False)
+    for r, (title, x, true, pred, out, y) in enumerate(rows):
+        vmax = float(np.percentile(y[y > 0], 99)) if (y > 0).any() else 5.0
+        for c, img in enumerate((x, true, pred, out, y)):
+            ax = axes[r, c]
+            if img.dtype == bool:
+                ax.imshow(img, cmap="gray", vmin=0, vmax=1)
+            else:
+                ax.imshow(img, cmap="turbo", vmin=0, vmax=vmax)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if r == 0:
+                ax.set_title(cols[c])
+        axes[r, 0].set_ylabel(title, fontsize=8)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,89 @@
+"""Frame-level interference detectors.
+
+``PaperDetector`` follows the paper's Fig. 4: a few convolutions, each followed by LeakyReLU, and a last
+convolution whose asymmetric (118, 1) kernel spans the whole image height at quarter resolution, then a
+sigmoid. It needs an input height of 480 (its kernel is tied to it).
+
+``FastDetector`` (our default) sees the same whole frame but reaches it differently: a 4x4 stride-4 stem,
+three strided 3x3 convolutions down to 1/32 resolution, then global max and mean pooling. Max pooling lets
+a small patch of interference decide the frame (the paper's tall kernel averages along columns instead),
+and no layer runs at full resolution, which is where the time goes on a CPU.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+__all__ = ["DETECTORS", "FastDetector", "PaperDetector", "Scored"]
+
+
+def features(depth: torch.Tensor) -> torch.Tensor:
+    """Depth in metres -> (scaled depth, return indicator): a zero is information, not a short range."""
+    return torch.cat([depth * 0.25, (depth > 0).to(depth.dtype)], dim=1)
+
+
+class FastDetector(nn.Module):
+    """Our detector. ``forward`` returns logits, shape (N,); ``Scored`` (export) adds the sigmoid."""
+
+    stride = 32
+
+    def __init__(self, width: int = 16) -> None:
+        super().__init__()
+        w = width
+        act = nn.LeakyReLU(0.1)
+        self.body = nn.Sequential(
+            nn.Conv2d(2, w, 4, stride=4),
+            act,
+            nn.Conv2d(w, 2 * w, 3, stride=2, padding=1),
+            act,
+            nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1),
+            act,
+            nn.Conv2d(2 * w, 4 * w, 3, stride=2, padding=1),
+            act,
+        )
+        self.head = nn.Linear(8 * w, 1)
+
+    def forward(self, depth: torch.Tensor) -> torch.Tensor:
+        f = self.body(features(depth))
+        pooled = torch.cat([f.amax(dim=(2, 3)), f.mean(dim=(2, 3))], dim=1)
+        return self.head(pooled)[:, 0]
+
+
+class PaperDetector(nn.Module):
+    """The paper's detector (Fig. 4): conv + LeakyReLU layers, a (118, 1) convolution over the image height
+    at quarter resolution, sigmoid. Needs height 480."""
+
+    stride = 4
+    height = 480
+
+    def __init__(self, width: int = 8) -> None:
+        super().__init__()
+        w = width
+        act = nn.LeakyReLU(0.1)
+        self.body = nn.Sequential(
+            nn.Conv2d(2, w, 3, stride=2, padding=1),
+            act,
+            nn.Conv2d(w, 2 * w, 3, stride=2, padding=1),
+            act,
+            nn.Conv2d(2 * w, 2 * w, 3),  # 120 rows -> 118
+            act,
+        )
+        self.tall = nn.Conv2d(2 * w, 1, (118, 1))
+
+    def forward(self, depth: torch.Tensor) -> torch.Tensor:
+        return self.tall(self.body(features(depth))).mean(dim=(1, 2, 3))
+
+
+class Scored(nn.Module):
+    """A detector whose output is the probability that each frame is interfered (what gets exported)."""
+
+    def __init__(self, detector: nn.Module) -> None:
+        super().__init__()
+        self.detector = detector
+
+    def forward(self, depth: torch.Tensor) -> torch.Tensor:
+        return torch.sigmoid(self.detector(depth))
+
+
+DETECTORS = {"detector": FastDetector, "paper-detector": PaperDetector}

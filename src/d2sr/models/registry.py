@@ -1,0 +1,49 @@
+"""Every model by name, with the input sizes it accepts."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from torch import nn
+
+from d2sr.errors import InputError
+from d2sr.models.detector import FastDetector, PaperDetector
+from d2sr.models.unet import UNet
+
+__all__ = ["DETECTOR_NAMES", "MODELS", "RECOVERY_NAMES", "build", "check_input_size", "describe"]
+
+MODELS: dict[str, Callable[[], nn.Module]] = {
+    "detector": FastDetector,
+    "paper-detector": PaperDetector,
+    # Ours: space-to-depth stem (see unet.py). The paper's layout is kept as the paper-* reference variants.
+    "unet8": lambda: UNet(8, s2d=4),
+    "unet16": lambda: UNet(16, s2d=4),
+    "unet32": lambda: UNet(32, s2d=4),
+    "paper-unet8": lambda: UNet(8, s2d=1),
+    "paper-unet16": lambda: UNet(16, s2d=1),
+    "paper-unet32": lambda: UNet(32, s2d=1),
+}
+DETECTOR_NAMES = ("detector", "paper-detector")
+RECOVERY_NAMES = tuple(n for n in MODELS if n not in DETECTOR_NAMES)
+
+
+def build(name: str) -> nn.Module:
+    if name not in MODELS:
+        raise InputError(f"unknown model {name!r}; choose from {', '.join(MODELS)}")
+    return MODELS[name]()
+
+
+def check_input_size(model: nn.Module, height: int, width: int) -> None:
+    """Raise a one-line InputError when the model cannot take frames of this size."""
+    stride = int(getattr(model, "stride", 1))
+    need = getattr(model, "height", None)
+    name = type(model).__name__
+    if need is not None and height != need:
+        raise InputError(f"{name} needs frames {need} pixels high, got {height}x{width}")
+    if height % stride or width % stride:
+        raise InputError(f"{name} needs height and width divisible by {stride}, got {height}x{width}")
+
+
+def describe(model: nn.Module) -> str:
+    n = sum(p.numel() for p in model.parameters())
+    return f"{type(model).__name__}, {n / 1000:.1f}k parameters"

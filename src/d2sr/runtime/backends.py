@@ -1,0 +1,161 @@
+"""Inference backends behind one small protocol. ``OnnxBackend`` imports no torch
+(``pip install d2sr[edge]``); ``TorchBackend`` loads safetensors weights. Both work in metres;
+``to_depth_units`` puts the result back into the input's units, with pixels outside the predicted mask
+bit-identical to the input."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from d2sr.errors import InputError
+
+__all__ = ["WEIGHTS", "Backend", "OnnxBackend", "TorchBackend", "open_backend", "to_depth_units"]
+
+WEIGHTS = Path(__file__).resolve().parents[1] / "models" / "weights"
+DETECTOR = "detector"
+THRESHOLD = 0.5
+
+
+class Backend(Protocol):
+    name: str
+
+    def scores(self, metres: np.ndarray) -> np.ndarray:
+        """(N, H, W) float32 metres -> (N,) probability that each frame is interfered."""
+        ...
+
+    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, H, W) float32 metres -> (predicted depth in metres, predicted mask bool), both (N, H, W)."""
+        ...
+
+
+def to_depth_units(frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float) -> np.ndarray:
+    """Predicted depth inside the mask (rounded to the input's units), the input itself outside it."""
+    units = np.clip(np.rint(np.maximum(pred, 0) * np.float32(scale)), 0, 65535).astype(np.uint16)
+    return np.where(mask, units, frames)
+
+
+def _check_size(h: int, w: int, stride: int, fixed_height: int | None, what: str) -> None:
+    if fixed_height is not None and h != fixed_height:
+        raise InputError(f"{what} needs frames {fixed_height} pixels high, got {h}x{w}")
+    if h % stride or w % stride:
+        raise InputError(f"{what} needs height and width divisible by {stride}, got {h}x{w}")
+
+
+class OnnxBackend:
+    """onnxruntime sessions on exported models (``d2sr export``)."""
+
+    name = "onnxruntime"
+
+    def __init__(self, detector: Path, recovery: Path | None, threads: int | None = None) -> None:
+        try:
+            import onnxruntime as ort
+        except ImportError:  # pragma: no cover - depends on the install
+            raise InputError("onnxruntime is not installed: pip install 'd2sr[edge]'") from None
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = threads or min(os.cpu_count() or 1, 4)
+        opts.inter_op_num_threads = 1
+        opts.log_severity_level = 3
+
+        def session(path: Path) -> ort.InferenceSession:
+            if not Path(path).is_file():
+                raise InputError(f"{path}: no such model file (d2sr export writes it)")
+            try:
+                return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+            except Exception as exc:  # onnxruntime raises its own untyped errors on corrupt files
+                raise InputError(f"{path}: corrupt ONNX model ({str(exc).splitlines()[0][:120]})") from None
+
+        self.det = session(detector)
+        self.rec = session(recovery) if recovery is not None else None
+        self._meta = {
+            k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
+        }
+
+    @staticmethod
+    def _props(s: object) -> dict[str, int | None]:
+        meta = s.get_modelmeta().custom_metadata_map  # type: ignore[attr-defined]
+        return {
+            "stride": int(meta.get("stride", 1)),
+            "height": int(meta["height"]) if meta.get("height") else None,
+        }
+
+    def scores(self, metres: np.ndarray) -> np.ndarray:
+        h, w = metres.shape[1:]
+        p = self._meta["detector"]
+        _check_size(h, w, p["stride"] or 1, p["height"], "the detector")
+        return self.det.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})[0]
+
+    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.rec is None:
+            raise InputError("no recovery model loaded")
+        h, w = metres.shape[1:]
+        p = self._meta["recovery"]
+        _check_size(h, w, p["stride"] or 1, p["height"], "the recovery model")
+        logit, pred = self.rec.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})
+        return pred[:, 0], logit[:, 0] > 0
+
+
+class TorchBackend:
+    """The same from safetensors weights, in torch (training machines, CUDA when present)."""
+
+    name = "torch"
+
+    def __init__(self, detector: Path, recovery: Path | None) -> None:
+        import torch
+
+        from d2sr.models.registry import check_input_size
+        from d2sr.models.weights import load_model, torch_device
+
+        self._torch, self._check = torch, check_input_size
+        self.device = torch_device()
+        self.det = load_model(detector)[0].to(self.device)
+        self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
+
+    def _tensor(self, metres: np.ndarray) -> object:
+        return self._torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
+
+    def scores(self, metres: np.ndarray) -> np.ndarray:
+        self._check(self.det, *metres.shape[1:])
+        with self._torch.inference_mode():
+            return self._torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
+
+    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.rec is None:
+            raise InputError("no recovery model loaded")
+        self._check(self.rec, *metres.shape[1:])
+        with self._torch.inference_mode():
+            logit, pred = self.rec(self._tensor(metres))
+        return pred[:, 0].cpu().numpy(), (logit[:, 0] > 0).cpu().numpy()
+
+
+def open_backend(
+    model: str | None = "unet8",
+    backend: str = "auto",
+    weights: Path = WEIGHTS,
+    detector: str = DETECTOR,
+    threads: int | None = None,
+) -> Backend:
+    """The shipped (or given folder's) detector and recovery model. ``auto``: onnxruntime when it is
+    installed and the ONNX files exist, torch otherwise."""
+    if backend not in ("auto", "onnx", "torch"):
+        raise InputError(f"unknown backend {backend!r}; choose auto, onnx or torch")
+    onnx_files = [weights / f"{detector}.onnx"] + ([weights / f"{model}.onnx"] if model else [])
+    if backend == "auto":
+        try:
+            import onnxruntime  # noqa: F401
+
+            backend = "onnx" if all(f.is_file() for f in onnx_files) else "torch"
+        except ImportError:
+            backend = "torch"
+    if backend == "onnx":
+        return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads)
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        raise InputError(f"no ONNX models in {weights} and torch is not installed") from None
+    return TorchBackend(
+        weights / f"{detector}.safetensors", weights / f"{model}.safetensors" if model else None
+    )

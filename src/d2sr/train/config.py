@@ -1,0 +1,54 @@
+"""Training settings (pydantic, read from TOML)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from d2sr.config import Settings
+
+__all__ = ["Folders", "TrainConfig"]
+
+
+class Folders(Settings):
+    """Labelled frames of your own: interfered ``input``, ground-truth ``target`` depth and optional
+    ``masks`` (as written by ``d2sr simulate`` per sensor: depth/clean/masks, or by ``d2sr label``)."""
+
+    input: Path
+    target: Path
+    masks: Path | None = None
+    topic: str | None = None
+
+
+class TrainConfig(Settings):
+    task: Literal["detector", "recovery"]
+    model: str = Field("detector", description="a name from d2sr.models.MODELS")
+    seed: int = 0
+    steps: int = Field(3000, ge=1)
+    batch: int = Field(16, ge=1)
+    lr: float = Field(2e-3, gt=0)
+    weight_decay: float = Field(1e-4, ge=0)
+    crop: tuple[int, int] = Field((192, 256), description="recovery trains on crops (height, width)")
+    clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
+    synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
+    cache: Path = Field(Path("out/data"), description="where generated data sets are kept")
+    folders: tuple[Folders, ...] = ()
+    checkpoint_every: int = Field(250, ge=1)
+    time_limit_min: float = Field(0, ge=0, description="stop early after this many minutes (0: none)")
+
+    @model_validator(mode="after")
+    def _check(self) -> TrainConfig:
+        from d2sr.models.registry import DETECTOR_NAMES, MODELS, RECOVERY_NAMES
+
+        if self.model not in MODELS:
+            raise ValueError(f"unknown model {self.model!r}; choose from {', '.join(MODELS)}")
+        want = DETECTOR_NAMES if self.task == "detector" else RECOVERY_NAMES
+        if self.model not in want:
+            raise ValueError(f"task {self.task} takes one of {', '.join(want)}, not {self.model}")
+        if self.synthetic == 0 and not self.folders:
+            raise ValueError("no data: set synthetic > 0 or give folders")
+        if self.crop[0] % 32 or self.crop[1] % 32:
+            raise ValueError(f"crop must be multiples of 32, got {self.crop}")
+        return self

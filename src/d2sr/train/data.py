@@ -1,0 +1,127 @@
+"""Batches for training: generated frames (``SynthSet``) and users' labelled folders, with flips and a
+depth gain as augmentation. Sampling is driven by a numpy generator, so a run is reproducible from its seed
+(and each distributed rank draws its own stream)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.errors import InputError
+from d2sr.frames import open_frames
+from d2sr.train.config import TrainConfig
+from d2sr.train.synth import SynthSet, generate
+
+__all__ = ["Batch", "Pool", "synth_set"]
+
+
+@dataclass
+class Batch:
+    x: np.ndarray  # (N, 1, H, W) float32 metres: what the sensor delivered
+    y: np.ndarray  # ground-truth depth (metres)
+    m: np.ndarray  # true interference mask (float32 0/1)
+    label: np.ndarray  # (N,) float32: frame interfered
+
+
+@dataclass
+class _Source:
+    frames: np.ndarray | list[np.ndarray]
+    clean: np.ndarray | list[np.ndarray]
+    masks: list[np.ndarray] | None
+    scale: float
+    labels: np.ndarray
+
+
+def synth_set(cache: Path, count: int, seed: int, progress: bool = True) -> SynthSet:
+    """The generated set for (seed, count), made on first use and kept under ``cache``."""
+    root = cache / f"synth-{seed}-{count}"
+    if not (root / "meta.json").is_file():
+        if progress:
+            from d2sr.ui import progress_bar
+
+            with progress_bar() as bar:
+                task = bar.add_task(f"generating {count} frames", total=count)
+                generate(root, count, seed, progress=lambda n: bar.advance(task, n))
+        else:
+            generate(root, count, seed)
+    return SynthSet(root)
+
+
+def _folders(cfg: TrainConfig) -> list[_Source]:
+    out = []
+    for f in cfg.folders:
+        src, tgt = open_frames(f.input, f.topic), open_frames(f.target, f.topic)
+        frames, clean = [fr.depth for fr in src], [fr.depth for fr in tgt]
+        if len(frames) != len(clean) or not frames:
+            raise InputError(
+                f"{f.input} has {len(frames)} frames, {f.target} has {len(clean)}; need equal, > 0"
+            )
+        masks = None
+        if f.masks is not None:
+            masks = [m.depth > 0 for m in open_frames(f.masks)]
+            if len(masks) != len(frames):
+                raise InputError(f"{f.masks} has {len(masks)} masks for {len(frames)} frames")
+        labels = np.array(
+            [m.any() for m in masks]
+            if masks
+            else [(a != b).any() for a, b in zip(frames, clean, strict=True)]
+        )
+        out.append(_Source(frames, clean, masks, src.depth_scale or 1000.0, labels))
+    return out
+
+
+class Pool:
+    """All training frames of a run."""
+
+    def __init__(self, sources: list[_Source]) -> None:
+        if not sources:
+            raise InputError("no training data")
+        self.sources = sources
+        self.index = [(s, i) for s, src in enumerate(sources) for i in range(len(src.labels))]
+        self.labels = np.array([sources[s].labels[i] for s, i in self.index])
+
+    @classmethod
+    def from_config(cls, cfg: TrainConfig, progress: bool = True) -> Pool:
+        sources = []
+        if cfg.synthetic:
+            ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress)
+            sources.append(_Source(ss.frames, ss.clean, None, ss.depth_scale, ss.labels))
+        return cls(sources + _folders(cfg))
+
+    def _pick(self, rng: np.random.Generator, n: int, clean_share: float) -> np.ndarray:
+        pos, neg = np.flatnonzero(self.labels), np.flatnonzero(~self.labels)
+        if not len(pos) or not len(neg):
+            return rng.integers(0, len(self.index), n)
+        k = rng.binomial(n, clean_share)
+        return np.concatenate([rng.choice(neg, k), rng.choice(pos, n - k)])
+
+    def batch(
+        self, rng: np.random.Generator, n: int, crop: tuple[int, int] | None, clean_share: float = 0.5
+    ) -> Batch:
+        xs, ys, ms, ls = [], [], [], []
+        for j in self._pick(rng, n, clean_share):
+            s, i = self.index[j]
+            src = self.sources[s]
+            f, c = np.asarray(src.frames[i]), np.asarray(src.clean[i])
+            m = src.masks[i] if src.masks is not None else f != c
+            if crop is not None:
+                h, w = f.shape
+                ch, cw = min(crop[0], h), min(crop[1], w)
+                a, b = int(rng.integers(0, h - ch + 1)), int(rng.integers(0, w - cw + 1))
+                f, c, m = f[a : a + ch, b : b + cw], c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
+            gain = np.float32(rng.uniform(0.85, 1.15) / src.scale)
+            x, y = f.astype(np.float32) * gain, c.astype(np.float32) * gain
+            if rng.random() < 0.5:
+                x, y, m = x[:, ::-1], y[:, ::-1], m[:, ::-1]
+            xs.append(x)
+            ys.append(y)
+            ms.append(m.astype(np.float32))
+            ls.append(float(src.labels[i]))
+        return Batch(
+            np.ascontiguousarray(np.stack(xs)[:, None]),
+            np.ascontiguousarray(np.stack(ys)[:, None]),
+            np.ascontiguousarray(np.stack(ms)[:, None]),
+            np.array(ls, np.float32),
+        )

@@ -1,0 +1,158 @@
+"""d2sr detect / recover / export on PNG folders: outputs, the copy-unless-flagged rule, both backends,
+and bad inputs (one line, exit 2, nothing written)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from d2sr.export import export
+from d2sr.frames.png import encode_png
+from d2sr.models import build
+from d2sr.models.weights import save_model
+from helpers import d2sr
+
+
+@pytest.fixture(scope="module")
+def weights(tmp_path_factory) -> Path:
+    """Random-weight models in a folder laid out like the shipped one (safetensors + onnx)."""
+    root = tmp_path_factory.mktemp("weights")
+    torch.manual_seed(0)
+    for name in ("detector", "unet8"):
+        save_model(build(name).eval(), name, root / f"{name}.safetensors")
+        export(root / f"{name}.safetensors", root / f"{name}.onnx")
+    return root
+
+
+def _folder(root: Path, n=3, shape=(96, 128), scale=1000) -> Path:
+    root.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    for i in range(n):
+        d = (rng.uniform(1.0, 4.0, shape) * scale).astype(np.uint16)
+        d[rng.random(shape) < 0.4] = 0
+        (root / f"f{i:03d}.png").write_bytes(encode_png(d, "x"))
+    return root
+
+
+def _png(p: Path) -> np.ndarray:
+    return cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+
+
+@pytest.mark.parametrize("backend", ["onnx", "torch"])
+def test_detect_writes_the_fixed_csv(tmp_path, weights, backend):
+    src = _folder(tmp_path / "in")
+    res = d2sr(
+        "detect", str(src), "--out", str(tmp_path / "d.csv"), "--weights", str(weights), "--backend", backend
+    )
+    assert res.returncode == 0, res.stderr
+    rows = list(csv.DictReader((tmp_path / "d.csv").open()))
+    assert [r["frame"] for r in rows] == ["f000", "f001", "f002"]
+    for r in rows:
+        assert 0 <= float(r["score"]) <= 1 and r["interfered"] == str(int(float(r["score"]) >= 0.5))
+
+
+def test_backends_agree(tmp_path, weights):
+    src = _folder(tmp_path / "in")
+    out = {}
+    for b in ("onnx", "torch"):
+        assert (
+            d2sr(
+                "detect",
+                str(src),
+                "--out",
+                str(tmp_path / f"{b}.csv"),
+                "--weights",
+                str(weights),
+                "--backend",
+                b,
+            ).returncode
+            == 0
+        )
+        out[b] = [float(r["score"]) for r in csv.DictReader((tmp_path / f"{b}.csv").open())]
+    np.testing.assert_allclose(out["onnx"], out["torch"], atol=1e-4)
+
+
+def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
+    src = _folder(tmp_path / "in")
+    out = tmp_path / "out"
+    res = d2sr("recover", str(src), "--out", str(out), "--all", "--weights", str(weights))
+    assert res.returncode == 0, res.stderr
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["depth_scale"] == 1000 and all(f["repaired"] for f in meta["frames"])
+    for f in sorted(src.glob("*.png")):
+        raw, fixed, mask = _png(f), _png(out / f.name), _png(out / "masks" / f.name)
+        assert fixed.dtype == np.uint16 and mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 255}
+        assert np.array_equal(fixed[mask == 0], raw[mask == 0])
+
+
+def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
+    src = _folder(tmp_path / "in")
+    out = tmp_path / "out"
+    res = d2sr("recover", str(src), "--out", str(out), "--threshold", "0.999999", "--weights", str(weights))
+    assert res.returncode == 0, res.stderr
+    for f in sorted(src.glob("*.png")):
+        assert np.array_equal(_png(out / f.name), _png(f))
+        assert not _png(out / "masks" / f.name).any()
+
+
+BAD = {
+    "empty folder": (lambda p: p.mkdir() or p, "no PNG depth frames"),
+    "corrupt png": (
+        lambda p: _folder(p, 2) and (p / "f001.png").write_bytes(b"\x89PNG\r\n\x1a\nxxxxIEND") and p,
+        "f001",
+    ),
+    "8-bit png": (
+        lambda p: p.mkdir() or (cv2.imwrite(str(p / "a.png"), np.ones((96, 128), np.uint8)) and p),
+        "8-bit PNG",
+    ),
+    "wrong scale": (lambda p: _folder(p, 1, scale=10), "is the scale right"),
+    "bad shape": (lambda p: _folder(p, 1, shape=(100, 128)), "divisible by 32"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+@pytest.mark.parametrize("command", ["detect", "recover"])
+def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, command):
+    make, message = BAD[case]
+    src = make(tmp_path / "in")
+    out = tmp_path / ("o.csv" if command == "detect" else "o")
+    res = d2sr(
+        command,
+        str(src),
+        "--out",
+        str(out),
+        "--weights",
+        str(weights),
+        "--all" if command == "recover" else "--threshold=0.5",
+    )
+    assert res.returncode == 2, res.stderr
+    assert (
+        message in res.stderr and "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    )
+    assert not out.exists() and not list(tmp_path.glob(".o*"))
+
+
+def test_nan_depth_and_missing_or_corrupt_weights(tmp_path, weights):
+    bad = tmp_path / "nan.npz"
+    np.savez(bad, depth=np.full((2, 96, 128), np.nan, np.float32), depth_scale=1.0)
+    res = d2sr("detect", str(bad), "--out", str(tmp_path / "o.csv"), "--weights", str(weights))
+    assert res.returncode == 2 and "NaN" in res.stderr
+    src = _folder(tmp_path / "in")
+    res = d2sr("detect", str(src), "--out", str(tmp_path / "o.csv"), "--weights", str(tmp_path / "none"))
+    assert res.returncode == 2 and "no such" in res.stderr
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "detector.onnx").write_bytes(b"garbage")
+    res = d2sr(
+        "detect", str(src), "--out", str(tmp_path / "o.csv"), "--weights", str(broken), "--backend", "onnx"
+    )
+    assert res.returncode == 2 and "corrupt ONNX" in res.stderr
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--model", "unet9")
+    assert res.returncode == 2 and "--model" in res.stderr
+    assert not (tmp_path / "o.csv").exists() and not (tmp_path / "o").exists()

@@ -1,0 +1,131 @@
+"""Models: every architecture through forward/backward at sizes its strides allow, size checks, the hard
+composition (outside the mask bit-identical), weights round trip and corrupt files, ONNX parity."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from d2sr.errors import InputError
+from d2sr.models import MODELS, build, check_input_size
+from d2sr.models.registry import DETECTOR_NAMES, RECOVERY_NAMES
+from d2sr.models.weights import load_model, save_model
+
+
+def _depth(n=2, h=96, w=128, seed=0) -> torch.Tensor:
+    g = torch.Generator().manual_seed(seed)
+    d = 0.5 + 4 * torch.rand(n, 1, h, w, generator=g)
+    return d * (torch.rand(n, 1, h, w, generator=g) > 0.6)
+
+
+@pytest.mark.parametrize("name", [n for n in MODELS if n != "paper-detector"])
+def test_forward_backward_at_allowed_sizes(name):
+    torch.manual_seed(0)
+    m = build(name)
+    for h, w in ((96, 128), (64, 160)):
+        x = _depth(2, h, w)
+        check_input_size(m, h, w)
+        out = m(x)
+        if name in DETECTOR_NAMES:
+            assert out.shape == (2,)
+            loss = out.sum()
+        else:
+            logit, pred = out
+            assert logit.shape == pred.shape == (2, 1, h, w)
+            loss = logit.mean() + pred.mean()
+        loss.backward()
+        assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in m.parameters())
+        m.zero_grad()
+
+
+def test_paper_detector_is_tied_to_480_rows():
+    m = build("paper-detector")
+    assert m(_depth(1, 480, 64)).shape == (1,)
+    with pytest.raises(InputError, match="480 pixels high"):
+        check_input_size(m, 240, 320)
+
+
+@pytest.mark.parametrize("name", ["detector", "unet8", "paper-unet8"])
+def test_size_checks_say_what_is_allowed(name):
+    m = build(name)
+    with pytest.raises(InputError, match=f"divisible by {m.stride}"):
+        check_input_size(m, 100, 128)
+
+
+def test_unknown_model_is_a_one_line_error():
+    with pytest.raises(InputError, match="unknown model 'unet7'"):
+        build("unet7")
+
+
+def test_repair_leaves_pixels_outside_the_mask_bit_identical():
+    torch.manual_seed(1)
+    m = build("unet8").eval()
+    x = _depth(1)
+    with torch.inference_mode():
+        out, mask = m.repair(x)
+    assert mask.any() and (~mask).any()  # random weights: some of each
+    assert torch.equal(out[~mask], x[~mask])
+    assert (out[mask] >= 0).all()
+
+
+@pytest.mark.parametrize("name", ["detector", "unet8"])
+def test_weights_round_trip(tmp_path, name):
+    torch.manual_seed(2)
+    m = build(name).eval()
+    save_model(m, name, tmp_path / "w.safetensors")
+    back, got = load_model(tmp_path / "w.safetensors")
+    assert got == name
+    x = _depth(1)
+    with torch.inference_mode():
+        a, b = m(x), back(x)
+    for u, v in zip(a if isinstance(a, tuple) else (a,), b if isinstance(b, tuple) else (b,), strict=True):
+        assert torch.equal(u, v)
+
+
+def test_corrupt_missing_and_mismatched_weights(tmp_path):
+    with pytest.raises(InputError, match="no such weights file"):
+        load_model(tmp_path / "none.safetensors")
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not json at all")
+    with pytest.raises(InputError, match="corrupt weights"):
+        load_model(bad)
+    good = tmp_path / "good.safetensors"
+    save_model(build("unet8"), "unet8", good)
+    good.write_bytes(good.read_bytes()[:-100])  # truncated
+    with pytest.raises(InputError, match="corrupt weights"):
+        load_model(good)
+    wrong = tmp_path / "wrong.safetensors"
+    save_model(build("unet16"), "unet8", wrong)  # says unet8, holds unet16 tensors
+    with pytest.raises(InputError, match="do not fit unet8"):
+        load_model(wrong)
+
+
+@pytest.mark.parametrize("name", ["detector", "unet8"])
+def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
+    import onnxruntime as ort
+
+    from d2sr.export import export
+
+    torch.manual_seed(3)
+    w = tmp_path / f"{name}.safetensors"
+    save_model(build(name).eval(), name, w)
+    res = export(w, tmp_path / f"{name}.onnx")
+    assert res["max_abs_diff"] < 1e-3
+    sess = ort.InferenceSession(str(tmp_path / f"{name}.onnx"), providers=["CPUExecutionProvider"])
+    x = _depth(3, 64, 96, seed=5)  # another batch and size than the export used
+    got = sess.run(None, {"depth": x.numpy()})
+    model, _ = load_model(w)
+    with torch.inference_mode():
+        ref = model(x)
+    ref = (torch.sigmoid(ref),) if name == "detector" else ref
+    for r, g in zip(ref, got, strict=True):
+        np.testing.assert_allclose(r.numpy(), g, atol=1e-3)
+    meta = sess.get_modelmeta().custom_metadata_map
+    assert meta["model"] == name and int(meta["stride"]) == model.stride
+
+
+def test_every_recovery_model_has_the_paper_composition():
+    # Recovery names cover ours and the paper's reference layouts; both share one class and the heads.
+    assert {"unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32"} == set(RECOVERY_NAMES)
+    assert build("paper-unet8").s2d == 1 and build("unet8").s2d == 4

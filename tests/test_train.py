@@ -1,0 +1,137 @@
+"""Training: settings checks, a seeded run is reproducible and resumes exactly, DDP on two gloo processes."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from d2sr.errors import ConfigError
+from d2sr.models.weights import read_card
+from d2sr.train.config import TrainConfig
+from d2sr.train.data import Pool, synth_set
+from d2sr.train.loop import train
+from d2sr.train.synth import synth_frame
+from helpers import d2sr
+
+
+def _cfg(tmp: Path, **kw) -> TrainConfig:
+    base = dict(
+        task="recovery",
+        model="unet8",
+        steps=4,
+        batch=2,
+        crop=(64, 96),
+        synthetic=4,
+        cache=tmp / "cache",
+        checkpoint_every=2,
+    )
+    return TrainConfig.make(**(base | kw))
+
+
+def test_config_rejects_what_cannot_work(tmp_path):
+    with pytest.raises(ConfigError, match="task detector takes one of"):
+        _cfg(tmp_path, task="detector", model="unet8")
+    with pytest.raises(ConfigError, match="unknown model"):
+        _cfg(tmp_path, model="unet7")
+    with pytest.raises(ConfigError, match="multiples of 32"):
+        _cfg(tmp_path, crop=(60, 96))
+    with pytest.raises(ConfigError, match="no data"):
+        _cfg(tmp_path, synthetic=0)
+    with pytest.raises(ConfigError, match="steps"):
+        _cfg(tmp_path, steps=0)
+
+
+def test_synthetic_frames_are_a_function_of_their_seed():
+    a, ac = synth_frame(11, interfered=True)
+    b, bc = synth_frame(11, interfered=True)
+    assert np.array_equal(a, b) and np.array_equal(ac, bc)
+    assert (a != ac).any()
+    c, cc = synth_frame(12, interfered=False)
+    assert np.array_equal(c, cc) and c.dtype == np.uint16 and c.shape == (480, 640)
+
+
+def test_batches_are_balanced_cropped_and_consistent(tmp_path):
+    ss = synth_set(tmp_path, 4, 0, progress=False)
+    assert ss.labels.tolist() == [False, True, False, True]
+    pool = Pool.from_config(_cfg(tmp_path, cache=tmp_path), progress=False)
+    b = pool.batch(np.random.default_rng(0), 8, (64, 96), clean_share=0.5)
+    assert b.x.shape == b.y.shape == b.m.shape == (8, 1, 64, 96)
+    assert np.array_equal(b.m > 0, b.x != b.y)  # the mask is exactly the changed pixels
+    assert 0 < b.label.sum() < 8
+
+
+def test_run_is_reproducible_and_resume_is_exact(tmp_path):
+    cfg = _cfg(tmp_path)
+    train(cfg, tmp_path / "a", progress=False)
+    train(cfg, tmp_path / "b", progress=False)
+    wa = load_file(tmp_path / "a" / "unet8.safetensors")
+    wb = load_file(tmp_path / "b" / "unet8.safetensors")
+    assert all(torch.equal(wa[k], wb[k]) for k in wa)
+    # Stop after 2 steps (as if killed), then resume to 4: the same weights as one straight run.
+    half = _cfg(tmp_path, steps=4, time_limit_min=1e-9)
+    train(half, tmp_path / "c", progress=False)
+    state = torch.load(tmp_path / "c" / "checkpoint.pt", weights_only=False)
+    assert state["step"] == 1
+    state["config"] = cfg.model_dump(mode="json")  # the same run, now without the time limit
+    torch.save(state, tmp_path / "c" / "checkpoint.pt")
+    train(cfg, tmp_path / "c", progress=False)
+    wc = load_file(tmp_path / "c" / "unet8.safetensors")
+    assert all(torch.equal(wa[k], wc[k]) for k in wa)
+    card = read_card(tmp_path / "a" / "unet8.safetensors")
+    assert card["model"] == "unet8" and "generated" in card["data"] and card["training"]["steps"] == 4
+    assert (tmp_path / "a" / "unet8.md").read_text().startswith("# Model card: unet8")
+
+
+def test_detector_trains_and_loss_falls(tmp_path):
+    cfg = _cfg(tmp_path, task="detector", model="detector", steps=30, batch=4, synthetic=8, lr=3e-3)
+    summary = train(cfg, tmp_path / "d", progress=False)
+    import json
+
+    losses = json.loads((tmp_path / "d" / "loss.json").read_text())
+    assert summary["steps"] == 30
+    assert np.mean(losses[-10:]) < np.mean(losses[:10])
+
+
+def test_ddp_on_two_gloo_processes_matches_itself(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        'model = "unet8"\nsteps = 3\nbatch = 2\ncrop = [64, 96]\nsynthetic = 4\n'
+        f'cache = "{tmp_path / "cache"}"\n'
+    )
+    env = os.environ | {"OMP_NUM_THREADS": "1"}
+    cmd = [
+        sys.executable,
+        "-m",
+        "torch.distributed.run",
+        "--nproc-per-node=2",
+        "--master-port=29517",
+        "-m",
+        "d2sr",
+        "train",
+        "recovery",
+        "--config",
+        str(cfg),
+        "--out",
+        str(tmp_path / "ddp"),
+    ]
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300, check=False)
+    assert res.returncode == 0, res.stderr[-2000:]
+    card = read_card(tmp_path / "ddp" / "unet8.safetensors")
+    assert card["training"]["processes"] == 2 and card["training"]["steps"] == 3
+
+
+def test_cli_train_bad_config_is_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("steps = [")
+    res = d2sr("train", "recovery", "--config", str(bad), "--out", str(tmp_path / "o"))
+    assert res.returncode == 2 and "not valid TOML" in res.stderr and "Traceback" not in res.stderr
+    res = d2sr("train", "detector", "--model", "unet8", "--out", str(tmp_path / "o"))
+    assert res.returncode == 2 and "task detector takes one of" in res.stderr
+    assert not (tmp_path / "o" / "detector.safetensors").exists()
