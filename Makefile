@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint sweep bench calibrate labels clean
+.PHONY: demo test lint sweep bench calibrate labels weights eval-models clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -30,6 +30,7 @@ sweep: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json
 	$(BIN)/python bench/simulate.py --json docs/results/bench_simulate.json
+	$(BIN)/python bench/models.py --json docs/results/bench_models.json
 
 # These read ../shared/data (real captures that must never be copied into the repository).
 REAL ?= ../shared/data/l515
@@ -39,6 +40,26 @@ calibrate: $(STAMP)
 
 labels: $(STAMP)
 	$(BIN)/d2sr eval labels --real $(REAL) --out docs/results/labels --sims 4
+
+# Shipped weights: trained on generated data only (never on ../shared/data), then exported to ONNX.
+# Each run resumes from runs/<model>/checkpoint.pt if interrupted.
+SHIP := src/d2sr/models/weights
+weights: $(STAMP)
+	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
+	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
+	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
+	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
+	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
+	mkdir -p $(SHIP)
+	for m in detector paper-detector unet8 unet16 unet32; do \
+	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
+	$(BIN)/d2sr export
+
+# Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);
+# they also go into the model cards.
+eval-models: $(STAMP)
+	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector
+	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache

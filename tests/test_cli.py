@@ -117,7 +117,9 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
 
 def test_bench_json(tmp_path):
     out = tmp_path / "b.json"
-    res = d2sr("bench", "--sensors", "60", "--seconds", "5", "--repeats", "1", "--json", str(out))
+    res = d2sr(
+        "bench", "--what", "timing", "--sensors", "60", "--seconds", "5", "--repeats", "1", "--json", str(out)
+    )
     assert res.returncode == 0, res.stderr
     data = json.loads(out.read_text())
     assert data["sensors"] == 60 and data["run_s_median"] > 0 and 0 <= data["interference_ratio"] <= 1

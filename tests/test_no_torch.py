@@ -6,7 +6,19 @@ import sys
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "d2sr"
-CORES = ["sim", "desync", "frames", "graphs.py", "errors.py", "config.py", "labels.py", "atomic.py"]
+CORES = [
+    "sim",
+    "desync",
+    "frames",
+    "graphs.py",
+    "errors.py",
+    "config.py",
+    "labels.py",
+    "atomic.py",
+    "runtime",
+    "baselines.py",
+    "cli_models.py",
+]
 
 
 def test_core_sources_do_not_import_torch():
@@ -38,6 +50,46 @@ import d2sr.sim.scene, d2sr.sim.interference, d2sr.sim.world, d2sr.sim.record, d
 from d2sr.sim import OverlapGraph, simulate
 simulate(OverlapGraph.complete(2), 'damped', duration_s=2)
 assert 'torch' not in sys.modules
+print('ok')
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "ok"
+
+
+def test_edge_inference_runs_without_torch(tmp_path):
+    """What `pip install d2sr[edge]` gives: onnxruntime inference and d2sr detect/recover, no torch."""
+    import torch
+
+    from d2sr.export import export
+    from d2sr.models import build
+    from d2sr.models.weights import save_model
+
+    torch.manual_seed(0)
+    for name in ("detector", "unet8"):
+        save_model(build(name).eval(), name, tmp_path / f"{name}.safetensors")
+        export(tmp_path / f"{name}.safetensors", tmp_path / f"{name}.onnx")
+    code = f"""
+import sys
+class Block:
+    def find_spec(self, name, path=None, target=None):
+        if name.split('.')[0] == 'torch':
+            raise ImportError('torch was imported')
+sys.meta_path.insert(0, Block())
+import numpy as np
+from pathlib import Path
+from d2sr.runtime import open_backend
+from d2sr.runtime.backends import to_depth_units
+from d2sr.baselines import BASELINES
+net = open_backend('unet8', 'auto', Path({str(tmp_path)!r}))
+assert net.name == 'onnxruntime'
+x = np.random.default_rng(0).uniform(0.5, 4, (1, 96, 128)).astype(np.float32)
+s = net.scores(x)
+pred, mask = net.recover(x)
+u = to_depth_units((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
+assert s.shape == (1,) and u.dtype == np.uint16 and 'torch' not in sys.modules
+sys.argv = ['d2sr', '--help']
+import d2sr.cli_models
 print('ok')
 """
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)

@@ -6,6 +6,7 @@ import platform
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -13,7 +14,7 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
-__all__ = ["bench_timing"]
+__all__ = ["bench_models", "bench_simulate", "bench_timing"]
 
 
 def bench_timing(
@@ -81,4 +82,140 @@ def bench_simulate(frames: int = 1000, repeats: int = 3, workers: int = 2, seed:
         "seconds_runs": [round(t, 2) for t in times],
         "seconds_per_1000_frames": round(med * 1000 / max(written, 1), 2),
         "bar_seconds_per_1000_frames": 60.0,
+    }
+
+
+def _median_ms(fn: Callable[[], object], repeats: int, warmup: int = 3) -> float:
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1000 * statistics.median(times)
+
+
+def _weights_with_onnx(names: list[str], tmp: str) -> Path:
+    """The shipped weights folder when it has every model as ONNX and safetensors; otherwise random-weight
+    copies in ``tmp`` (speed does not depend on the weights' values)."""
+    from pathlib import Path
+
+    from d2sr.runtime.backends import WEIGHTS
+
+    if all((WEIGHTS / f"{n}.onnx").is_file() and (WEIGHTS / f"{n}.safetensors").is_file() for n in names):
+        return WEIGHTS
+    from d2sr.export import export
+    from d2sr.models import build
+    from d2sr.models.weights import save_model
+
+    root = Path(tmp)
+    for n in names:
+        save_model(build(n).eval(), n, root / f"{n}.safetensors")
+        export(root / f"{n}.safetensors", root / f"{n}.onnx", check=False)
+    return root
+
+
+def bench_models(
+    models: tuple[str, ...] = ("unet8", "unet16", "unet32", "paper-unet8"),
+    repeats: int = 30,
+    threads: int = 2,
+    outside: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> dict:
+    """Frames per second at 640x480, batch 1, of the detector, each UNet, and detect + repair (UNet8, every
+    frame repaired), for torch and onnxruntime; and ``d2sr recover --all`` timed from outside the process
+    (60 frames minus 10 frames, so start-up and model loading cancel out)."""
+    import tempfile
+
+    import torch
+
+    from d2sr.models.inference import TorchBackend
+    from d2sr.runtime.backends import WEIGHTS, OnnxBackend, to_depth_units
+    from d2sr.train.synth import synth_frame
+
+    torch.set_num_threads(threads)
+    frame, _ = synth_frame(1_000_001, interfered=True)
+    metres = (frame.astype(np.float32) / np.float32(4000))[None]
+    out: dict = {"resolution": "640x480", "batch": 1, "threads": threads, "repeats": repeats, "fps": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        wdir = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
+        out["weights"] = "shipped" if wdir == WEIGHTS else "random (no shipped ONNX found)"
+        for backend in ("onnxruntime", "torch"):
+            for m in models:
+                if progress:
+                    progress(f"{backend} {m}")
+                if backend == "onnxruntime":
+                    net = OnnxBackend(wdir / "detector.onnx", wdir / f"{m}.onnx", threads)
+                    pnet = OnnxBackend(wdir / "paper-detector.onnx", None, threads)
+                else:
+                    net = TorchBackend(wdir / "detector.safetensors", wdir / f"{m}.safetensors")
+                    pnet = TorchBackend(wdir / "paper-detector.safetensors", None)
+                fps = out["fps"].setdefault(backend, {})
+                if "detector" not in fps:
+                    fps["detector"] = round(1000 / _median_ms(lambda net=net: net.scores(metres), repeats), 1)
+                    fps["paper-detector"] = round(
+                        1000 / _median_ms(lambda pnet=pnet: pnet.scores(metres), repeats), 1
+                    )
+                fps[m] = round(1000 / _median_ms(lambda net=net: net.recover(metres), repeats), 1)
+
+                def both(net: object = net) -> None:
+                    net.scores(metres)  # type: ignore[attr-defined]
+                    pred, mask = net.recover(metres)  # type: ignore[attr-defined]
+                    to_depth_units(frame, pred[0], mask[0], 4000.0)
+
+                fps[f"detect+{m}"] = round(1000 / _median_ms(both, repeats), 1)
+        if outside:
+            if progress:
+                progress("d2sr recover --all, from outside")
+            out["outside"] = _outside(wdir, frame)
+    out["bars"] = {"detector_fps": 300, "detect+unet8_fps": 30}
+    return out
+
+
+def _outside(wdir: object, frame: np.ndarray, runs: int = 3) -> dict:
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    from d2sr.frames.png import encode_png, write_meta
+
+    def run(folder: Path, dest: Path) -> float:
+        t = time.perf_counter()
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "d2sr",
+                "recover",
+                str(folder),
+                "--out",
+                str(dest),
+                "--all",
+                "--weights",
+                str(wdir),
+                "--backend",
+                "onnx",
+            ],
+            check=True,
+            capture_output=True,
+        )
+        return time.perf_counter() - t
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        for n in (10, 60):
+            (root / f"in{n}").mkdir()
+            for i in range(n):
+                (root / f"in{n}" / f"{i:04d}.png").write_bytes(encode_png(frame, "bench"))
+            write_meta(root / f"in{n}", 4000.0, None, [])
+        t10 = [run(root / "in10", root / "o10") for _ in range(runs)]
+        t60 = [run(root / "in60", root / "o60") for _ in range(runs)]
+    per = (statistics.median(t60) - statistics.median(t10)) / 50
+    return {
+        "command": "d2sr recover IN --out OUT --all --backend onnx (60 frames vs 10)",
+        "seconds_10": [round(t, 3) for t in t10],
+        "seconds_60": [round(t, 3) for t in t60],
+        "fps": round(1 / per, 1) if per > 0 else None,
     }

@@ -302,16 +302,17 @@ def _report(results: list, out: Path, command: str) -> None:
 def bench(
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results to this JSON file.")] = None,
     what: Annotated[
-        str, typer.Option(help="Benchmarks to run: timing, simulate (comma-separated).")
-    ] = "timing",
+        str, typer.Option(help="Benchmarks to run: timing, simulate, models (comma-separated).")
+    ] = "models",
     sensors: Annotated[int, typer.Option(help="Sensors in the timing-world benchmark.")] = 1000,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 600.0,
     repeats: Annotated[int, typer.Option(help="Repeats (median reported).")] = 3,
 ) -> None:
-    """Benchmarks: the timing world at warehouse scale; writing simulated 640x480 recordings."""
-    from d2sr.bench import bench_simulate, bench_timing
+    """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the timing
+    world at warehouse scale; writing simulated 640x480 recordings."""
+    from d2sr.bench import bench_models, bench_simulate, bench_timing
 
-    names = _split(what, "benchmark", ("timing", "simulate"))
+    names = _split(what, "benchmark", ("timing", "simulate", "models"))
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
     results = {}
@@ -324,6 +325,12 @@ def bench(
         if "simulate" in names:
             task = bar.add_task(f"simulate 1000 frames, {repeats} runs", total=None)
             results["simulate"] = bench_simulate(1000, repeats)
+            bar.update(task, total=1, completed=1)
+        if "models" in names:
+            task = bar.add_task("models", total=None)
+            results["models"] = bench_models(
+                repeats=max(repeats, 10) * 3, progress=lambda s: bar.update(task, description=s)
+            )
             bar.update(task, total=1, completed=1)
     result = results[names[0]] if len(names) == 1 else results
     console.print_json(json.dumps(result))

@@ -113,8 +113,8 @@ def eval_detector(
     from d2sr.eval.model_plots import pr_curves
     from d2sr.eval.models import detector_metrics, generated_set, l515_set
     from d2sr.eval.plots import save
+    from d2sr.models.inference import TorchBackend
     from d2sr.models.weights import write_card
-    from d2sr.runtime.backends import TorchBackend
     from d2sr.ui import progress_bar
 
     wdir = _weights_dir(weights)
@@ -177,8 +177,9 @@ def eval_recovery(
     from d2sr.eval.model_plots import error_cdf, gallery
     from d2sr.eval.models import generated_set, l515_set, recovery_metrics
     from d2sr.eval.plots import save
+    from d2sr.models.inference import TorchBackend
     from d2sr.models.weights import write_card
-    from d2sr.runtime.backends import TorchBackend, to_depth_units
+    from d2sr.runtime.backends import to_depth_units
     from d2sr.ui import progress_bar
 
     wdir = _weights_dir(weights)

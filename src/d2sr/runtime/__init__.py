@@ -1,5 +1,5 @@
 """Running the learned stages on frames: inference backends (onnxruntime without torch, or torch)."""
 
-from d2sr.runtime.backends import Backend, OnnxBackend, TorchBackend, open_backend
+from d2sr.runtime.backends import Backend, OnnxBackend, open_backend
 
-__all__ = ["Backend", "OnnxBackend", "TorchBackend", "open_backend"]
+__all__ = ["Backend", "OnnxBackend", "open_backend"]

@@ -1,10 +1,11 @@
 """Inference backends behind one small protocol. ``OnnxBackend`` imports no torch
-(``pip install d2sr[edge]``); ``TorchBackend`` loads safetensors weights. Both work in metres;
-``to_depth_units`` puts the result back into the input's units, with pixels outside the predicted mask
-bit-identical to the input."""
+(``pip install d2sr[edge]``); ``d2sr.models.inference.TorchBackend`` loads safetensors weights. Both work
+in metres; ``to_depth_units`` puts the result back into the input's units, with pixels outside the
+predicted mask bit-identical to the input."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 from typing import Protocol
@@ -13,7 +14,7 @@ import numpy as np
 
 from d2sr.errors import InputError
 
-__all__ = ["WEIGHTS", "Backend", "OnnxBackend", "TorchBackend", "open_backend", "to_depth_units"]
+__all__ = ["WEIGHTS", "Backend", "OnnxBackend", "open_backend", "to_depth_units"]
 
 WEIGHTS = Path(__file__).resolve().parents[1] / "models" / "weights"
 DETECTOR = "detector"
@@ -98,39 +99,6 @@ class OnnxBackend:
         return pred[:, 0], logit[:, 0] > 0
 
 
-class TorchBackend:
-    """The same from safetensors weights, in torch (training machines, CUDA when present)."""
-
-    name = "torch"
-
-    def __init__(self, detector: Path, recovery: Path | None) -> None:
-        import torch
-
-        from d2sr.models.registry import check_input_size
-        from d2sr.models.weights import load_model, torch_device
-
-        self._torch, self._check = torch, check_input_size
-        self.device = torch_device()
-        self.det = load_model(detector)[0].to(self.device)
-        self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
-
-    def _tensor(self, metres: np.ndarray) -> object:
-        return self._torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
-
-    def scores(self, metres: np.ndarray) -> np.ndarray:
-        self._check(self.det, *metres.shape[1:])
-        with self._torch.inference_mode():
-            return self._torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
-
-    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.rec is None:
-            raise InputError("no recovery model loaded")
-        self._check(self.rec, *metres.shape[1:])
-        with self._torch.inference_mode():
-            logit, pred = self.rec(self._tensor(metres))
-        return pred[:, 0].cpu().numpy(), (logit[:, 0] > 0).cpu().numpy()
-
-
 def open_backend(
     model: str | None = "unet8",
     backend: str = "auto",
@@ -152,10 +120,10 @@ def open_backend(
             backend = "torch"
     if backend == "onnx":
         return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads)
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        raise InputError(f"no ONNX models in {weights} and torch is not installed") from None
+    if importlib.util.find_spec("torch") is None:
+        raise InputError(f"no ONNX models in {weights} and torch is not installed")
+    from d2sr.models.inference import TorchBackend
+
     return TorchBackend(
         weights / f"{detector}.safetensors", weights / f"{model}.safetensors" if model else None
     )

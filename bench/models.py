@@ -1,0 +1,32 @@
+"""Benchmark: detector, recovery UNets and detect+repair at 640x480 on this machine's CPU (torch and
+onnxruntime), plus ``d2sr recover --all`` timed from outside the process. Bars: detector >= 300 fps,
+detect + UNet8 repair of every frame >= 30 fps.
+
+Run:  .venv/bin/python bench/models.py --json docs/results/bench_models.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from d2sr.atomic import atomic_write
+from d2sr.bench import bench_models
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=30)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args()
+    result = bench_models(repeats=args.repeats, threads=args.threads, progress=print)
+    text = json.dumps(result, indent=1)
+    print(text)
+    if args.json:
+        atomic_write(args.json, text + "\n")
+
+
+if __name__ == "__main__":
+    main()

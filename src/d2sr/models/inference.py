@@ -1,0 +1,42 @@
+"""The torch inference backend (same protocol as ``d2sr.runtime.OnnxBackend``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from d2sr.errors import InputError
+from d2sr.models.registry import check_input_size
+from d2sr.models.weights import load_model, torch_device
+
+__all__ = ["TorchBackend"]
+
+
+class TorchBackend:
+    """The same from safetensors weights, in torch (training machines, CUDA when present)."""
+
+    name = "torch"
+
+    def __init__(self, detector: Path, recovery: Path | None) -> None:
+        self._torch, self._check = torch, check_input_size
+        self.device = torch_device()
+        self.det = load_model(detector)[0].to(self.device)
+        self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
+
+    def _tensor(self, metres: np.ndarray) -> object:
+        return self._torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
+
+    def scores(self, metres: np.ndarray) -> np.ndarray:
+        self._check(self.det, *metres.shape[1:])
+        with self._torch.inference_mode():
+            return self._torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
+
+    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.rec is None:
+            raise InputError("no recovery model loaded")
+        self._check(self.rec, *metres.shape[1:])
+        with self._torch.inference_mode():
+            logit, pred = self.rec(self._tensor(metres))
+        return pred[:, 0].cpu().numpy(), (logit[:, 0] > 0).cpu().numpy()
