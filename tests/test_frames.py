@@ -202,3 +202,20 @@ def test_l515_names_carry_timestamps(tmp_path):
     r = open_frames(d)
     assert r.depth_scale == 4000.0 and r.intrinsics == INTR
     assert next(iter(r)).timestamp_ns == 1699685295130 * 1_000_000
+
+
+def test_atomic_outputs_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    from d2sr.atomic import atomic_dir, atomic_write
+
+    old = os.umask(0o022)
+    try:
+        atomic_write(tmp_path / "a.txt", "x")
+        with atomic_dir(tmp_path / "d") as d:
+            (d / "f").write_text("y")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o644
+    assert stat.S_IMODE((tmp_path / "d").stat().st_mode) == 0o755

@@ -17,11 +17,22 @@ def temp_for(path: Path, is_dir: bool) -> Path:
     """A fresh temporary file or folder next to ``path`` (same file system, so the rename is atomic)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    # tempfile creates private (0600/0700) entries; outputs get the usual permissions (umask applies).
+    mask = _umask()
     if is_dir:
-        return Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+        tmp.chmod(0o777 & ~mask)
+        return tmp
     fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
+    os.fchmod(fd, 0o666 & ~mask)
     os.close(fd)
     return Path(name)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def commit(tmp: Path, path: Path) -> None:
