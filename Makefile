@@ -59,7 +59,7 @@ weights: $(STAMP)
 # they also go into the model cards.
 eval-models: $(STAMP)
 	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector
-	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery
+	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache

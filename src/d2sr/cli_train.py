@@ -82,6 +82,10 @@ def export(
 
 
 REAL = Path("../shared/data/l515")
+SET_TITLES = {
+    "generated": "generated test set (seeds >= 1,000,000)",
+    "l515": "real L515 dev0+dev1 with simulated interference on every other frame",
+}
 
 
 def _weights_dir(weights: Path | None) -> Path:
@@ -137,8 +141,9 @@ def eval_detector(
             if card:
                 write_card(
                     path,
+                    evaluation=f"d2sr eval detector --models {name}",
                     metrics={
-                        f"{k.split('/')[1]}: precision / recall / false alarms": (
+                        f"{SET_TITLES[k.split('/')[1]]}: precision / recall / false alarms": (
                             f"{r['precision']:.3f} / {r['recall']:.3f} / {r['false_alarm_rate']:.3f}"
                         )
                         for k, r in results.items()
@@ -256,8 +261,9 @@ def eval_recovery(
         for name in nets:
             write_card(
                 wdir / f"{name}.safetensors",
+                evaluation=f"d2sr eval recovery --models {name} --limit {limit}",
                 metrics={
-                    f"{s}: RMSE cm (vs identity) / mask F1 / clean px changed": (
+                    f"{SET_TITLES[s]}: RMSE cm (vs identity) / mask F1 / clean px changed": (
                         f"{t[name]['rmse_cm']:.2f} ({100 * t[name]['rmse_vs_identity']:+.1f}%) / "
                         f"{t[name]['mask_f1']:.3f} / "
                         f"{100 * t[name]['clean_changed']:.2f}%"

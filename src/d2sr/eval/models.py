@@ -134,12 +134,15 @@ class _Acc:
         }
 
 
-def _interfered(ts: TestSet) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    for f, c in zip(ts.frames, ts.clean, strict=True):
-        true = f != c
-        if true.any():
-            s = np.float32(ts.scale)
-            yield f.astype(np.float32) / s, c.astype(np.float32) / s, true
+def _interfered(ts: TestSet, limit: int | None) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The interfered frames (``limit``: that many, evenly spread over the set)."""
+    idx = np.flatnonzero(ts.labels)
+    if limit is not None and limit < len(idx):
+        idx = idx[np.linspace(0, len(idx) - 1, limit).round().astype(int)]
+    s = np.float32(ts.scale)
+    for i in idx:
+        f, c = ts.frames[i], ts.clean[i]
+        yield f.astype(np.float32) / s, c.astype(np.float32) / s, f != c
 
 
 def recovery_metrics(
@@ -160,9 +163,7 @@ def recovery_metrics(
         if baseline_mask_from:
             accs[f"{b} (predicted mask)"] = _Acc(errors=[])
         accs[f"{b} (true mask)"] = _Acc()
-    for k, (x, y, true) in enumerate(_interfered(ts)):
-        if limit is not None and k >= limit:
-            break
+    for x, y, true in _interfered(ts, limit):
         accs["identity"].add(x, np.zeros_like(true), x, y, true)
         masks = {}
         for name, fn in models.items():

@@ -72,7 +72,8 @@ def write_card(path: Path, **update: object) -> dict:
         ("data", "Data"),
         ("command", "Command"),
         ("training", "Training"),
-        ("metrics", "Metrics (held-out; see the eval command)"),
+        ("metrics", "Metrics (held-out data, never trained on)"),
+        ("evaluation", "Evaluation command"),
         ("limits", "Limits"),
         ("date", "Date"),
     ):
@@ -82,7 +83,7 @@ def write_card(path: Path, **update: object) -> dict:
         lines.append(f"## {title}")
         if isinstance(value, dict):
             lines += [f"- {k}: {v}" for k, v in value.items()]
-        elif key == "command":
+        elif key in ("command", "evaluation"):
             lines.append(f"```\n{value}\n```")
         else:
             lines.append(str(value))
