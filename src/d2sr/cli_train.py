@@ -26,21 +26,13 @@ def train(
     minutes: Annotated[float | None, typer.Option(help="Stop after this many minutes (0: none).")] = None,
 ) -> None:
     """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes)."""
-    import tomllib
-
+    from d2sr.config import read_toml
     from d2sr.train.config import TrainConfig
     from d2sr.train.loop import train as run
 
     if task not in ("detector", "recovery"):
         raise ConfigError(f"task must be detector or recovery, got {task!r}")
-    values: dict = {}
-    if config is not None:
-        try:
-            values = tomllib.loads(config.read_text())
-        except FileNotFoundError:
-            raise ConfigError(f"{config}: no such file") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"{config}: not valid TOML: {exc}") from None
+    values: dict = {} if config is None else read_toml(config)
     values["task"] = task
     values.setdefault("model", "detector" if task == "detector" else "unet8")
     for key, v in (

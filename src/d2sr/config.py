@@ -10,7 +10,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from d2sr.errors import ConfigError
 
-__all__ = ["Settings", "load_toml", "one_line"]
+__all__ = ["Settings", "load_toml", "one_line", "read_toml"]
 
 M = TypeVar("M", bound="Settings")
 
@@ -40,12 +40,16 @@ def one_line(exc: ValidationError, what: str) -> str:
     return f"{what}: " + "; ".join(parts)
 
 
-def load_toml(cls: type[M], path: Path) -> M:
-    """Read a TOML file into a settings model."""
+def read_toml(path: Path) -> dict[str, Any]:
+    """A TOML file as a dict; one-line ConfigErrors for a missing or invalid file."""
     try:
-        data = tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text())
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such file") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    return cls.make(**data)
+
+
+def load_toml(cls: type[M], path: Path) -> M:
+    """Read a TOML file into a settings model."""
+    return cls.make(**read_toml(path))
