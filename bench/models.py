@@ -8,11 +8,9 @@ Run:  .venv/bin/python bench/models.py --json docs/results/bench_models.json
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
-from d2sr.atomic import atomic_write
-from d2sr.bench import bench_models
+from d2sr.bench import bench_models, write_result
 
 
 def main() -> None:
@@ -22,10 +20,7 @@ def main() -> None:
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     result = bench_models(repeats=args.repeats, threads=args.threads, progress=print)
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.json:
-        atomic_write(args.json, text + "\n")
+    print(write_result(result, args.json))
 
 
 if __name__ == "__main__":

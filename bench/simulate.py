@@ -6,11 +6,9 @@ Run:  .venv/bin/python bench/simulate.py --json docs/results/bench_simulate.json
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
-from d2sr.atomic import atomic_write
-from d2sr.bench import bench_simulate
+from d2sr.bench import bench_simulate, write_result
 
 
 def main() -> None:
@@ -21,10 +19,7 @@ def main() -> None:
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     result = bench_simulate(args.frames, args.repeats, args.workers)
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.json:
-        atomic_write(args.json, text + "\n")
+    print(write_result(result, args.json))
 
 
 if __name__ == "__main__":

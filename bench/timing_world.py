@@ -7,12 +7,11 @@ Same as `d2sr bench`; kept here so every benchmark lives under bench/.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from rich.progress import Progress, TimeElapsedColumn
 
-from d2sr.bench import bench_timing
+from d2sr.bench import bench_timing, write_result
 
 
 def main() -> None:
@@ -27,12 +26,7 @@ def main() -> None:
         result = bench_timing(
             args.sensors, args.seconds, args.repeats, progress=lambda f: bar.update(task, completed=f)
         )
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.json:
-        tmp = args.json.with_name(args.json.name + ".tmp")
-        tmp.write_text(text + "\n")
-        tmp.replace(args.json)
+    print(write_result(result, args.json))
 
 
 if __name__ == "__main__":

@@ -47,18 +47,12 @@ def median_fill(depth: np.ndarray, mask: np.ndarray, size: int = 7, passes: int 
         pad = np.pad(out, r, constant_values=np.nan)
         ys, xs = np.nonzero(todo)
         win = np.stack([pad[ys + dy, xs + dx] for dy in range(size) for dx in range(size)])
-        with np.errstate(all="ignore"):
-            import warnings
-
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                med = np.nanmedian(win, axis=0)
-        ok = np.isfinite(med)
-        out[ys[ok], xs[ok]] = med[ok]
+        ok = np.isfinite(win).any(axis=0)  # windows with no valid pixel wait for a later pass
+        out[ys[ok], xs[ok]] = np.nanmedian(win[:, ok], axis=0)
         todo[ys[ok], xs[ok]] = False
     filled = np.where(np.isfinite(out), out, 0).astype(np.float32)
     if todo.any():
-        filled = np.where(todo, nearest_fill(filled, todo)[...], filled)
+        filled = nearest_fill(filled, todo)
     return np.where(mask, filled, depth).astype(np.float32)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import platform
 import statistics
 import time
@@ -14,7 +15,17 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
-__all__ = ["bench_models", "bench_simulate", "bench_timing"]
+__all__ = ["bench_models", "bench_simulate", "bench_timing", "write_result"]
+
+
+def write_result(result: dict, path: Path | None) -> str:
+    """The result as JSON text, also written atomically to ``path`` when given."""
+    from d2sr.atomic import atomic_write
+
+    text = json.dumps(result, indent=1)
+    if path is not None:
+        atomic_write(path, text + "\n")
+    return text
 
 
 def bench_timing(
@@ -99,8 +110,6 @@ def _median_ms(fn: Callable[[], object], repeats: int, warmup: int = 3) -> float
 def _weights_with_onnx(names: list[str], tmp: str) -> Path:
     """The shipped weights folder when it has every model as ONNX and safetensors; otherwise random-weight
     copies in ``tmp`` (speed does not depend on the weights' values)."""
-    from pathlib import Path
-
     from d2sr.runtime.backends import WEIGHTS
 
     if all((WEIGHTS / f"{n}.onnx").is_file() and (WEIGHTS / f"{n}.safetensors").is_file() for n in names):
@@ -131,7 +140,7 @@ def bench_models(
     import torch
 
     from d2sr.models.inference import TorchBackend
-    from d2sr.runtime.backends import WEIGHTS, OnnxBackend, to_depth_units
+    from d2sr.runtime.backends import WEIGHTS, Backend, OnnxBackend, to_depth_units
     from d2sr.train.synth import synth_frame
 
     torch.set_num_threads(threads)
@@ -141,30 +150,32 @@ def bench_models(
     with tempfile.TemporaryDirectory() as tmp:
         wdir = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
         out["weights"] = "shipped" if wdir == WEIGHTS else "random (no shipped ONNX found)"
+
+        def load(backend: str, detector: str, model: str | None) -> Backend:
+            if backend == "onnxruntime":
+                return OnnxBackend(wdir / f"{detector}.onnx", model and wdir / f"{model}.onnx", threads)
+            return TorchBackend(wdir / f"{detector}.safetensors", model and wdir / f"{model}.safetensors")
+
+        def fps_of(fn: Callable[[], object]) -> float:
+            return round(1000 / _median_ms(fn, repeats), 1)
+
         for backend in ("onnxruntime", "torch"):
+            fps = out["fps"][backend] = {}
+            for det in ("detector", "paper-detector"):
+                d = load(backend, det, None)
+                fps[det] = fps_of(lambda d=d: d.scores(metres))
             for m in models:
                 if progress:
                     progress(f"{backend} {m}")
-                if backend == "onnxruntime":
-                    net = OnnxBackend(wdir / "detector.onnx", wdir / f"{m}.onnx", threads)
-                    pnet = OnnxBackend(wdir / "paper-detector.onnx", None, threads)
-                else:
-                    net = TorchBackend(wdir / "detector.safetensors", wdir / f"{m}.safetensors")
-                    pnet = TorchBackend(wdir / "paper-detector.safetensors", None)
-                fps = out["fps"].setdefault(backend, {})
-                if "detector" not in fps:
-                    fps["detector"] = round(1000 / _median_ms(lambda net=net: net.scores(metres), repeats), 1)
-                    fps["paper-detector"] = round(
-                        1000 / _median_ms(lambda pnet=pnet: pnet.scores(metres), repeats), 1
-                    )
-                fps[m] = round(1000 / _median_ms(lambda net=net: net.recover(metres), repeats), 1)
+                net = load(backend, "detector", m)
 
-                def both(net: object = net) -> None:
-                    net.scores(metres)  # type: ignore[attr-defined]
-                    pred, mask = net.recover(metres)  # type: ignore[attr-defined]
+                def both(net: Backend = net) -> None:
+                    net.scores(metres)
+                    pred, mask = net.recover(metres)
                     to_depth_units(frame, pred[0], mask[0], 4000.0)
 
-                fps[f"detect+{m}"] = round(1000 / _median_ms(both, repeats), 1)
+                fps[m] = fps_of(lambda net=net: net.recover(metres))
+                fps[f"detect+{m}"] = fps_of(both)
         if outside:
             if progress:
                 progress("d2sr recover --all, from outside")

@@ -13,6 +13,7 @@ from rich.table import Table
 
 from d2sr import __version__, cli_data, cli_models, cli_train
 from d2sr.atomic import atomic_write
+from d2sr.cli_common import int_list, split_list
 from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
 from d2sr.sim.timing import TimingConfig
@@ -49,24 +50,6 @@ def _root(
     ] = False,
 ) -> None:
     """d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
-
-
-def _split(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
-    items = [v.strip() for v in value.split(",") if v.strip()]
-    if not items:
-        raise ConfigError(f"--{what} is empty")
-    if choices:
-        bad = [v for v in items if v not in choices]
-        if bad:
-            raise ConfigError(f"--{what}: unknown {', '.join(bad)}; choose from {', '.join(choices)}")
-    return items
-
-
-def _ints(value: str, what: str) -> list[int]:
-    try:
-        return [int(v) for v in _split(value, what)]
-    except ValueError:
-        raise ConfigError(f"--{what} takes comma-separated integers, got {value!r}") from None
 
 
 def _compare(
@@ -191,7 +174,9 @@ def desync_run(
 
     if scenario not in ev.SCENARIOS:
         raise ConfigError(f"--scenario must be one of {', '.join(ev.SCENARIOS)}, got {scenario!r}")
-    names = _split(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
+    names = (
+        split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
+    )
     base = load_toml(TimingConfig, config).model_dump() if config else {}
     flags = {
         "recall": recall,
@@ -224,10 +209,10 @@ def desync_sweep(
     from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
     from d2sr.eval import desync as ev
 
-    ctrl = _split(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
-    prof = _split(profiles, "profiles", tuple(ev.PROFILES))
-    scen = _split(scenarios, "scenarios", ev.SCENARIOS)
-    fps_l, n_l = _ints(fps, "fps"), _ints(sensors, "sensors")
+    ctrl = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.CONTROLLERS)
+    prof = split_list(profiles, "profiles", tuple(ev.PROFILES))
+    scen = split_list(scenarios, "scenarios", ev.SCENARIOS)
+    fps_l, n_l = int_list(fps, "fps"), int_list(sensors, "sensors")
     if replicas < 2 or duration <= 0 or any(f < 1 or f > 30 for f in fps_l) or any(n < 1 for n in n_l):
         raise ConfigError("need replicas >= 2, duration > 0, fps in 1..30 and sensors >= 1")
     grid = ev.cells(scen, fps_l, n_l, ctrl, ["default"], replicas, duration, seed)
@@ -310,9 +295,9 @@ def bench(
 ) -> None:
     """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the timing
     world at warehouse scale; writing simulated 640x480 recordings."""
-    from d2sr.bench import bench_models, bench_simulate, bench_timing
+    from d2sr.bench import bench_models, bench_simulate, bench_timing, write_result
 
-    names = _split(what, "benchmark", ("timing", "simulate", "models"))
+    names = split_list(what, "benchmark", ("timing", "simulate", "models"))
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
     results = {}
@@ -333,9 +318,7 @@ def bench(
             )
             bar.update(task, total=1, completed=1)
     result = results[names[0]] if len(names) == 1 else results
-    console.print_json(json.dumps(result))
-    if json_out:
-        atomic_write(json_out, json.dumps(result, indent=1) + "\n")
+    console.print_json(write_result(result, json_out))
 
 
 def main() -> None:

@@ -12,6 +12,7 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, atomic_write
+from d2sr.cli_common import open_input
 from d2sr.errors import ConfigError, InputError
 from d2sr.ui import console, progress_bar
 
@@ -101,20 +102,6 @@ def _to_bags(out: Path, sensors: int) -> None:
         shutil.rmtree(src)
 
 
-def _open(path: Path, topic: str | None, scale: float | None, what: str) -> tuple[object, float]:
-    from d2sr.frames import open_frames
-
-    reader = open_frames(path, topic=topic)
-    use = scale if scale is not None else reader.depth_scale
-    if use is None:
-        raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
-    if not (np.isfinite(use) and use > 0):
-        raise InputError(f"--depth-scale must be a positive number, got {use}")
-    if len(reader) == 0:
-        raise InputError(f"{path}: the {what} sequence is empty")
-    return reader, float(use)
-
-
 def _counts(reader: object, what: str) -> Iterator[np.ndarray]:
     for f in reader:  # type: ignore[attr-defined]
         if f.depth.dtype != np.uint16:
@@ -142,8 +129,8 @@ def label(
 
     if memory_mb <= 0:
         raise ConfigError("--memory-mb must be positive")
-    creader, scale = _open(clean, topic, depth_scale, "clean")
-    ireader, _ = _open(interfered, topic, scale, "interfered")
+    creader, scale = open_input(clean, topic, depth_scale, "clean")
+    ireader, _ = open_input(interfered, topic, scale, "interfered")
     cshape, ishape = creader.shape, ireader.shape  # type: ignore[attr-defined]
     if cshape and ishape and cshape != ishape:
         raise InputError(
@@ -210,7 +197,7 @@ def calibrate(
 
     real_stats = {}
     for path in real:
-        reader, scale = _open(path, None, None, "clean")
+        reader, scale = open_input(path, None, None, "clean")
         real_stats[path.name] = sequence_stats(
             (d for i, d in enumerate(_counts(reader, "clean")) if i >= skip), scale
         )

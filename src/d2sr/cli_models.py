@@ -16,31 +16,18 @@ import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write
+from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, open_input
 from d2sr.errors import InputError
-from d2sr.frames import Frame, check_depth, open_frames, to_metres
+from d2sr.frames import Frame, check_depth, to_metres
 from d2sr.frames.png import encode_png, write_meta
+from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.ui import progress_bar
 
-__all__ = ["detect", "recover", "scale_for"]
+__all__ = ["detect", "recover"]
 
 T = TypeVar("T")
 MODEL_CHOICES = ("unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32")
 PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
-
-Scale = Annotated[
-    float | None,
-    typer.Option(help="Units per metre (default: what the recording says, else 1000; raw L515 is 4000)."),
-]
-Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
-BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
-Weights = Annotated[Path | None, typer.Option(help="Folder with the models (default: the shipped ones).")]
-
-
-def scale_for(reader: object, depth_scale: float | None) -> float:
-    use = depth_scale if depth_scale is not None else (getattr(reader, "depth_scale", None) or 1000.0)
-    if not (np.isfinite(use) and use > 0):
-        raise InputError(f"--depth-scale must be a positive number, got {use}")
-    return float(use)
 
 
 def _frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
@@ -81,31 +68,24 @@ def _prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
         yield it
 
 
-def _open(input: Path, topic: str | None, depth_scale: float | None) -> tuple[object, float]:
-    reader = open_frames(input, topic)
-    if len(reader) == 0:
-        raise InputError(f"{input}: no frames")
-    return reader, scale_for(reader, depth_scale)
-
-
 def detect(
     input: Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.")],
     out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
     depth_scale: Scale = None,
     threshold: Annotated[
         float, typer.Option(help="Score at or above which a frame counts as interfered.")
-    ] = 0.5,
+    ] = THRESHOLD,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: Weights = None,
+    weights: Weights = WEIGHTS,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered)."""
-    from d2sr.runtime.backends import WEIGHTS, open_backend
+    from d2sr.runtime.backends import open_backend
 
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
-    reader, scale = _open(input, topic, depth_scale)
-    net = open_backend(None, backend, weights or WEIGHTS)
+    reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
+    net = open_backend(None, backend, weights)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["frame", "score", "interfered"])
@@ -129,20 +109,20 @@ def recover(
         bool, typer.Option("--all", help="Repair every frame, not only those the detector flags.")
     ] = False,
     model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODEL_CHOICES)}.")] = "unet8",
-    threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = 0.5,
+    threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: Weights = None,
+    weights: Weights = WEIGHTS,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside)."""
-    from d2sr.runtime.backends import WEIGHTS, open_backend, to_depth_units
+    from d2sr.runtime.backends import open_backend, to_depth_units
 
     if model not in MODEL_CHOICES:
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(MODEL_CHOICES)}")
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
-    reader, scale = _open(input, topic, depth_scale)
-    net = open_backend(model, backend, weights or WEIGHTS)
+    reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
+    net = open_backend(model, backend, weights)
     rows, repaired = [], 0
     with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
         (tmp / "masks").mkdir()

@@ -9,7 +9,9 @@ from typing import Annotated
 
 import typer
 
+from d2sr.cli_common import Cache, Real, Weights, split_list
 from d2sr.errors import ConfigError
+from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.ui import console
 
 __all__ = ["export", "train"]
@@ -62,9 +64,8 @@ def export(
 ) -> None:
     """Export models to ONNX (dynamic batch, height, width) after a parity check against torch."""
     from d2sr.export import export as run
-    from d2sr.models.weights import SHIPPED
 
-    files = weights or sorted(SHIPPED.glob("*.safetensors"))
+    files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
         raise ConfigError("no weights to export")
     for w in files:
@@ -74,16 +75,11 @@ def export(
 
 
 REAL = Path("../shared/data/l515")
+CACHE = Path("out/data")
 SET_TITLES = {
     "generated": "generated test set (seeds >= 1,000,000)",
     "l515": "real L515 dev0+dev1 with simulated interference on every other frame",
 }
-
-
-def _weights_dir(weights: Path | None) -> Path:
-    from d2sr.models.weights import SHIPPED
-
-    return weights or SHIPPED
 
 
 def eval_detector(
@@ -93,10 +89,10 @@ def eval_detector(
     models: Annotated[
         str, typer.Option(help="Detectors to evaluate (comma-separated).")
     ] = "detector,paper-detector",
-    weights: Annotated[Path | None, typer.Option(help="Folder of weights (default: shipped).")] = None,
-    real: Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")] = REAL,
-    cache: Annotated[Path, typer.Option(help="Where the generated test set is kept.")] = Path("out/data"),
-    threshold: Annotated[float, typer.Option(help="Operating threshold.")] = 0.5,
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
+    threshold: Annotated[float, typer.Option(help="Operating threshold.")] = THRESHOLD,
     card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
 ) -> None:
     """Detector precision/recall on the generated test set and on real L515 frames with simulated
@@ -113,11 +109,11 @@ def eval_detector(
     from d2sr.models.weights import write_card
     from d2sr.ui import progress_bar
 
-    wdir = _weights_dir(weights)
+    wdir = weights
     sets = [generated_set(cache)] + ([l515_set(real)] if (real / "dev0").is_dir() else [])
     results: dict[str, dict] = {}
     with progress_bar() as bar:
-        for name in [m.strip() for m in models.split(",") if m.strip()]:
+        for name in split_list(models, "models"):
             path = wdir / f"{name}.safetensors"
             if not path.is_file():
                 console.print(f"[yellow]skipping {name}: no {path}[/yellow]")
@@ -159,9 +155,9 @@ def eval_recovery(
         "docs/results/recovery"
     ),
     models: Annotated[str, typer.Option(help="Recovery models (comma-separated).")] = "unet8,unet16,unet32",
-    weights: Annotated[Path | None, typer.Option(help="Folder of weights (default: shipped).")] = None,
-    real: Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")] = REAL,
-    cache: Annotated[Path, typer.Option(help="Where the generated test set is kept.")] = Path("out/data"),
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
     limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
     card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
 ) -> None:
@@ -179,18 +175,12 @@ def eval_recovery(
     from d2sr.runtime.backends import to_depth_units
     from d2sr.ui import progress_bar
 
-    wdir = _weights_dir(weights)
-    names = [m.strip() for m in models.split(",") if m.strip()]
-    nets = {}
-    for name in names:
-        path = wdir / f"{name}.safetensors"
-        if path.is_file():
-            nets[name] = (
-                TorchBackend(wdir / "detector.safetensors", path)
-                if (wdir / "detector.safetensors").is_file()
-                else None
-            )
-    nets = {k: v for k, v in nets.items() if v is not None}
+    wdir = weights
+    nets = {
+        name: TorchBackend(None, wdir / f"{name}.safetensors")
+        for name in split_list(models, "models")
+        if (wdir / f"{name}.safetensors").is_file()
+    }
     if not nets:
         raise ConfigError(f"no recovery weights for {models} in {wdir}")
 

@@ -19,19 +19,22 @@ from d2sr.sim.calibrate import static_camera
 from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
 from d2sr.sim.scene import L515, SensorNoise
 
-__all__ = ["evaluate", "real_case", "sim_case"]
+__all__ = ["drifting_interference", "evaluate", "real_case", "sim_case"]
 
 Case = tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], float]  # clean, interfered, masks, scale
 
 
-def _corrupt(frames: list[np.ndarray], scale: float, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    cfg = InterferenceConfig()
+def drifting_interference(
+    frames: list[np.ndarray], scale: float, seed: int, count: Callable[[int], int] = lambda t: 1 + t % 2
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The simulator's interference on a real sequence: two persistent interferers that drift over it;
+    frame ``t`` takes the first ``count(t)`` of them (0: left clean). Returns (frames, true masks)."""
     shape = frames[0].shape
-    its = [Interferer.draw(shape, seed * 100 + k, cfg) for k in range(2)]
+    its = [Interferer.draw(shape, seed * 100 + k, InterferenceConfig()) for k in range(2)]
     out, masks = [], []
     for t, f in enumerate(frames):
-        use = its[: 1 + t % 2]  # one or two interferers
-        g, m = interfere(f, scale, use, t, seed)
+        n = count(t)
+        g, m = interfere(f, scale, its[:n], t, seed) if n else (f, np.zeros(f.shape, bool))
         out.append(g)
         masks.append(m)
     return out, masks
@@ -42,7 +45,7 @@ def sim_case(seed: int, clean: int = 100, interfered: int = 30) -> Case:
     r = cam.render(0.0)
     noise = SensorNoise(L515, r.depth.shape, seed)
     frames = [noise.observe(r) for _ in range(clean + interfered)]
-    bad, masks = _corrupt(frames[clean:], L515.depth_scale, seed)
+    bad, masks = drifting_interference(frames[clean:], L515.depth_scale, seed)
     return frames[:clean], bad, masks, L515.depth_scale
 
 
@@ -50,7 +53,7 @@ def real_case(folder: Path, skip: int = 0, clean: int = 100, seed: int = 0) -> C
     reader = open_frames(folder)
     frames = [f.depth for f in reader][skip:]
     scale = reader.depth_scale or 1000.0
-    bad, masks = _corrupt(frames[clean:], scale, seed)
+    bad, masks = drifting_interference(frames[clean:], scale, seed)
     return frames[:clean], bad, masks, scale
 
 

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from d2sr.baselines import BASELINES
+from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
-from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
 
 __all__ = ["TestSet", "detector_metrics", "generated_set", "l515_set", "recovery_metrics"]
 
@@ -33,7 +34,7 @@ class TestSet:
     scale: float
     hard: np.ndarray  # bool per frame: a clean frame that is a known hard negative (people moving)
 
-    @property
+    @cached_property
     def labels(self) -> np.ndarray:
         return np.array([(f != c).any() for f, c in zip(self.frames, self.clean, strict=True)])
 
@@ -49,16 +50,15 @@ def l515_set(root: Path, seed: int = 7) -> TestSet:
         reader = open_frames(root / name)
         scale = reader.depth_scale or scale
         seq = [f.depth for f in reader]
-        shape = seq[0].shape
-        its = [Interferer.draw(shape, (seed + k) * 100 + j, InterferenceConfig()) for j in range(2)]
-        for t, f in enumerate(seq):
-            clean.append(f)
-            hard.append(t < skip)
-            if t >= skip and (t - skip) % 2 == 1:
-                g, _ = interfere(f, scale, its[: 1 + (t // 2) % 2], t, seed + k)
-                frames.append(g)
-            else:
-                frames.append(f)
+        out, _ = drifting_interference(
+            seq,
+            scale,
+            seed + k,
+            lambda t, skip=skip: 0 if t < skip or (t - skip) % 2 == 0 else 1 + (t // 2) % 2,
+        )
+        frames += out
+        clean += seq
+        hard += [t < skip for t in range(len(seq))]
     return TestSet("l515", frames, clean, scale, np.array(hard))
 
 

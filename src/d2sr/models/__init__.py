@@ -4,12 +4,11 @@ Every model takes depth in metres, shape (N, 1, H, W), float32, 0 = no return, a
 exported ONNX file needs no preprocessing beyond the depth scale.
 """
 
-from d2sr.models.detector import DETECTORS, FastDetector, PaperDetector
+from d2sr.models.detector import FastDetector, PaperDetector
 from d2sr.models.registry import MODELS, build, check_input_size, describe
 from d2sr.models.unet import UNet
 
 __all__ = [
-    "DETECTORS",
     "MODELS",
     "FastDetector",
     "PaperDetector",

@@ -15,7 +15,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-__all__ = ["DETECTORS", "FastDetector", "PaperDetector", "Scored"]
+__all__ = ["FastDetector", "PaperDetector", "Scored"]
 
 
 def features(depth: torch.Tensor) -> torch.Tensor:
@@ -84,6 +84,3 @@ class Scored(nn.Module):
 
     def forward(self, depth: torch.Tensor) -> torch.Tensor:
         return torch.sigmoid(self.detector(depth))
-
-
-DETECTORS = {"detector": FastDetector, "paper-detector": PaperDetector}

@@ -19,24 +19,25 @@ class TorchBackend:
 
     name = "torch"
 
-    def __init__(self, detector: Path, recovery: Path | None) -> None:
-        self._torch, self._check = torch, check_input_size
+    def __init__(self, detector: Path | None, recovery: Path | None) -> None:
         self.device = torch_device()
-        self.det = load_model(detector)[0].to(self.device)
+        self.det = load_model(detector)[0].to(self.device) if detector is not None else None
         self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
 
-    def _tensor(self, metres: np.ndarray) -> object:
-        return self._torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
+    def _tensor(self, metres: np.ndarray) -> torch.Tensor:
+        return torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
 
     def scores(self, metres: np.ndarray) -> np.ndarray:
-        self._check(self.det, *metres.shape[1:])
-        with self._torch.inference_mode():
-            return self._torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
+        if self.det is None:
+            raise InputError("no detector loaded")
+        check_input_size(self.det, *metres.shape[1:])
+        with torch.inference_mode():
+            return torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
 
     def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.rec is None:
             raise InputError("no recovery model loaded")
-        self._check(self.rec, *metres.shape[1:])
-        with self._torch.inference_mode():
+        check_input_size(self.rec, *metres.shape[1:])
+        with torch.inference_mode():
             logit, pred = self.rec(self._tensor(metres))
         return pred[:, 0].cpu().numpy(), (logit[:, 0] > 0).cpu().numpy()

@@ -9,6 +9,7 @@ from torch import nn
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector, PaperDetector
 from d2sr.models.unet import UNet
+from d2sr.runtime.backends import check_size
 
 __all__ = ["DETECTOR_NAMES", "MODELS", "RECOVERY_NAMES", "build", "check_input_size", "describe"]
 
@@ -36,12 +37,7 @@ def build(name: str) -> nn.Module:
 def check_input_size(model: nn.Module, height: int, width: int) -> None:
     """Raise a one-line InputError when the model cannot take frames of this size."""
     stride = int(getattr(model, "stride", 1))
-    need = getattr(model, "height", None)
-    name = type(model).__name__
-    if need is not None and height != need:
-        raise InputError(f"{name} needs frames {need} pixels high, got {height}x{width}")
-    if height % stride or width % stride:
-        raise InputError(f"{name} needs height and width divisible by {stride}, got {height}x{width}")
+    check_size(height, width, stride, getattr(model, "height", None), type(model).__name__)
 
 
 def describe(model: nn.Module) -> str:

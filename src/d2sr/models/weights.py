@@ -13,14 +13,11 @@ from torch import nn
 from d2sr.atomic import atomic_file, atomic_write
 from d2sr.errors import InputError
 from d2sr.models.registry import build
+from d2sr.runtime.backends import WEIGHTS
 
-__all__ = ["SHIPPED", "load_model", "read_card", "save_model", "shipped", "write_card"]
+__all__ = ["SHIPPED", "load_model", "read_card", "save_model", "torch_device", "write_card"]
 
-SHIPPED = Path(__file__).resolve().parent / "weights"
-
-
-def shipped(name: str) -> Path:
-    return SHIPPED / f"{name}.safetensors"
+SHIPPED = WEIGHTS  # the one shipped-weights folder (defined where the torch-free runtime can see it)
 
 
 def save_model(model: nn.Module, name: str, path: Path) -> None:

@@ -14,11 +14,11 @@ import numpy as np
 
 from d2sr.errors import InputError
 
-__all__ = ["WEIGHTS", "Backend", "OnnxBackend", "open_backend", "to_depth_units"]
+__all__ = ["THRESHOLD", "WEIGHTS", "Backend", "OnnxBackend", "check_size", "open_backend", "to_depth_units"]
 
 WEIGHTS = Path(__file__).resolve().parents[1] / "models" / "weights"
 DETECTOR = "detector"
-THRESHOLD = 0.5
+THRESHOLD = 0.5  # detector score at or above which a frame counts as interfered
 
 
 class Backend(Protocol):
@@ -39,7 +39,8 @@ def to_depth_units(frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale
     return np.where(mask, units, frames)
 
 
-def _check_size(h: int, w: int, stride: int, fixed_height: int | None, what: str) -> None:
+def check_size(h: int, w: int, stride: int, fixed_height: int | None, what: str) -> None:
+    """The one input-size rule (torch models and exported files alike)."""
     if fixed_height is not None and h != fixed_height:
         raise InputError(f"{what} needs frames {fixed_height} pixels high, got {h}x{w}")
     if h % stride or w % stride:
@@ -86,7 +87,7 @@ class OnnxBackend:
     def scores(self, metres: np.ndarray) -> np.ndarray:
         h, w = metres.shape[1:]
         p = self._meta["detector"]
-        _check_size(h, w, p["stride"] or 1, p["height"], "the detector")
+        check_size(h, w, p["stride"] or 1, p["height"], "the detector")
         return self.det.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})[0]
 
     def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -94,7 +95,7 @@ class OnnxBackend:
             raise InputError("no recovery model loaded")
         h, w = metres.shape[1:]
         p = self._meta["recovery"]
-        _check_size(h, w, p["stride"] or 1, p["height"], "the recovery model")
+        check_size(h, w, p["stride"] or 1, p["height"], "the recovery model")
         logit, pred = self.rec.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})
         return pred[:, 0], logit[:, 0] > 0
 

@@ -16,7 +16,7 @@ import torch.distributed as tdist
 import torch.nn.functional as F
 from torch import nn
 
-from d2sr.atomic import atomic_file
+from d2sr.atomic import atomic_file, atomic_write
 from d2sr.models.registry import build, describe
 from d2sr.models.weights import save_model, torch_device, write_card
 from d2sr.train.config import TrainConfig
@@ -56,10 +56,6 @@ def loss_fn(model: nn.Module, task: str, b: Batch, device: torch.device) -> torc
     return F.binary_cross_entropy_with_logits(logit, m) + 10 * depth + inside
 
 
-def _core(model: nn.Module) -> nn.Module:
-    return model.module if isinstance(model, nn.parallel.DistributedDataParallel) else model
-
-
 def _save_checkpoint(
     path: Path,
     model: nn.Module,
@@ -70,7 +66,7 @@ def _save_checkpoint(
     cfg: TrainConfig,
 ) -> None:
     state = {
-        "model": _core(model).state_dict(),
+        "model": model.state_dict(),
         "opt": opt.state_dict(),
         "sched": sched.state_dict(),  # type: ignore[attr-defined]
         "step": step,
@@ -91,12 +87,12 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
             torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
         torch.manual_seed(cfg.seed)
         out.mkdir(parents=True, exist_ok=True)
-        if rank == 0:
-            pool = Pool.from_config(cfg, progress)
-        if world > 1:
+        # Rank 0 generates the data set (if it is not cached yet); the others wait, then open it.
+        if world > 1 and rank:
             tdist.barrier()
-        if rank:
-            pool = Pool.from_config(cfg, False)
+        pool = Pool.from_config(cfg, progress and rank == 0)
+        if world > 1 and rank == 0:
+            tdist.barrier()
         model = build(cfg.model).to(device)
         core = model
         if world > 1:
@@ -121,13 +117,13 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 console.print(f"{ckpt} is from another config: starting afresh")
         crop = tuple(cfg.crop) if cfg.task == "recovery" else None
         share = cfg.clean_share if cfg.task == "recovery" else 0.5
-        t0, stopped = time.perf_counter(), False
+        t0, stopped, done = time.perf_counter(), False, start
         bar = progress_bar() if progress and rank == 0 else contextlib.nullcontext()
         with bar as pb:
             task = pb.add_task(f"training {cfg.model}", total=cfg.steps, completed=start) if pb else None
             model.train()
             for step in range(start, cfg.steps):
-                b = Pool.batch(pool, rng, cfg.batch, crop, share)  # type: ignore[arg-type]
+                b = pool.batch(rng, cfg.batch, crop, share)
                 loss = loss_fn(model, cfg.task, b, device)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
@@ -141,13 +137,13 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 done = step + 1
                 over = cfg.time_limit_min and time.perf_counter() - t0 > cfg.time_limit_min * 60
                 if rank == 0 and (done % cfg.checkpoint_every == 0 or done == cfg.steps or over):
-                    _save_checkpoint(ckpt, model, opt, sched, done, rng, cfg)
+                    _save_checkpoint(ckpt, core, opt, sched, done, rng, cfg)
                 if over:
                     stopped = True
                     break
         minutes = (time.perf_counter() - t0) / 60
         summary = {
-            "steps": done if cfg.steps > start else start,
+            "steps": done,
             "stopped_early": stopped,
             "minutes": round(minutes, 2),
             "processes": world,
@@ -158,7 +154,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         if rank == 0:
             weights = out / f"{cfg.model}.safetensors"
             save_model(core, cfg.model, weights)
-            (out / "loss.json").write_text(json.dumps(losses))
+            atomic_write(out / "loss.json", json.dumps(losses))
             write_card(
                 weights,
                 model=cfg.model,
@@ -184,7 +180,8 @@ def _data_line(cfg: TrainConfig) -> str:
         parts.append(
             f"{cfg.synthetic} generated 640x480 frames (d2sr.train.synth, "
             f"seeds {cfg.seed}..{cfg.seed + cfg.synthetic - 1}; "
-            "simulated rooms, calibrated L515 noise, people; interference on every other frame). "
+            "simulated rooms, sensor noise drawn around the calibrated L515 fit, people; "
+            "interference on every other frame). "
             "No real recordings."
         )
     parts += [f"folder {f.input} -> {f.target}" for f in cfg.folders]

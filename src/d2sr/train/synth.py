@@ -140,7 +140,6 @@ class SynthSet:
             self.clean = np.load(root / "clean.npy", mmap_mode="r")
         except (OSError, ValueError) as exc:
             raise InputError(f"{root}: not a generated data set ({exc})") from None
-        self.root = root
         self.depth_scale = float(self.meta["depth_scale"])
         self.labels = np.array([s > 0 for s in self.meta["mask_share"]])
 

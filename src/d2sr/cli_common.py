@@ -1,0 +1,58 @@
+"""Helpers and option types shared by the CLI's command modules."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames import open_frames
+
+__all__ = ["BackendOpt", "Cache", "Real", "Scale", "Topic", "Weights", "int_list", "open_input", "split_list"]
+
+Scale = Annotated[
+    float | None,
+    typer.Option(help="Units per metre (default: what the recording says, else 1000; raw L515 is 4000)."),
+]
+Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
+BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
+Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]
+Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]
+Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
+
+
+def split_list(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
+    items = [v.strip() for v in value.split(",") if v.strip()]
+    if not items:
+        raise ConfigError(f"--{what} is empty")
+    if choices:
+        bad = [v for v in items if v not in choices]
+        if bad:
+            raise ConfigError(f"--{what}: unknown {', '.join(bad)}; choose from {', '.join(choices)}")
+    return items
+
+
+def int_list(value: str, what: str) -> list[int]:
+    try:
+        return [int(v) for v in split_list(value, what)]
+    except ValueError:
+        raise ConfigError(f"--{what} takes comma-separated integers, got {value!r}") from None
+
+
+def open_input(
+    path: Path, topic: str | None, scale: float | None, what: str, default: float | None = None
+) -> tuple[object, float]:
+    """A non-empty recording and its depth scale: ``scale`` if given, else what the recording says, else
+    ``default`` (None: the user must say)."""
+    reader = open_frames(path, topic=topic)
+    use = scale if scale is not None else (reader.depth_scale or default)
+    if use is None:
+        raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
+    if not (np.isfinite(use) and use > 0):
+        raise InputError(f"--depth-scale must be a positive number, got {use}")
+    if len(reader) == 0:
+        raise InputError(f"{path}: the {what} sequence is empty")
+    return reader, float(use)
