@@ -61,6 +61,9 @@ class OnnxBackend:
         opts.intra_op_num_threads = threads or min(os.cpu_count() or 1, 4)
         opts.inter_op_num_threads = 1
         opts.log_severity_level = 3
+        # Two sessions (detector, recovery) alternate on the same cores: idle threads that spin-wait for
+        # work would steal the other session's time.
+        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
 
         def session(path: Path) -> ort.InferenceSession:
             if not Path(path).is_file():
