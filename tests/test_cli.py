@@ -73,14 +73,22 @@ def test_desync_run_with_config_moving(tmp_path):
     ).exists()
 
 
-def test_demo_prints_table_and_writes_plots(tmp_path):
-    res = d2sr("demo", "--out", str(tmp_path))
+def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
+    out = tmp_path / "demo"
+    res = d2sr("demo", "--out", str(out), "--seconds", "6", "--backend", "onnx")
     assert res.returncode == 0, res.stderr
-    for name in ("static", "d2sr", "damped", "oracle"):
+    for name in ("static", "d2sr", "damped"):
         assert name in res.stdout
-        assert (tmp_path / f"timeline_{name}.png").stat().st_size > 1000
-    assert (tmp_path / "ratio_over_time.png").exists()
-    assert not list(tmp_path.glob("*.tmp*"))
+        assert (out / f"timeline_{name}.png").stat().st_size > 1000
+        assert (out / "runs" / name / "log.csv").is_file()
+    report = json.loads((out / "results.json").read_text())
+    rows = report["controllers"]
+    assert rows["static"]["frames"] == rows["damped"]["frames"] == 3 * 6 * 6
+    assert rows["damped"]["interfered_ratio"] < rows["static"]["interfered_ratio"]
+    md = (out / "report.md").read_text()
+    assert "| static |" in md and "![timeline_damped.png](timeline_damped.png)" in md
+    assert (out / "examples.png").is_file() and (out / "ratio_over_time.png").is_file()
+    assert not list(tmp_path.glob(".*"))  # no temporary or partial leftovers
 
 
 def test_sweep_writes_results_and_checks_bars(tmp_path):

@@ -18,6 +18,8 @@ CORES = [
     "runtime",
     "baselines.py",
     "cli_models.py",
+    "cli_run.py",
+    "eval/demo.py",
 ]
 
 
@@ -88,8 +90,12 @@ s = net.scores(x)
 pred, mask = net.recover(x)
 u = to_depth_units((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
 assert s.shape == (1,) and u.dtype == np.uint16 and 'torch' not in sys.modules
+# the closed loop in a simulated room, on the edge backend
+from d2sr.runtime.session import run_sim
+summary = run_sim(net, Path({str(tmp_path / "run")!r}), 'damped', sensors=2, seconds=2)
+assert summary['all']['frames'] == 2 * 2 * 6 and 'torch' not in sys.modules
 sys.argv = ['d2sr', '--help']
-import d2sr.cli_models
+import d2sr.cli_models, d2sr.cli_run
 print('ok')
 """
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)

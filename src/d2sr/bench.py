@@ -15,7 +15,7 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
-__all__ = ["bench_models", "bench_simulate", "bench_timing", "write_result"]
+__all__ = ["bench_models", "bench_pipeline", "bench_simulate", "bench_timing", "write_result"]
 
 
 def write_result(result: dict, path: Path | None) -> str:
@@ -179,39 +179,28 @@ def bench_models(
         if outside:
             if progress:
                 progress("d2sr recover --all, from outside")
-            out["outside"] = _outside(wdir, frame)
+            out["outside"] = _outside(
+                ["recover", "--all", "--weights", str(wdir), "--backend", "onnx", "--depth-scale", "4000"],
+                [frame],
+            )
     out["bars"] = {"detector_fps": 300, "detect+unet8_fps": 30}
     return out
 
 
-def _outside(wdir: object, frame: np.ndarray, runs: int = 3) -> dict:
+def _outside(command: list[str], frames: list[np.ndarray], runs: int = 3) -> dict:
+    """Time ``d2sr <command> IN --out OUT`` on 60 frames and on 10 from outside the process; the
+    difference over 50 frames is the per-frame cost without start-up. Also the peak resident memory."""
+    import resource
     import subprocess
     import sys
     import tempfile
-    from pathlib import Path
 
     from d2sr.frames.png import encode_png, write_meta
 
     def run(folder: Path, dest: Path) -> float:
         t = time.perf_counter()
-        subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "d2sr",
-                "recover",
-                str(folder),
-                "--out",
-                str(dest),
-                "--all",
-                "--weights",
-                str(wdir),
-                "--backend",
-                "onnx",
-            ],
-            check=True,
-            capture_output=True,
-        )
+        cmd = [sys.executable, "-m", "d2sr", command[0], str(folder), "--out", str(dest), *command[1:]]
+        subprocess.run(cmd, check=True, capture_output=True)
         return time.perf_counter() - t
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -219,14 +208,97 @@ def _outside(wdir: object, frame: np.ndarray, runs: int = 3) -> dict:
         for n in (10, 60):
             (root / f"in{n}").mkdir()
             for i in range(n):
-                (root / f"in{n}" / f"{i:04d}.png").write_bytes(encode_png(frame, "bench"))
+                img = frames[i % len(frames)]
+                (root / f"in{n}" / f"{i:04d}.png").write_bytes(encode_png(img, "bench"))
             write_meta(root / f"in{n}", 4000.0, None, [])
-        t10 = [run(root / "in10", root / "o10") for _ in range(runs)]
-        t60 = [run(root / "in60", root / "o60") for _ in range(runs)]
+        t10 = [run(root / "in10", root / f"o10_{k}") for k in range(runs)]
+        t60 = [run(root / "in60", root / f"o60_{k}") for k in range(runs)]
     per = (statistics.median(t60) - statistics.median(t10)) / 50
     return {
-        "command": "d2sr recover IN --out OUT --all --backend onnx (60 frames vs 10)",
+        "command": f"d2sr {command[0]} IN --out OUT {' '.join(command[1:])} (60 frames vs 10)",
         "seconds_10": [round(t, 3) for t in t10],
         "seconds_60": [round(t, 3) for t in t60],
         "fps": round(1 / per, 1) if per > 0 else None,
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, 1),
+    }
+
+
+def bench_pipeline(
+    frames: int = 60,
+    repeats: int = 3,
+    threads: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict:
+    """The runtime loop (detect, buffer, controller, repair) at 640x480 and 320x240 with 0%, 50% and 100%
+    of frames interfered, the worst case (every frame repaired), the controller's share of a frame's
+    time, peak memory, and ``d2sr run --repair all`` from outside the process."""
+    import resource
+
+    from d2sr.desync import make_controller
+    from d2sr.frames import Frame
+    from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.loop import Capture, SensorLoop
+    from d2sr.train.synth import TEST_SEED, synth_frame
+
+    say = progress or (lambda s: None)
+    net = open_backend("unet8", "onnx", threads=threads)
+    say("generating frames")
+    clean = [synth_frame(TEST_SEED + 50_000 + i, interfered=False)[0] for i in range(8)]
+    bad = [synth_frame(TEST_SEED + 60_000 + i, interfered=True)[0] for i in range(8)]
+    rows = []
+    worst_640 = None
+    for h, w in ((480, 640), (240, 320)):
+        step = 480 // h
+        for share, repair in ((0.0, "flagged"), (0.5, "flagged"), (1.0, "flagged"), (1.0, "all")):
+            say(f"pipeline {w}x{h}, {share:.0%} interfered, repair {repair}")
+            seq = [
+                (bad if (i * share) % 1 + share >= 1 else clean)[i % 8][::step, ::step].copy()
+                for i in range(frames)
+            ]
+            per_frame, flagged = [], 0
+            for _ in range(repeats):
+                loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, 30, 15, seed=0), repair=repair)
+                for d in seq[:3]:  # warm-up
+                    loop.process(Capture(Frame("w", d), 4000.0))
+                t = time.perf_counter()
+                flagged = 0
+                for i, d in enumerate(seq):
+                    flagged += loop.process(Capture(Frame(f"{i}", d), 4000.0)).flagged
+                per_frame.append((time.perf_counter() - t) / frames)
+            med = statistics.median(per_frame)
+            rows.append(
+                {
+                    "size": f"{w}x{h}",
+                    "interfered": share,
+                    "repair": repair,
+                    "flagged": round(flagged / frames, 3),
+                    "ms_per_frame": round(1000 * med, 2),
+                    "fps": round(1 / med, 1),
+                }
+            )
+            if (h, repair) == (480, "all"):
+                worst_640 = med
+    # The controller and the flag buffer alone, per frame (a loop whose models cost nothing).
+    say("controller overhead")
+    loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, 30, 15, seed=0), repair="none")
+    n = 30_000
+    rng = np.random.default_rng(0)
+    flags = rng.random(n) < 0.2
+    t = time.perf_counter()
+    for f in flags:
+        loop.replay(bool(f))
+    ctrl_s = (time.perf_counter() - t) / n
+    say("from outside the process")
+    outside = _outside(["run", "--repair", "all", "--backend", "onnx", "--depth-scale", "4000"], bad)
+    return {
+        "benchmark": "runtime pipeline (onnxruntime, UNet8), in-process medians of repeats",
+        "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
+        "frames": frames,
+        "repeats": repeats,
+        "rows": rows,
+        "controller_us_per_frame": round(1e6 * ctrl_s, 2),
+        "controller_share_of_worst_frame": round(ctrl_s / worst_640, 5) if worst_640 else None,
+        "peak_rss_mb_in_process": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "outside": outside,
+        "bars": {"worst_case_fps_640x480_outside": 30, "controller_share": 0.01},
     }

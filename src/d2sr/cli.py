@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 from typing import Annotated
 
@@ -11,7 +12,7 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from d2sr import __version__, cli_data, cli_models, cli_train
+from d2sr import __version__, cli_data, cli_models, cli_run, cli_train
 from d2sr.atomic import atomic_write
 from d2sr.cli_common import int_list, split_list
 from d2sr.config import load_toml
@@ -31,10 +32,12 @@ app.command("gallery")(cli_data.gallery)
 eval_app.command("labels")(cli_data.eval_labels)
 app.command("detect")(cli_models.detect)
 app.command("recover")(cli_models.recover)
+app.command("run")(cli_run.run)
 app.command("train")(cli_train.train)
 app.command("export")(cli_train.export)
 eval_app.command("detector")(cli_train.eval_detector)
 eval_app.command("recovery")(cli_train.eval_recovery)
+eval_app.command("paper")(cli_train.eval_paper)
 
 
 def _version(value: bool) -> None:
@@ -113,7 +116,10 @@ def _compare(
                 " (sensor 0 = robot)" if scenario == "moving" else ""
             )
             written.append(
-                save(sensor_timeline(run, shown, min(run.periods, 30), title), out / f"timeline_{name}.png")
+                save(
+                    sensor_timeline(run.frames, config.total_frames, shown, min(run.periods, 30), title),
+                    out / f"timeline_{name}.png",
+                )
             )
             bar.advance(task)
     written.append(
@@ -135,14 +141,34 @@ def _compare(
 
 @app.command()
 def demo(
-    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/demo"),
+    out: Annotated[Path, typer.Option(help="Folder for the runs, plots and report.")] = Path("out/demo"),
+    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 20.0,
+    backend: Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")] = "auto",
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
 ) -> None:
-    """The short scenario: 3 sensors in one room at 6 fps, every controller; a table and plots."""
-    from d2sr.desync import DEFAULT_CONTROLLER
+    """The closed loop: 3 simulated L515s in one room under static, d2sr and the default controller, with
+    the shipped models; a table, and a report with plots."""
+    from d2sr.eval.demo import CONTROLLERS, HEADERS, run_demo, table_rows
+    from d2sr.runtime.backends import open_backend
 
-    names = ["static", "d2sr", DEFAULT_CONTROLLER, "oracle"]
-    _compare(out, "stationary", 3, 6, 30.0, 20, names, TimingConfig.make(active_frames=6), seed)
+    if not seconds > 0:
+        raise ConfigError(f"--seconds must be positive, got {seconds}")
+    net = open_backend("unet8", backend)
+    t = time.perf_counter()
+    with progress_bar() as bar:
+        tasks = {c: bar.add_task(f"{c:8s} 3 sensors, {seconds:g} s", total=1.0) for c in CONTROLLERS}
+        report = run_demo(
+            net, out, seconds, seed=seed, progress=lambda c, f: bar.update(tasks[c], completed=f)
+        )
+    table = Table(
+        title=f"3 simulated L515s, 6 of 30 frames per second, {seconds:g} s, closed loop ({net.name})"
+    )
+    for h in HEADERS:
+        table.add_column(h, justify="left" if h == "controller" else "right")
+    for row in table_rows(report):
+        table.add_row(*row)
+    console.print(table)
+    console.print(f"Report: {out / 'report.md'} ({time.perf_counter() - t:.0f} s)")
 
 
 @desync_app.command("run")
@@ -287,17 +313,18 @@ def _report(results: list, out: Path, command: str) -> None:
 def bench(
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results to this JSON file.")] = None,
     what: Annotated[
-        str, typer.Option(help="Benchmarks to run: timing, simulate, models (comma-separated).")
+        str, typer.Option(help="Benchmarks to run: timing, simulate, models, pipeline (comma-separated).")
     ] = "models",
     sensors: Annotated[int, typer.Option(help="Sensors in the timing-world benchmark.")] = 1000,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 600.0,
     repeats: Annotated[int, typer.Option(help="Repeats (median reported).")] = 3,
 ) -> None:
-    """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the timing
-    world at warehouse scale; writing simulated 640x480 recordings."""
-    from d2sr.bench import bench_models, bench_simulate, bench_timing, write_result
+    """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
+    runtime pipeline at 640x480 and 320x240; the timing world at warehouse scale; writing simulated
+    640x480 recordings."""
+    from d2sr.bench import bench_models, bench_pipeline, bench_simulate, bench_timing, write_result
 
-    names = split_list(what, "benchmark", ("timing", "simulate", "models"))
+    names = split_list(what, "benchmark", ("timing", "simulate", "models", "pipeline"))
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
     results = {}
@@ -315,6 +342,12 @@ def bench(
             task = bar.add_task("models", total=None)
             results["models"] = bench_models(
                 repeats=max(repeats, 10) * 3, progress=lambda s: bar.update(task, description=s)
+            )
+            bar.update(task, total=1, completed=1)
+        if "pipeline" in names:
+            task = bar.add_task("pipeline", total=None)
+            results["pipeline"] = bench_pipeline(
+                repeats=repeats, progress=lambda s: bar.update(task, description=s)
             )
             bar.update(task, total=1, completed=1)
     result = results[names[0]] if len(names) == 1 else results

@@ -2,16 +2,31 @@
 
 from __future__ import annotations
 
+import queue
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, TypeVar
 
 import numpy as np
 import typer
 
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import open_frames
+from d2sr.frames import Frame, check_depth, open_frames, to_metres
 
-__all__ = ["BackendOpt", "Cache", "Real", "Scale", "Topic", "Weights", "int_list", "open_input", "split_list"]
+__all__ = [
+    "BackendOpt",
+    "Cache",
+    "Real",
+    "Scale",
+    "Topic",
+    "Weights",
+    "checked_frames",
+    "int_list",
+    "open_input",
+    "prefetch",
+    "split_list",
+]
 
 Scale = Annotated[
     float | None,
@@ -21,6 +36,8 @@ Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]
 Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]
+T = TypeVar("T")
+PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
 
 
@@ -56,3 +73,44 @@ def open_input(
     if len(reader) == 0:
         raise InputError(f"{path}: the {what} sequence is empty")
     return reader, float(use)
+
+
+def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
+    """Checked frames with their depth in metres; the first frame's median depth catches a wrong scale."""
+    """Frames with their depth in metres; the first frame's median depth must be plausible indoors (a
+    wrong --depth-scale shows there)."""
+    first = True
+    for f in reader:
+        depth = check_depth(f.depth, f"frame {f.name}")
+        metres = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
+        if first:
+            valid = metres[metres > 0]
+            med = float(np.median(valid)) if valid.size else 0.0
+            if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
+                raise InputError(
+                    f"frame {f.name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
+                    "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
+                )
+            first = False
+        yield f, metres
+
+
+def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
+    """Decode ahead in a thread (PNG decoding releases the GIL), re-raising its errors here."""
+    """Produce ``items`` on a thread, ``depth`` ahead (reading and decoding overlap inference)."""
+    q: queue.Queue = queue.Queue(depth)
+    done = object()
+
+    def run() -> None:
+        try:
+            for it in items:
+                q.put(it)
+        except BaseException as exc:
+            q.put(exc)
+        q.put(done)
+
+    threading.Thread(target=run, daemon=True).start()
+    while (it := q.get()) is not done:
+        if isinstance(it, BaseException):
+            raise it
+        yield it

@@ -4,68 +4,24 @@ from __future__ import annotations
 
 import csv
 import io
-import queue
-import threading
 from collections import deque
-from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Annotated, TypeVar
+from typing import Annotated
 
 import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write
-from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, open_input
+from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked_frames, open_input, prefetch
 from d2sr.errors import InputError
-from d2sr.frames import Frame, check_depth, to_metres
 from d2sr.frames.png import encode_png, write_meta
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.ui import progress_bar
 
 __all__ = ["detect", "recover"]
 
-T = TypeVar("T")
 MODEL_CHOICES = ("unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32")
-PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
-
-
-def _frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
-    """Checked frames with their depth in metres; the first frame's median depth catches a wrong scale."""
-    first = True
-    for f in reader:
-        depth = check_depth(f.depth, f"frame {f.name}")
-        metres = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
-        if first:
-            valid = metres[metres > 0]
-            med = float(np.median(valid)) if valid.size else 0.0
-            if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
-                raise InputError(
-                    f"frame {f.name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
-                    "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
-                )
-            first = False
-        yield f, metres
-
-
-def _prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
-    """Decode ahead in a thread (PNG decoding releases the GIL), re-raising its errors here."""
-    q: queue.Queue = queue.Queue(depth)
-    done = object()
-
-    def run() -> None:
-        try:
-            for it in items:
-                q.put(it)
-        except BaseException as exc:
-            q.put(exc)
-        q.put(done)
-
-    threading.Thread(target=run, daemon=True).start()
-    while (it := q.get()) is not done:
-        if isinstance(it, BaseException):
-            raise it
-        yield it
 
 
 def detect(
@@ -92,7 +48,7 @@ def detect(
     flagged = 0
     with progress_bar() as bar:
         task = bar.add_task(f"detecting ({net.name})", total=len(reader))  # type: ignore[arg-type]
-        for f, metres in _prefetch(_frames(reader, scale)):  # type: ignore[arg-type]
+        for f, metres in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
             s = float(net.scores(metres[None])[0])
             flagged += s >= threshold
             w.writerow([f.name, f"{s:.6f}", int(s >= threshold)])
@@ -128,7 +84,7 @@ def recover(
         (tmp / "masks").mkdir()
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))  # type: ignore[arg-type]
         pending: deque[Future[None]] = deque()
-        for f, metres in _prefetch(_frames(reader, scale)):  # type: ignore[arg-type]
+        for f, metres in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
             if f.depth.dtype != np.uint16:
                 raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
             fix = every or float(net.scores(metres[None])[0]) >= threshold

@@ -79,6 +79,7 @@ CACHE = Path("out/data")
 SET_TITLES = {
     "generated": "generated test set (seeds >= 1,000,000)",
     "l515": "real L515 dev0+dev1 with simulated interference on every other frame",
+    "moving": "simulated moving robot among 3 fixed sensors (held-out room)",
 }
 
 
@@ -168,7 +169,7 @@ def eval_recovery(
 
     from d2sr.atomic import atomic_write
     from d2sr.eval.model_plots import error_cdf, gallery
-    from d2sr.eval.models import generated_set, l515_set, recovery_metrics
+    from d2sr.eval.models import generated_set, l515_set, moving_set, recovery_metrics
     from d2sr.eval.plots import save
     from d2sr.models.inference import TorchBackend
     from d2sr.models.weights import write_card
@@ -192,7 +193,7 @@ def eval_recovery(
 
         return fn
 
-    sets = ([l515_set(real)] if (real / "dev0").is_dir() else []) + [generated_set(cache)]
+    sets = ([l515_set(real)] if (real / "dev0").is_dir() else []) + [generated_set(cache), moving_set()]
     tables: dict[str, dict] = {}
     first = next(iter(nets))
     out.mkdir(parents=True, exist_ok=True)
@@ -253,3 +254,46 @@ def eval_recovery(
                     for s, t in tables.items()
                 },
             )
+
+
+def eval_paper(
+    out: Annotated[Path, typer.Option(help="Folder for report.md, results.json and plots.")] = Path(
+        "docs/results/paper"
+    ),
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
+    rooms: Annotated[int, typer.Option(help="Rooms per Fig. 9 cell.")] = 4,
+    limit: Annotated[int, typer.Option(help="Interfered frames per recovery test set.")] = 60,
+) -> None:
+    """The paper's evaluation in one report: Fig. 3, Fig. 9, detector P/R/F1, Tables I-II, Fig. 10, Table
+    III (latency here), side by side with the paper's numbers."""
+    import json
+
+    from d2sr.atomic import atomic_dir
+    from d2sr.bench import bench_models
+    from d2sr.eval import paper
+
+    if rooms < 2 or limit < 1:
+        raise ConfigError("need --rooms >= 2 and --limit >= 1")
+    command = f"d2sr eval paper --out {out} --rooms {rooms} --limit {limit}"
+
+    def step(name: str, fn: object) -> object:
+        with console.status(name):
+            return fn()  # type: ignore[operator]
+
+    with atomic_dir(out) as tmp:
+        res = paper.run_all(tmp, step, rooms)
+        eval_detector(out=tmp / "detector", weights=weights, real=real, cache=cache, card=False)
+        eval_recovery(out=tmp / "recovery", weights=weights, real=real, cache=cache, limit=limit, card=False)
+        bench = step(
+            "Table III: latency",
+            lambda: bench_models(("unet8", "unet16", "unet32"), repeats=20, outside=False),
+        )
+        detector = json.loads((tmp / "detector" / "detector.json").read_text())
+        recovery = json.loads((tmp / "recovery" / "recovery.json").read_text())
+        latency = paper.latency_ms(bench)  # type: ignore[arg-type]
+        text = paper.markdown(res, detector, recovery, latency, command)
+        (tmp / "report.md").write_text(text)
+        paper.dump(tmp / "results.json", res | {"latency_ms": latency})
+    console.print(f"Report: {out / 'report.md'}")

@@ -3,6 +3,7 @@
 Two test sets, neither seen in training:
 
 * ``generated``: frames from seeds >= TEST_SEED (training uses seeds below it);
+* ``moving``: a simulated robot's sensor driving among three fixed ones (the paper's moving-robot case);
 * ``l515``: the real L515 captures with the simulator's interference added to every other frame (dev0's
   first 45 frames, a person walking through, stay clean: hard negatives). The real frame itself is the
   ground truth, so the true mask is exactly the pixels the interference changed.
@@ -21,8 +22,9 @@ from d2sr.baselines import BASELINES
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
 
-__all__ = ["TestSet", "detector_metrics", "generated_set", "l515_set", "recovery_metrics"]
+__all__ = ["TestSet", "detector_metrics", "generated_set", "l515_set", "moving_set", "recovery_metrics"]
 
+TEST_SEED_ROOMS = 2_000_000  # rooms of the moving-robot test set (training never draws these seeds)
 PERSON_FRAMES = 45  # dev0: a person walks through the view in these
 
 
@@ -60,6 +62,27 @@ def l515_set(root: Path, seed: int = 7) -> TestSet:
         clean += seq
         hard += [t < skip for t in range(len(seq))]
     return TestSet("l515", frames, clean, scale, np.array(hard))
+
+
+def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
+    """A robot's sensor (the paper's Table II, right) driving among three fixed ones, all always on: every
+    ``every``-th frame of the robot, rendered and interfered by the simulator (a held-out room: training
+    frames come from other seeds' rigs)."""
+    from d2sr.sim.room import SimRoom
+    from d2sr.sim.timing import TimingConfig
+    from d2sr.sim.world import make_rig
+
+    rig = make_rig(TEST_SEED_ROOMS + seed, sensors=4, moving_robot=True)
+    robot = rig.n - 1
+    cfg = TimingConfig(active_frames=30, setup=0, hit_prob=1.0)
+    room = SimRoom(rig, cfg, seed=TEST_SEED_ROOMS + seed, seconds=seconds, render=[robot])
+    frames, clean = [], []
+    for ev in room.slots(seconds):
+        f = ev.frame
+        if f is not None and ev.sensor == robot and f.slot % every == 0:
+            frames.append(f.depth)
+            clean.append(f.clean)
+    return TestSet("moving", frames, clean, room.model.depth_scale, np.zeros(len(frames), bool))
 
 
 def generated_set(cache: Path, count: int = 600) -> TestSet:

@@ -15,7 +15,6 @@ from matplotlib.figure import Figure
 from d2sr.atomic import atomic_file
 from d2sr.eval.desync import FPS, SENSORS, CellResult
 from d2sr.sim.calibrate import BINS, SequenceStats
-from d2sr.sim.timing import TimingRun
 
 __all__ = [
     "calibration",
@@ -145,21 +144,31 @@ def convergence_cdf(results: Sequence[CellResult], default: str) -> Figure:
     return fig
 
 
-def sensor_timeline(run: TimingRun, sensors: Sequence[int], periods: int, title: str) -> Figure:
-    """Each sensor's frames over time on its own period grid: clean, interfered, and idle slots."""
-    if run.frames is None:
-        raise ValueError("sensor_timeline needs a run made with record_frames=True")
-    total = run.config.total_frames
+def sensor_timeline(
+    frames: np.ndarray,
+    total: int,
+    sensors: Sequence[int],
+    periods: int,
+    title: str,
+    flagged: np.ndarray | None = None,
+) -> Figure:
+    """Each sensor's frames over time on its own period grid: clean, interfered, and idle slots
+    (``frames``: sensors x slots, 0 idle, 1 clean, 2 interfered); ``flagged`` marks the detector's flags."""
     fig, axes = plt.subplots(
         len(sensors), 1, figsize=(9, 0.9 * len(sensors) + 0.8), sharex=True, squeeze=False
     )
     cmap = matplotlib.colors.ListedColormap(["#eeeeee", "#4c9f70", "#d1495b"])
     for ax, s in zip(axes[:, 0], sensors, strict=True):
-        img = run.frames[s, : periods * total].reshape(periods, total).T
+        img = frames[s, : periods * total].reshape(periods, total).T
         ax.imshow(img, aspect="auto", cmap=cmap, vmin=0, vmax=2, interpolation="nearest")
+        if flagged is not None:
+            slot, per = np.nonzero(flagged[s, : periods * total].reshape(periods, total).T)
+            ax.plot(per, slot, "k.", ms=2.5)
         ax.set_ylabel(f"sensor {s}\nslot", fontsize=8)
         ax.set_yticks([0, total - 1])
-    axes[-1, 0].set_xlabel("period (1 s)   green: clean frame, red: interfered frame, grey: laser idle")
+    legend = "green: clean frame, red: interfered frame, grey: laser idle"
+    legend += ", dot: flagged by the detector" if flagged is not None else ""
+    axes[-1, 0].set_xlabel(f"period (1 s)   {legend}")
     fig.suptitle(title, fontsize=10)
     return fig
 

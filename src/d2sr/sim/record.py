@@ -21,10 +21,11 @@ import numpy as np
 from d2sr.atomic import atomic_dir
 from d2sr.errors import ConfigError
 from d2sr.frames.png import encode_png, write_meta
-from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
-from d2sr.sim.scene import L515, Renderer, SensorModel, SensorNoise
+from d2sr.sim.interference import InterferenceConfig
+from d2sr.sim.room import Camera
+from d2sr.sim.scene import L515, SensorModel
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
-from d2sr.sim.world import Rig, direct_view, lit_region, overlap_graph
+from d2sr.sim.world import Rig, overlap_graph
 
 __all__ = ["record", "render_frames"]
 
@@ -43,42 +44,16 @@ def render_frames(
 ) -> list[tuple[str, int, np.ndarray, np.ndarray, np.ndarray, list[int]]]:
     """Frames of one sensor at the given slots: (name, timestamp, depth, clean, mask, interferers)."""
     tau = (1.0 + run.drifts[sensor]) / run.config.fps
-    cam = Renderer(rig.room, rig.intr)
-    small = rig.intr.scaled(160, 120)
-    others = {j: Renderer(rig.room, small) for j in range(rig.n) if j != sensor}
-    noise = SensorNoise(
-        model, (rig.intr.height, rig.intr.width), seed * 1_000_003 + sensor * 10_007 + int(slots[0])
-    )
+    cam = Camera(rig, sensor, seed, model, cfg, seed * 1_000_003 + sensor * 10_007 + int(slots[0]))
     out = []
     assert run.frames is not None
     for g in slots:
         t = float(run.phases[sensor] + g * tau)
-        pose = rig.pose(sensor, t)
-        if cam.pose != pose:
-            cam.move(pose)
-        scene = cam.render(t)
-        clean = noise.observe(scene)
-        depth, mask, srcs = clean, np.zeros(clean.shape, bool), []
+        srcs = []
         if run.frames[sensor, g] == 2:
             bits = int(run.hits[sensor, g]) if run.hits is not None else 0
             srcs = [j for j in range(rig.n) if bits >> j & 1]
-            its = []
-            for j in srcs:
-                o = others[j]
-                pj = rig.pose(j, t)
-                if o.pose != pj:
-                    o.move(pj)
-                direct = direct_view(cam, scene.depth, o)
-                # Direct light bursts where the emitter sits; scattered light stays where j's laser lands.
-                lit = (
-                    None
-                    if direct is not None
-                    else lit_region(cam, scene.depth, o, o.static().depth, model.max_range)
-                )
-                # One persistent pattern per (victim, source) pair and sequence: bands drift, not jump.
-                pair = seed * 7919 + sensor * 97 + j
-                its.append(Interferer.draw(clean.shape, pair, cfg, direct_at=direct, region=lit))  # type: ignore[arg-type]
-            depth, mask = interfere(clean, model.depth_scale, its, int(g), seed * 31 + sensor, None, cfg)
+        depth, clean, mask = cam.frame(t, int(g), srcs)
         out.append((f"{int(g):06d}", EPOCH_NS + round(t * 1e9), depth, clean, mask, srcs))
     return out
 

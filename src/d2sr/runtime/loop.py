@@ -1,0 +1,160 @@
+"""One sensor's loop: frame -> detect -> buffer the period's flags -> controller -> trigger; repair flagged
+frames -> sink. Torch-free: it runs on any ``Backend`` (onnxruntime on the edge).
+
+A source yields ``Capture``s and ``PeriodEnd`` marks. Triggered sources (a simulated room, a live sensor with
+a trigger line) give each frame its slot in the period, so a missing frame counts as clean in the
+controller's window, as in the timing world. Open-loop sources (recordings) give no slots: every
+``active_frames`` frames make a period, and the controller's offsets are only logged.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from d2sr.desync import Controller
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import Frame, check_depth
+from d2sr.runtime.backends import THRESHOLD, Backend, to_depth_units
+
+REPAIR = ("flagged", "all", "none")
+
+__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger", "run"]
+
+
+@dataclass
+class Capture:
+    """A frame as the sensor delivered it (``scale`` units per metre), where it sits in the period, and
+    its ground truth when the source knows it (simulation)."""
+
+    frame: Frame
+    scale: float
+    slot: int | None = None  # slot in its period (triggered sources only)
+    clean: np.ndarray | None = None
+    mask: np.ndarray | None = None
+    interfered: bool | None = None
+
+    @property
+    def name(self) -> str:
+        return self.frame.name
+
+
+@dataclass
+class PeriodEnd:
+    """The observation period is over (triggered sources: at its last slot, frame or not)."""
+
+    period: int
+
+
+@dataclass
+class Result:
+    capture: Capture
+    score: float
+    flagged: bool
+    depth: np.ndarray  # what the sink gets: repaired where flagged, else the input (same units)
+    mask: np.ndarray  # bool, the repaired pixels
+    period: int
+    offset: int  # the window offset the sensor ran this frame's period with
+    seconds: float = 0.0  # processing time of detect + repair
+
+
+class Trigger(Protocol):
+    """Starts the sensor's window at ``offset`` from ``period`` on (hardware line, simulated world)."""
+
+    def set_offset(self, period: int, offset: int) -> None: ...
+
+
+class Sink(Protocol):
+    def write(self, result: Result) -> None: ...
+
+
+@dataclass
+class SensorLoop:
+    """The three stages on one sensor. ``repair``: "flagged" (the paper: frames the detector flags), "all"
+    (every frame, the worst case for speed) or "none" (detection and timing only)."""
+
+    backend: Backend
+    controller: Controller
+    trigger: Trigger | None = None
+    sink: Sink | None = None
+    threshold: float = THRESHOLD
+    repair: str = "flagged"
+    period: int = 0
+    _flags: dict[int, bool] = field(default_factory=dict)
+    _count: int = 0  # frames seen this period
+    _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
+
+    @property
+    def offset(self) -> int:
+        return self.controller.offset
+
+    def __post_init__(self) -> None:
+        if self.repair not in REPAIR:
+            raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {self.repair!r}")
+        if self.trigger is not None:
+            self.trigger.set_offset(0, self.controller.offset)
+
+    def step(self, item: Capture | PeriodEnd) -> Result | None:
+        if isinstance(item, PeriodEnd):
+            self.end_period()
+            return None
+        return self.process(item)
+
+    def process(self, cap: Capture) -> Result:
+        raw = cap.frame.depth
+        if raw.dtype != np.uint16:  # the loop works in the sensor's units; readers deliver uint16
+            raise InputError(f"{cap.name}: the runtime takes uint16 depth frames, got {raw.dtype}")
+        check_depth(raw, cap.name)
+        t = time.perf_counter()
+        metres = raw.astype(np.float32)[None] / np.float32(cap.scale)
+        score = float(self.backend.scores(metres)[0])
+        flagged = score >= self.threshold
+        depth, mask = raw, np.zeros(raw.shape, bool)
+        if self.repair == "all" or (flagged and self.repair == "flagged"):
+            pred, m = self.backend.recover(metres)
+            depth, mask = to_depth_units(raw, pred[0], m[0], cap.scale), m[0]
+        seconds = time.perf_counter() - t
+        res = Result(cap, score, flagged, depth, mask, self.period, self.controller.offset, seconds)
+        if self.sink is not None:
+            self.sink.write(res)
+        self._buffer(flagged, cap.slot)
+        return res
+
+    def replay(self, flagged: bool, slot: int | None = None) -> None:
+        """Feed a flag decided earlier (a resumed run) without running the models."""
+        self._buffer(flagged, slot)
+
+    def _buffer(self, flagged: bool, slot: int | None) -> None:
+        self._slotted = slot is not None
+        self._flags[slot if slot is not None else self._count] = flagged
+        self._count += 1
+        if slot is None and self._count == self.controller.active_frames:
+            self.end_period()
+
+    def end_period(self) -> int:
+        """Hand the window's flags (window order; a missing frame counts as clean) to the controller and
+        the new offset to the trigger."""
+        c = self.controller
+        if self._slotted:
+            keys = (c.offset + np.arange(c.active_frames)) % c.total_frames
+        else:
+            keys = np.arange(c.active_frames)
+        new = c.update([self._flags.get(int(k), False) for k in keys])
+        self._flags.clear()
+        self._count = 0
+        self.period += 1
+        if self.trigger is not None:
+            self.trigger.set_offset(self.period, new)
+        return new
+
+
+def run(source: Iterable[Capture | PeriodEnd], loop: SensorLoop) -> Iterator[Result]:
+    """Drive one loop over a source, yielding each frame's result."""
+    for item in source:
+        res = loop.step(item)
+        if res is not None:
+            yield res

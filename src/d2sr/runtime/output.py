@@ -1,0 +1,160 @@
+"""A run's output folder: repaired frames, masks and a per-frame log, safe against being killed.
+
+The run writes into ``.<out>.partial/`` next to ``OUT``; each PNG lands under a temporary name and is
+renamed, and its log line is written (and flushed) only after both of the frame's PNGs exist. So a killed
+run leaves only complete files. A rerun with the same settings on a recording resumes from the log (the
+controller is replayed from the logged flags); anything else starts clean. ``finish`` renames the
+folder to ``OUT`` in one step, so ``OUT`` only ever holds a complete run.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.atomic import commit
+from d2sr.errors import D2SRError
+from d2sr.frames.png import encode_png
+from d2sr.runtime.loop import Result
+
+__all__ = ["LOG_COLUMNS", "RunFolder"]
+
+LOG_COLUMNS = [
+    "sensor",
+    "frame",
+    "time_s",
+    "period",
+    "slot",
+    "offset",
+    "score",
+    "flagged",
+    "repaired_share",
+    "interfered",
+    "true_share",
+    "ms",
+]
+
+
+class RunFolder:
+    """``with RunFolder(out, settings, resumable) as run:`` ``run.write(sensor, result)``, then
+    ``run.finish(summary)``. Leaving the block on a D2SRError (bad input) discards the partial run; a kill
+    leaves it for the next run to resume."""
+
+    def __init__(self, out: Path, settings: dict, resumable: bool) -> None:
+        self.out = Path(out)
+        self.partial = self.out.with_name(f".{self.out.name}.partial")
+        self.settings = json.loads(json.dumps(settings, default=str))
+        self.done: dict[tuple[int, str], dict] = {}
+        self.resumed = False
+        prior = self._read_settings()
+        if prior is not None and prior == self.settings and resumable:
+            self.done = self._read_log()
+            self.resumed = bool(self.done)
+        else:
+            shutil.rmtree(self.partial, ignore_errors=True)
+            self.partial.mkdir(parents=True)
+            (self.partial / "settings.json").write_text(json.dumps(self.settings, indent=1) + "\n")
+        new = not (self.partial / "log.csv").is_file()
+        self._log = open(self.partial / "log.csv", "a", newline="")  # noqa: SIM115 (closed in finish/close)
+        self._csv = csv.writer(self._log)
+        if new:
+            self._csv.writerow(LOG_COLUMNS)
+            self._log.flush()
+        self._pool = ThreadPoolExecutor(1)  # PNG encoding overlaps the next frame's inference
+        self._pending: deque[Future[None]] = deque()
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        self.close()
+        if kind is not None and issubclass(kind, D2SRError):
+            shutil.rmtree(self.partial, ignore_errors=True)
+
+    def _read_settings(self) -> dict | None:
+        try:
+            return json.loads((self.partial / "settings.json").read_text())
+        except (OSError, ValueError):
+            return None
+
+    def _read_log(self) -> dict[tuple[int, str], dict]:
+        """Complete log lines whose PNGs exist; the log is cut back to them (a killed run's last line may
+        be torn)."""
+        path = self.partial / "log.csv"
+        try:
+            lines = path.read_text().splitlines(keepends=True)
+        except OSError:
+            return {}
+        keep, done = lines[:1], {}
+        for line in lines[1:]:
+            if not line.endswith("\n"):
+                break
+            row = next(csv.reader([line]))
+            if len(row) != len(LOG_COLUMNS):
+                break
+            rec = dict(zip(LOG_COLUMNS, row, strict=True))
+            sub = self.partial / f"sensor{rec['sensor']}"
+            if not (sub / "depth" / f"{rec['frame']}.png").is_file():
+                break
+            done[(int(rec["sensor"]), rec["frame"])] = rec
+            keep.append(line)
+        path.write_text("".join(keep))
+        return done
+
+    def write(self, sensor: int, res: Result) -> None:
+        """Queue the frame's PNGs; its log line follows once they are on disk."""
+        self._pending.append(self._pool.submit(self._write, sensor, res))
+        while len(self._pending) > 4:  # bounded: a slow disk must not pile frames up in memory
+            self._pending.popleft().result()
+
+    def _write(self, sensor: int, res: Result) -> None:
+        base = self.partial / f"sensor{sensor}"
+        name = res.capture.name
+        for sub, img in (("depth", res.depth), ("masks", res.mask.astype(np.uint8) * 255)):
+            (base / sub).mkdir(parents=True, exist_ok=True)
+            tmp = base / sub / f".{name}.png.tmp"
+            tmp.write_bytes(encode_png(img, name))
+            os.replace(tmp, base / sub / f"{name}.png")
+        cap = res.capture
+        truth = cap.interfered
+        self._csv.writerow(
+            [
+                sensor,
+                name,
+                "" if cap.frame.timestamp_ns is None else f"{cap.frame.timestamp_ns / 1e9:.6f}",
+                res.period,
+                "" if cap.slot is None else cap.slot,
+                res.offset,
+                f"{res.score:.6f}",
+                int(res.flagged),
+                f"{res.mask.mean():.5f}",
+                "" if truth is None else int(truth),
+                "" if cap.mask is None else f"{cap.mask.mean():.5f}",
+                f"{res.seconds * 1000:.2f}",
+            ]
+        )
+        self._log.flush()
+
+    def drain(self) -> None:
+        while self._pending:
+            self._pending.popleft().result()
+
+    def finish(self, summary: dict) -> Path:
+        """Write ``summary.json`` and move the complete run into place."""
+        self.drain()
+        self._log.close()
+        (self.partial / "summary.json").write_text(json.dumps(summary, indent=1, default=str) + "\n")
+        commit(self.partial, self.out)
+        return self.out
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+        if not self._log.closed:
+            self._log.close()

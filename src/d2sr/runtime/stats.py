@@ -1,0 +1,71 @@
+"""What a run measured, per sensor: frames, interference, detection against the truth (when a source
+knows it), depth error before and after repair, and processing time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from d2sr.runtime.loop import Result
+
+__all__ = ["RunStats"]
+
+BINS = 20_000  # up to 2 s
+
+
+@dataclass
+class RunStats:
+    frames: int = 0
+    flagged: int = 0
+    interfered: int = 0  # truth known
+    true_flags: int = 0
+    truth_known: int = 0
+    se_before: float = 0.0  # squared error (m^2) over valid clean pixels of interfered frames
+    se_after: float = 0.0
+    n_valid: int = 0
+    # processing time as a histogram of 0.1 ms bins: constant memory however long the run
+    ms_hist: np.ndarray = field(default_factory=lambda: np.zeros(BINS, np.int64))
+
+    def add(self, res: Result) -> None:
+        cap = res.capture
+        self.frames += 1
+        self.flagged += res.flagged
+        self.ms_hist[min(int(res.seconds * 1e4), BINS - 1)] += 1
+        if cap.interfered is None:
+            return
+        self.truth_known += 1
+        self.interfered += cap.interfered
+        self.true_flags += res.flagged and cap.interfered
+        if cap.interfered and cap.clean is not None:
+            valid = cap.clean > 0
+            s = 1.0 / cap.scale
+            y = cap.clean[valid].astype(np.float64) * s
+            self.se_before += float(((cap.frame.depth[valid] * s - y) ** 2).sum())
+            self.se_after += float(((res.depth[valid] * s - y) ** 2).sum())
+            self.n_valid += int(valid.sum())
+
+    def merge(self, other: RunStats) -> RunStats:
+        out = RunStats()
+        for k in ("frames", "flagged", "interfered", "true_flags", "truth_known", "n_valid"):
+            setattr(out, k, getattr(self, k) + getattr(other, k))
+        out.se_before, out.se_after = self.se_before + other.se_before, self.se_after + other.se_after
+        out.ms_hist = self.ms_hist + other.ms_hist
+        return out
+
+    def summary(self) -> dict:
+        out: dict = {"frames": self.frames, "flagged": self.flagged}
+        if self.frames:
+            half = np.searchsorted(np.cumsum(self.ms_hist), (self.frames + 1) / 2)
+            ms = (half + 0.5) / 10
+            out["ms_median"] = round(float(ms), 2)
+            out["fps"] = round(1000 / ms, 1)
+        if self.truth_known:
+            out["interfered"] = self.interfered
+            out["interfered_ratio"] = round(self.interfered / self.truth_known, 4)
+            out["precision"] = round(self.true_flags / self.flagged, 4) if self.flagged else None
+            out["recall"] = round(self.true_flags / self.interfered, 4) if self.interfered else None
+        if self.n_valid:
+            out["rmse_before_cm"] = round(100 * float(np.sqrt(self.se_before / self.n_valid)), 2)
+            out["rmse_after_cm"] = round(100 * float(np.sqrt(self.se_after / self.n_valid)), 2)
+        return out
