@@ -82,6 +82,16 @@ def test_triggered_loop_reads_flags_in_window_order_and_tells_the_trigger():
     assert trig.calls[-1] == (1, 7)
 
 
+def test_loop_pads_frames_the_model_strides_do_not_divide(net):
+    d = np.full((240, 320), 8000, np.uint16)  # 240 is not a multiple of 32
+    d[:, 100:140] = 0
+    res = SensorLoop(net, make_controller("static", 30, 3), repair="all").process(
+        Capture(Frame("f", d), 4000)
+    )
+    assert res.depth.shape == res.mask.shape == (240, 320) and res.depth.dtype == np.uint16
+    assert np.array_equal(res.depth[~res.mask], d[~res.mask])
+
+
 def test_loop_rejects_float_frames_and_bad_repair_mode():
     loop = SensorLoop(FakeNet(), make_controller("static", 30, 3))
     with pytest.raises(InputError, match="uint16"):

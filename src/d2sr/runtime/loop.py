@@ -22,6 +22,7 @@ from d2sr.frames.base import Frame, check_depth
 from d2sr.runtime.backends import THRESHOLD, Backend, to_depth_units
 
 REPAIR = ("flagged", "all", "none")
+PAD = 32  # the largest stride of the shipped models
 
 __all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger", "run"]
 
@@ -110,13 +111,20 @@ class SensorLoop:
             raise InputError(f"{cap.name}: the runtime takes uint16 depth frames, got {raw.dtype}")
         check_depth(raw, cap.name)
         t = time.perf_counter()
+        h, w = raw.shape
         metres = raw.astype(np.float32)[None] / np.float32(cap.scale)
+        # Frames whose size the models' strides do not divide get a border of "no return" (zeros) at the
+        # bottom and right, cropped off again: a 320x240 sensor works as well as a 640x480 one.
+        pad = ((0, 0), (0, -h % PAD), (0, -w % PAD))
+        if pad[1][1] or pad[2][1]:
+            metres = np.pad(metres, pad)
         score = float(self.backend.scores(metres)[0])
         flagged = score >= self.threshold
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):
             pred, m = self.backend.recover(metres)
-            depth, mask = to_depth_units(raw, pred[0], m[0], cap.scale), m[0]
+            pred, m = pred[0, :h, :w], m[0, :h, :w]
+            depth, mask = to_depth_units(raw, pred, m, cap.scale), m
         seconds = time.perf_counter() - t
         res = Result(cap, score, flagged, depth, mask, self.period, self.controller.offset, seconds)
         if self.sink is not None:
