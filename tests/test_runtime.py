@@ -222,3 +222,31 @@ def test_run_cli_on_a_recording_and_bad_inputs(tmp_path):
         assert res.returncode == 2, (args, res.stderr)
         assert words in res.stderr and len(res.stderr.strip().splitlines()) == 1, res.stderr
         assert not bad.exists() and not (tmp_path / ".bad.partial").exists()
+
+
+def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
+    import torch
+
+    from d2sr.export import export
+    from d2sr.models import build
+    from d2sr.models.weights import save_model
+    from d2sr.quantize import int8_path, quantize
+
+    torch.manual_seed(0)
+    for name in ("detector", "unet8"):
+        save_model(build(name).eval(), name, tmp_path / f"{name}.safetensors")
+        export(tmp_path / f"{name}.safetensors", tmp_path / f"{name}.onnx")
+        q = quantize(tmp_path / f"{name}.onnx", frames=2)
+        assert (
+            q == int8_path(tmp_path / f"{name}.onnx")
+            and q.stat().st_size < (tmp_path / f"{name}.onnx").stat().st_size
+        )
+    net = open_backend("unet8", "auto", tmp_path, int8=True)
+    assert net.name == "onnxruntime"
+    d = np.full((96, 128), 8000, np.uint16)
+    res = SensorLoop(net, make_controller("static", 30, 3), repair="all").process(
+        Capture(Frame("f", d), 4000)
+    )
+    assert res.depth.shape == (96, 128) and 0 <= res.score <= 1
+    with pytest.raises(InputError, match="onnxruntime"):
+        open_backend("unet8", "torch", tmp_path, int8=True)

@@ -42,6 +42,7 @@ def run(
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
+    int8: Annotated[bool, typer.Option("--int8", help="int8 models (d2sr export --int8).")] = False,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
 ) -> None:
     """Detect every frame, de-synchronize (closed loop where a trigger exists), repair, write it all.
@@ -65,11 +66,11 @@ def run(
         raise ConfigError(f"--active-frames must be in 1..30, got {active_frames}")
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
+    net = open_backend(model if repair != "none" else None, backend, weights, threads=threads, int8=int8)
     with progress_bar() as bar:
         if source == "sim":
             if not 1 <= sensors <= 63:
                 raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
-            net = open_backend(model if repair != "none" else None, backend, weights, threads=threads)
             task = bar.add_task(f"{sensors} sensors, {controller} ({net.name})", total=1.0)
             summary = session.run_sim(
                 net, out, controller, sensors, seconds, active_frames, seed, moving, repair, threshold,
@@ -78,7 +79,6 @@ def run(
         elif source.startswith("realsense"):
             from d2sr.runtime.realsense import run_live
 
-            net = open_backend(model if repair != "none" else None, backend, weights, threads=threads)
             serial = source.partition(":")[2] or None
             summary = run_live(net, out, controller, serial, seconds, active_frames, repair, threshold, seed)
         else:
@@ -87,7 +87,6 @@ def run(
                 raise InputError(f"{source}: no such recording (or use 'sim' / 'realsense')")
             reader, scale = open_input(path, topic, depth_scale, "input", default=1000.0)
             frames = _Checked(reader, scale)
-            net = open_backend(model if repair != "none" else None, backend, weights, threads=threads)
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
                 net, frames, scale, out, controller, str(path.resolve()), active_frames, repair,

@@ -61,9 +61,13 @@ def export(
     out: Annotated[
         Path | None, typer.Option(help="Folder for the .onnx files (default: next to the weights).")
     ] = None,
+    int8: Annotated[
+        bool, typer.Option("--int8", help="Also write <model>.int8.onnx (static int8, onnxruntime).")
+    ] = False,
 ) -> None:
     """Export models to ONNX (dynamic batch, height, width) after a parity check against torch."""
     from d2sr.export import export as run
+    from d2sr.quantize import quantize
 
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
@@ -72,6 +76,8 @@ def export(
         target = (out or w.parent) / (w.stem + ".onnx")
         r = run(w, target)
         console.print(f"{w.name} -> {target} (max |onnx - torch| = {r['max_abs_diff']:.1e})")
+        if int8:
+            console.print(f"  int8 -> {quantize(target)}")
 
 
 REAL = Path("../shared/data/l515")

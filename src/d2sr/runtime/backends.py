@@ -109,12 +109,18 @@ def open_backend(
     weights: Path = WEIGHTS,
     detector: str = DETECTOR,
     threads: int | None = None,
+    int8: bool = False,
 ) -> Backend:
     """The shipped (or given folder's) detector and recovery model. ``auto``: onnxruntime when it is
     installed and the ONNX files exist, torch otherwise."""
     if backend not in ("auto", "onnx", "torch"):
         raise InputError(f"unknown backend {backend!r}; choose auto, onnx or torch")
-    onnx_files = [weights / f"{detector}.onnx"] + ([weights / f"{model}.onnx"] if model else [])
+    ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
+    onnx_files = [weights / f"{detector}{ext}"] + ([weights / f"{model}{ext}"] if model else [])
+    if int8 and backend == "torch":
+        raise InputError("int8 models run on onnxruntime (--backend onnx)")
+    if int8:
+        backend = "onnx"
     if backend == "auto":
         try:
             import onnxruntime  # noqa: F401
