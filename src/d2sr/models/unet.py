@@ -33,7 +33,7 @@ def _block(cin: int, cout: int) -> nn.Sequential:
 class UNet(nn.Module):
     levels = 4
 
-    def __init__(self, width: int = 8, s2d: int = 2) -> None:
+    def __init__(self, width: int = 8, s2d: int = 2, hidden: int = 0) -> None:
         super().__init__()
         self.width, self.s2d = width, s2d
         self.stride = s2d * 2 ** (self.levels - 1)
@@ -47,7 +47,7 @@ class UNet(nn.Module):
         self.up = nn.ModuleList(_block(widths[k + 1] + widths[k], widths[k]) for k in range(self.levels - 1))
         # Heads see the trunk and the input's own pixels: per-pixel decisions survive the space-to-depth.
         # A 1x1 MLP, not a linear map: "is my own depth off the context's" is not linear in the inputs.
-        hidden = max(2 * s2d * s2d, 16)
+        hidden = hidden or max(4 * s2d * s2d, 16)
         self.head = nn.Sequential(
             nn.Conv2d(widths[0] + cin, hidden, 1), nn.ReLU(inplace=True), nn.Conv2d(hidden, 2 * s2d * s2d, 1)
         )

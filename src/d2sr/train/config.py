@@ -31,6 +31,8 @@ class TrainConfig(Settings):
     lr: float = Field(2e-3, gt=0)
     weight_decay: float = Field(1e-4, ge=0)
     crop: tuple[int, int] = Field((192, 256), description="recovery trains on crops (height, width)")
+    mask_weight: float = Field(3.0, ge=0, description="recovery: weight of the mask head's BCE")
+    dice: float = Field(1.0, ge=0, description="recovery: weight of the soft-F1 (Dice) term on the mask")
     clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     cache: Path = Field(Path("out/data"), description="where generated data sets are kept")

@@ -42,7 +42,9 @@ def _distributed() -> Iterator[tuple[int, int]]:
         tdist.destroy_process_group()
 
 
-def loss_fn(model: nn.Module, task: str, b: Batch, device: torch.device) -> torch.Tensor:
+def loss_fn(
+    model: nn.Module, task: str, b: Batch, device: torch.device, mask_weight: float = 3.0, dice: float = 1.0
+) -> torch.Tensor:
     x = torch.from_numpy(b.x).to(device)
     if task == "detector":
         return F.binary_cross_entropy_with_logits(model(x), torch.from_numpy(b.label).to(device))
@@ -53,7 +55,12 @@ def loss_fn(model: nn.Module, task: str, b: Batch, device: torch.device) -> torc
     depth = F.smooth_l1_loss(out, y, beta=0.05)
     # The depth head also learns on every truly interfered pixel, whatever the mask head says.
     inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * m).sum() / m.sum().clamp(min=1)
-    return F.binary_cross_entropy_with_logits(logit, m) + 10 * depth + inside
+    mask = mask_weight * F.binary_cross_entropy_with_logits(logit, m)
+    if dice:
+        # Soft F1 over the batch: BCE alone leaves zeros inside a pattern near 0.5 (a natural no-return
+        # and a dropout look alike pixel by pixel); the F1 term pays for deciding them from the context.
+        mask = mask + dice * (1 - 2 * (soft * m).sum() / (soft.sum() + m.sum()).clamp(min=1))
+    return mask + 10 * depth + inside
 
 
 def _save_checkpoint(
@@ -124,7 +131,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
             model.train()
             for step in range(start, cfg.steps):
                 b = pool.batch(rng, cfg.batch, crop, share)
-                loss = loss_fn(model, cfg.task, b, device)
+                loss = loss_fn(model, cfg.task, b, device, cfg.mask_weight, cfg.dice)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
