@@ -132,6 +132,7 @@ class SimRoom:
         self.graph = graph if graph is not None else overlap_graph(rig, seconds)
         if self.graph.n != self.n:
             raise ConfigError(f"overlap graph has {self.graph.n} sensors, the rig {self.n}")
+        self._into = [np.flatnonzero(self.graph.dst == d) for d in range(self.n)]  # edges into each sensor
         rng = np.random.default_rng(seed)
         period_s = self.cfg.total_frames / self.cfg.fps
         self.t0 = rng.uniform(0, period_s, self.n) if phases is None else np.asarray(phases, float)
@@ -197,7 +198,7 @@ class SimRoom:
 
     def _overlapping(self, d: int, a: float, b: float) -> list[int]:
         g = self.graph
-        edges = np.flatnonzero(g.dst == d)
+        edges = self._into[d]
         if g.live is not None:
             col = min(int(0.5 * (a + b) / g.dt), g.live.shape[1] - 1)
             edges = edges[g.live[edges, col]]
