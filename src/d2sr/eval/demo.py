@@ -131,10 +131,8 @@ def run_demo(
     return report
 
 
-def _fmt(v: object, pct: bool = False) -> str:
-    if v is None:
-        return "-"
-    return f"{float(v):.1%}" if pct else str(v)  # type: ignore[arg-type]
+def _fmt(v: object) -> str:
+    return "-" if v is None else str(v)
 
 
 def table_rows(report: dict) -> list[list[str]]:

@@ -10,7 +10,6 @@ controller's window, as in the timing world. Open-loop sources (recordings) give
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -24,7 +23,7 @@ from d2sr.runtime.backends import THRESHOLD, Backend, to_depth_units
 REPAIR = ("flagged", "all", "none")
 PAD = 32  # the largest stride of the shipped models
 
-__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger", "run"]
+__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
 
 
 @dataclass
@@ -158,11 +157,3 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
-
-
-def run(source: Iterable[Capture | PeriodEnd], loop: SensorLoop) -> Iterator[Result]:
-    """Drive one loop over a source, yielding each frame's result."""
-    for item in source:
-        res = loop.step(item)
-        if res is not None:
-            yield res

@@ -15,6 +15,7 @@ import os
 import shutil
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from d2sr.errors import D2SRError
 from d2sr.frames.png import encode_png
 from d2sr.runtime.loop import Result
 
-__all__ = ["LOG_COLUMNS", "RunFolder"]
+__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink"]
 
 LOG_COLUMNS = [
     "sensor",
@@ -108,6 +109,10 @@ class RunFolder:
         path.write_text("".join(keep))
         return done
 
+    def sink(self, sensor: int) -> SensorSink:
+        """This folder as one sensor's ``Sink`` (what ``SensorLoop(sink=...)`` takes)."""
+        return SensorSink(self, sensor)
+
     def write(self, sensor: int, res: Result) -> None:
         """Queue the frame's PNGs; its log line follows once they are on disk."""
         self._pending.append(self._pool.submit(self._write, sensor, res))
@@ -158,3 +163,12 @@ class RunFolder:
         self._pool.shutdown(wait=True)
         if not self._log.closed:
             self._log.close()
+
+
+@dataclass
+class SensorSink:
+    folder: RunFolder
+    sensor: int
+
+    def write(self, res: Result) -> None:
+        self.folder.write(self.sensor, res)

@@ -22,6 +22,7 @@ from d2sr.frames.realsense import import_rs
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Capture, SensorLoop, Trigger
 from d2sr.runtime.output import RunFolder
+from d2sr.runtime.session import summarize
 from d2sr.runtime.stats import RunStats
 
 __all__ = ["live_frames", "run_live"]
@@ -68,16 +69,13 @@ def run_live(
     seed: int,
     trigger: Trigger | None = None,
 ) -> dict:
-    loop = SensorLoop(
-        backend, make_controller(controller, 30, active_frames, seed=seed), trigger, None, threshold, repair
-    )
     stats = RunStats()
     settings = {"source": f"realsense:{serial or ''}", "controller": controller, "seconds": seconds}
     with RunFolder(out, settings, resumable=False) as folder:
+        ctrl = make_controller(controller, 30, active_frames, seed=seed)
+        loop = SensorLoop(backend, ctrl, trigger, folder.sink(0), threshold, repair)
         for frame, scale in live_frames(serial, seconds):
-            res = loop.process(Capture(frame, scale))
-            stats.add(res)
-            folder.write(0, res)
-        summary = {"settings": settings, "all": stats.summary(), "sensors": [stats.summary()]}
+            stats.add(loop.process(Capture(frame, scale)))
+        summary = summarize(settings, [stats])
         folder.finish(summary)
     return summary

@@ -3,6 +3,7 @@ into a ``RunFolder``, measured into ``RunStats``."""
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -16,7 +17,7 @@ from d2sr.sim.room import SimRoom
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import make_rig
 
-__all__ = ["run_recording", "run_sim"]
+__all__ = ["run_recording", "run_sim", "summarize"]
 
 Progress = Callable[[float], None]
 
@@ -40,21 +41,9 @@ def run_sim(
     """``sensors`` simulated L515s in one room, each its own loop; returns the summary (per sensor and
     all together). With ``out``, every sensor's frames, masks and log are written (a rerun starts clean:
     the world's state is not resumable)."""
-    cfg = (timing or TimingConfig()).model_copy(update={"active_frames": active_frames})
-    TimingConfig.model_validate(cfg.model_dump())
+    cfg = TimingConfig.make(**((timing or TimingConfig()).model_dump() | {"active_frames": active_frames}))
     rig = make_rig(seed, sensors=sensors, moving_robot=moving)
     room = SimRoom(rig, cfg, seed=seed, seconds=seconds, render=render)
-    loops = [
-        SensorLoop(
-            backend,
-            make_controller(controller, cfg.total_frames, active_frames, seed=seed * 1_000_003 + i),
-            RoomTrigger(room, i),
-            threshold=threshold,
-            repair=repair if render else "none",
-        )
-        for i in range(sensors)
-    ]
-    stats = [RunStats() for _ in range(sensors)]
     settings = {
         "source": "sim",
         "controller": controller,
@@ -68,28 +57,34 @@ def run_sim(
         "backend": backend.name,
         "timing": cfg.model_dump(),
     }
+    stats = [RunStats() for _ in range(sensors)]
+    offsets: list[list[int]] = [[] for _ in range(sensors)]
     folder = RunFolder(out, settings, resumable=False) if out is not None else None
-    periods: list[list[dict]] = [[] for _ in range(sensors)]
-    try:
+    with folder or contextlib.nullcontext():
+        loops = [
+            SensorLoop(
+                backend,
+                make_controller(controller, cfg.total_frames, active_frames, seed=seed * 1_000_003 + i),
+                RoomTrigger(room, i),
+                sink=folder.sink(i) if folder is not None else None,
+                threshold=threshold,
+                repair=repair if render else "none",
+            )
+            for i in range(sensors)
+        ]
         for ev, res in run_room(room, loops, seconds, progress):
             if res is not None:
                 stats[ev.sensor].add(res)
-                if folder is not None:
-                    folder.write(ev.sensor, res)
                 if on_result is not None:
                     on_result(ev.sensor, res)
             if ev.period_end:
-                p = ev.slot // cfg.total_frames
-                periods[ev.sensor].append({"period": p, "offset": room.offset(ev.sensor, p)})
-        summary = _summary(settings, stats)
-        summary["offsets"] = [[r["offset"] for r in rows] for rows in periods]
+                offsets[ev.sensor].append(room.offset(ev.sensor, ev.slot // cfg.total_frames))
+        summary = summarize(settings, stats)
+        summary["offsets"] = offsets
         summary["phases_s"] = [round(float(t), 6) for t in room.t0]
         summary["drifts"] = [float(d) for d in room.drift]
         if folder is not None:
             folder.finish(summary)
-    finally:
-        if folder is not None:
-            folder.close()
     return summary
 
 
@@ -108,8 +103,6 @@ def run_recording(
 ) -> dict:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied).
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags."""
-    ctrl = make_controller(controller, 30, active_frames, seed=seed)
-    loop = SensorLoop(backend, ctrl, None, threshold=threshold, repair=repair)
     settings = {
         "source": source,
         "frames": len(reader),  # type: ignore[arg-type]
@@ -124,23 +117,24 @@ def run_recording(
     stats = RunStats()
     total = len(reader)  # type: ignore[arg-type]
     with RunFolder(out, settings, resumable=True) as folder:
+        ctrl = make_controller(controller, 30, active_frames, seed=seed)
+        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair)
         done = folder.done
         for k, cap in enumerate(recording(reader, scale)):
             rec = done.get((0, cap.name))
             if rec is not None:  # resumed: replay the controller from the logged flag
                 loop.replay(bool(int(rec["flagged"])))
             else:
-                res = loop.process(cap)
-                stats.add(res)
-                folder.write(0, res)
+                stats.add(loop.process(cap))
             if progress is not None:
                 progress((k + 1) / total)
-        summary = _summary(settings, [stats]) | {"resumed_frames": len(done)}
+        summary = summarize(settings, [stats]) | {"resumed_frames": len(done)}
         folder.finish(summary)
     return summary
 
 
-def _summary(settings: dict, stats: list[RunStats]) -> dict:
+def summarize(settings: dict, stats: list[RunStats]) -> dict:
+    """The run's summary: settings, all sensors together, and each sensor."""
     allst = stats[0]
     for s in stats[1:]:
         allst = allst.merge(s)
