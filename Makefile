@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint sweep bench soak calibrate labels weights eval-models eval-paper clean
+.PHONY: demo test edge-check lint sweep bench soak calibrate labels weights eval-models eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,6 +18,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check src tests bench
 	$(BIN)/python -m pytest
+
+# pip install 'd2sr[edge]' into a fresh venv: no torch comes with it; run, detect and recover work (CI runs it).
+edge-check:
+	.ci/edge-check
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
@@ -53,11 +57,13 @@ SHIP := src/d2sr/models/weights
 weights: $(STAMP)
 	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
 	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
+	$(BIN)/d2sr train recovery --config configs/unet8-direct.toml --out runs/unet8-direct
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
+	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	mkdir -p $(SHIP)
-	for m in detector paper-detector unet8 unet16 unet32; do \
+	for m in detector paper-detector unet8 unet8-temporal unet16 unet32; do \
 	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export
 

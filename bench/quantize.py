@@ -61,7 +61,7 @@ def main() -> None:
             det = detector_metrics(scores, ts)
             result["models"]["detector"][key] = {k: round(det[k], 4) for k in ("precision", "recall", "f1")}
 
-            def repair(x: np.ndarray, net=net) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+            def repair(x: np.ndarray, prev: np.ndarray | None, net=net) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
                 pred, mask = net.recover(x[None])
                 units = to_depth_units(np.rint(x * 4000).astype(np.uint16), pred[0], mask[0], 4000.0)
                 return units.astype(np.float32) / np.float32(4000), mask[0]

@@ -10,7 +10,8 @@ import torch
 from d2sr.errors import InputError
 from d2sr.models import MODELS, build, check_input_size
 from d2sr.models.registry import DETECTOR_NAMES, RECOVERY_NAMES
-from d2sr.models.weights import load_model, save_model
+from d2sr.models.unet import push_pull
+from d2sr.models.weights import load_model, save_model, warm_start
 
 
 def _depth(n=2, h=96, w=128, seed=0) -> torch.Tensor:
@@ -24,7 +25,7 @@ def test_forward_backward_at_allowed_sizes(name):
     torch.manual_seed(0)
     m = build(name)
     for h, w in ((96, 128), (64, 160)):
-        x = _depth(2, h, w)
+        x = torch.cat([_depth(2, h, w, seed=k) for k in range(getattr(m, "frames", 1))], dim=1)
         check_input_size(m, h, w)
         out = m(x)
         if name in DETECTOR_NAMES:
@@ -101,7 +102,7 @@ def test_corrupt_missing_and_mismatched_weights(tmp_path):
         load_model(wrong)
 
 
-@pytest.mark.parametrize("name", ["detector", "unet8"])
+@pytest.mark.parametrize("name", ["detector", "unet8", "unet8-temporal"])
 def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
@@ -109,11 +110,13 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
 
     torch.manual_seed(3)
     w = tmp_path / f"{name}.safetensors"
-    save_model(build(name).eval(), name, w)
+    net = build(name).eval()
+    frames = getattr(net, "frames", 1)
+    save_model(net, name, w, mask_logit=-1.5 if name != "detector" else None)
     res = export(w, tmp_path / f"{name}.onnx")
     assert res["max_abs_diff"] < 1e-3
     sess = ort.InferenceSession(str(tmp_path / f"{name}.onnx"), providers=["CPUExecutionProvider"])
-    x = _depth(3, 64, 96, seed=5)  # another batch and size than the export used
+    x = torch.cat([_depth(3, 64, 96, seed=5 + k) for k in range(frames)], dim=1)  # another batch and size
     got = sess.run(None, {"depth": x.numpy()})
     model, _ = load_model(w)
     with torch.inference_mode():
@@ -122,10 +125,49 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     for r, g in zip(ref, got, strict=True):
         np.testing.assert_allclose(r.numpy(), g, atol=1e-3)
     meta = sess.get_modelmeta().custom_metadata_map
-    assert meta["model"] == name and int(meta["stride"]) == model.stride
+    assert meta["model"] == name and int(meta["stride"]) == model.stride and int(meta["frames"]) == frames
+    assert float(meta["mask_logit"]) == (0.0 if name == "detector" else -1.5)
 
 
 def test_every_recovery_model_has_the_paper_composition():
     # Recovery names cover ours and the paper's reference layouts; both share one class and the heads.
-    assert {"unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32"} == set(RECOVERY_NAMES)
+    assert {"unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32"} <= set(RECOVERY_NAMES)
+    assert {"unet8-temporal", "unet8-direct"} <= set(RECOVERY_NAMES)
     assert build("paper-unet8").s2d == 1 and build("unet8").s2d == 4
+    assert build("unet8").fill and not build("paper-unet8").fill and not build("unet8-direct").fill
+
+
+def test_push_pull_keeps_trusted_pixels_and_fills_holes_from_their_surroundings():
+    d = torch.full((1, 1, 64, 96), 2.0)
+    d[..., :, 48:] = 4.0  # two walls
+    w = torch.ones_like(d)
+    w[..., 20:40, 10:30] = 0  # a hole in the near wall
+    w[..., 20:40, 60:90] = 0  # and one in the far wall
+    d_in = torch.where(w > 0, d, torch.zeros_like(d))
+    out = push_pull(d_in, w)
+    assert torch.equal(out[w > 0], d_in[w > 0])
+    # Each hole takes its own wall's depth (coarse levels blend in a little of the other wall).
+    torch.testing.assert_close(out[..., 25:35, 15:25], torch.full((1, 1, 10, 10), 2.0), atol=0.15, rtol=0)
+    torch.testing.assert_close(out[..., 25:35, 70:80], torch.full((1, 1, 10, 10), 4.0), atol=0.15, rtol=0)
+    nothing = push_pull(d_in, torch.zeros_like(w))  # no trusted pixel at all: zeros, not NaN
+    assert torch.isfinite(nothing).all()
+
+
+def test_temporal_model_started_from_unet8_equals_it_until_it_has_a_clean_frame(tmp_path):
+    torch.manual_seed(4)
+    base = build("unet8").eval()
+    save_model(base, "unet8", tmp_path / "u.safetensors")
+    temporal = build("unet8-temporal").eval()
+    counts = warm_start(temporal, tmp_path / "u.safetensors")
+    assert counts["grown"] == 4 and counts["untouched"] == 0  # stem and head convs take the new channels
+    x = _depth(1)
+    with torch.inference_mode():
+        a = base(x)
+        b = temporal(torch.cat([x, torch.zeros_like(x)], dim=1))
+    for u, v in zip(a, b, strict=True):
+        torch.testing.assert_close(u, v)
+    with pytest.raises(InputError, match="no such weights"):
+        warm_start(temporal, tmp_path / "none.safetensors")
+    save_model(build("detector"), "detector", tmp_path / "d.safetensors")
+    with pytest.raises(InputError, match="no tensor fits"):
+        warm_start(temporal, tmp_path / "d.safetensors")

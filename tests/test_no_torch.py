@@ -101,3 +101,25 @@ print('ok')
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "ok"
+
+
+def test_a_command_that_needs_torch_names_the_extra_to_install(tmp_path):
+    # As on an edge install (pip install 'd2sr[edge]'): torch is simply not there.
+    code = """
+import sys
+class Missing:
+    def find_spec(self, name, path=None, target=None):
+        if name.split('.')[0] == 'torch':
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+sys.meta_path.insert(0, Missing())
+sys.argv = ['d2sr', 'train', 'recovery', '--out', sys.argv[1]]
+from d2sr.cli import main
+main()
+"""
+    res = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "t")], capture_output=True, text=True, check=False
+    )
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert "needs torch" in lines[0] and "pip install 'd2sr[train]'" in lines[0]
+    assert not (tmp_path / "t").exists()

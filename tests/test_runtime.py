@@ -28,14 +28,19 @@ class FakeNet:
 
     name = "fake"
 
-    def __init__(self) -> None:
+    def __init__(self, frames: int = 1) -> None:
         self.recovered = 0
+        self.frames = frames
+        self.previous: list[np.ndarray | None] = []
 
     def scores(self, metres: np.ndarray) -> np.ndarray:
         return (metres[:, 0, 0] * 4000 == 1).astype(np.float32)
 
-    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         self.recovered += 1
+        self.previous.append(previous)
         mask = np.zeros(metres.shape, bool)
         mask[..., : metres.shape[-1] // 2] = True
         return np.full(metres.shape, 2.0, np.float32), mask
@@ -66,6 +71,28 @@ def test_open_loop_makes_a_period_of_every_n_frames_and_repairs_only_flagged():
     assert (fixed.depth[:, :8] == 8000).all() and fixed.mask[:, :8].all()  # 2 m at 4000 units/m
     assert np.array_equal(fixed.depth[:, 8:], fixed.capture.frame.depth[:, 8:])  # outside: unchanged
     assert not results[0].mask.any() and results[0].depth is results[0].capture.frame.depth
+
+
+def test_temporal_backend_gets_the_last_frame_the_detector_passed():
+    net = FakeNet(frames=2)
+    loop = SensorLoop(net, make_controller("static", 30, 3), repair="all")
+    first = _cap("0", bad=True)
+    first.frame.depth[3, 3] = 4000  # marks this flagged frame (1 m)
+    loop.process(first)
+    clean = _cap("1", bad=False)
+    clean.frame.depth[2, 2] = 2000
+    loop.process(clean)
+    loop.process(_cap("2", bad=True))
+    loop.process(_cap("3", bad=True))
+    # Nothing clean before frames 0 and 1: the model falls back on its fill.
+    assert net.previous[0] is None and net.previous[1] is None
+    for prev in net.previous[2:]:  # frame 1, not the flagged frames 0 and 2
+        assert prev is not None and prev[0, 2, 2] == 0.5 and prev[0, 3, 3] == 2.0
+    one = FakeNet()
+    loop = SensorLoop(one, make_controller("static", 30, 3), repair="all")
+    loop.process(clean)
+    loop.process(_cap("2", bad=True))
+    assert one.previous == [None, None]  # a one-frame model is never handed frames it cannot use
 
 
 def test_triggered_loop_reads_flags_in_window_order_and_tells_the_trigger():

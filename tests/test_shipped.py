@@ -12,7 +12,7 @@ import torch
 from d2sr.models.weights import SHIPPED, load_model
 from d2sr.runtime import open_backend
 from d2sr.runtime.backends import to_depth_units
-from d2sr.train.synth import TEST_SEED, synth_frame
+from d2sr.train.synth import TEST_SEED, synth_frame, synth_sequence_frame
 
 NAMES = sorted(p.stem for p in SHIPPED.glob("*.safetensors"))
 
@@ -38,7 +38,9 @@ def test_onnx_matches_weights(name):
     model, got = load_model(SHIPPED / f"{name}.safetensors")
     assert got == name
     sess = ort.InferenceSession(str(SHIPPED / f"{name}.onnx"), providers=["CPUExecutionProvider"])
-    x = torch.from_numpy(synth_frame(TEST_SEED + 1, True)[0].astype(np.float32)[None, None] / 4000)
+    frame, _, prev = synth_sequence_frame(TEST_SEED + 1, True, previous=True)
+    ins = [frame, prev][: getattr(model, "frames", 1)]  # a temporal model also takes the last clean frame
+    x = torch.from_numpy(np.stack(ins).astype(np.float32)[None] / 4000)
     with torch.inference_mode():
         ref = model(x)
     ref = (torch.sigmoid(ref),) if not isinstance(ref, tuple) else ref

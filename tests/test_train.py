@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -13,10 +14,10 @@ import torch
 from safetensors.torch import load_file
 
 from d2sr.errors import ConfigError
-from d2sr.models.weights import read_card
+from d2sr.models.weights import mask_logit, read_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Pool, synth_set
-from d2sr.train.loop import train
+from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
 
@@ -31,6 +32,7 @@ def _cfg(tmp: Path, **kw) -> TrainConfig:
         synthetic=4,
         cache=tmp / "cache",
         checkpoint_every=2,
+        validation=4,
     )
     return TrainConfig.make(**(base | kw))
 
@@ -84,16 +86,26 @@ def test_run_is_reproducible_and_resume_is_exact(tmp_path):
     train(cfg, tmp_path / "c", progress=False)
     wc = load_file(tmp_path / "c" / "unet8.safetensors")
     assert all(torch.equal(wa[k], wc[k]) for k in wa)
+    # The resumed run's loss curve is the whole run's, not only the part after the resume.
+    la, lc = (json.loads((tmp_path / x / "loss.json").read_text()) for x in "ac")
+    assert len(la) == len(lc) == 4 and np.allclose(la, lc)
     card = read_card(tmp_path / "a" / "unet8.safetensors")
     assert card["model"] == "unet8" and "generated" in card["data"] and card["training"]["steps"] == 4
+    # The mask threshold chosen on validation frames travels with the weights (and into ONNX on export).
+    chosen = card["training"]["mask_threshold"]
+    assert (
+        chosen["mask_logit"] in MASK_LOGITS
+        and mask_logit(tmp_path / "a" / "unet8.safetensors") == chosen["mask_logit"]
+    )
+    assert (
+        chosen["clean_changed"][f"{chosen['mask_logit']:g}"] <= MAX_CLEAN_CHANGED or chosen["mask_logit"] == 0
+    )
     assert (tmp_path / "a" / "unet8.md").read_text().startswith("# Model card: unet8")
 
 
 def test_detector_trains_and_loss_falls(tmp_path):
     cfg = _cfg(tmp_path, task="detector", model="detector", steps=30, batch=4, synthetic=8, lr=3e-3)
     summary = train(cfg, tmp_path / "d", progress=False)
-    import json
-
     losses = json.loads((tmp_path / "d" / "loss.json").read_text())
     assert summary["steps"] == 30
     assert np.mean(losses[-10:]) < np.mean(losses[:10])

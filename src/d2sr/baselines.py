@@ -11,7 +11,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-__all__ = ["BASELINES", "identity", "ip_basic", "median_fill", "nearest_fill", "telea"]
+__all__ = ["BASELINES", "identity", "ip_basic", "last_clean", "median_fill", "nearest_fill", "telea"]
 
 
 def identity(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -95,6 +95,15 @@ def telea(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
     mm = np.clip(np.rint(dense * 1000), 0, 65535).astype(np.uint16)
     out = cv2.inpaint(mm, mask.astype(np.uint8), 5, cv2.INPAINT_TELEA).astype(np.float32) / 1000
     return np.where(mask, out, depth).astype(np.float32)
+
+
+def last_clean(depth: np.ndarray, mask: np.ndarray, previous: np.ndarray) -> np.ndarray:
+    """The temporal baseline: masked pixels take the last clean frame's value where it had a return, and
+    inpainting (``telea``) elsewhere. Right for a still sensor, stale for a moving one."""
+    out = telea(depth, mask)
+    take = mask & (previous > 0)
+    out[take] = previous[take]
+    return out
 
 
 BASELINES: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {

@@ -354,10 +354,32 @@ def bench(
     console.print_json(write_result(result, json_out))
 
 
+# Optional dependencies and the extra that brings each: an edge install (no torch) runs detect, recover, run
+# and demo; training, export and evaluation need the train extra.
+EXTRAS = {
+    "torch": "train",
+    "onnx": "train",
+    "onnxscript": "train",
+    "safetensors": "edge",
+    "onnxruntime": "edge",
+    "pyrealsense2": "realsense",
+}
+
+
 def main() -> None:
     """Console entry point: one-line errors with exit code 2 instead of tracebacks."""
     try:
         app()
     except D2SRError as exc:
         print(f"d2sr: error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    except ModuleNotFoundError as exc:
+        top = (exc.name or "").split(".")[0]
+        if top not in EXTRAS:
+            raise
+        extra = EXTRAS[top]
+        print(
+            f"d2sr: error: this command needs {top}, not installed: pip install 'd2sr[{extra}]'",
+            file=sys.stderr,
+        )
         raise SystemExit(2) from None

@@ -13,6 +13,7 @@ import typer
 
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, check_depth, open_frames, to_metres
+from d2sr.frames.base import check_plausible
 
 __all__ = [
     "BackendOpt",
@@ -37,7 +38,6 @@ BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed)
 Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]
 Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]
 T = TypeVar("T")
-PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
 
 
@@ -76,28 +76,20 @@ def open_input(
 
 
 def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
-    """Checked frames with their depth in metres; the first frame's median depth catches a wrong scale."""
-    """Frames with their depth in metres; the first frame's median depth must be plausible indoors (a
-    wrong --depth-scale shows there)."""
+    """Checked frames with their depth in metres; the first frame's scale is checked (``check_plausible``)."""
     first = True
     for f in reader:
         depth = check_depth(f.depth, f"frame {f.name}")
         metres = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
         if first:
-            valid = metres[metres > 0]
-            med = float(np.median(valid)) if valid.size else 0.0
-            if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
-                raise InputError(
-                    f"frame {f.name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
-                    "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
-                )
+            check_plausible(f.name, metres, scale)
             first = False
         yield f, metres
 
 
 def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
-    """Decode ahead in a thread (PNG decoding releases the GIL), re-raising its errors here."""
-    """Produce ``items`` on a thread, ``depth`` ahead (reading and decoding overlap inference)."""
+    """Produce ``items`` on a thread, ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
+    inference), re-raising its errors here."""
     q: queue.Queue = queue.Queue(depth)
     done = object()
 

@@ -14,6 +14,7 @@ from rich.table import Table
 from d2sr.atomic import atomic_dir, atomic_write
 from d2sr.cli_common import open_input
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import Frame, check_depth, check_plausible
 from d2sr.ui import console, progress_bar
 
 __all__ = ["calibrate", "eval_labels", "gallery", "label", "simulate"]
@@ -102,11 +103,19 @@ def _to_bags(out: Path, sensors: int) -> None:
         shutil.rmtree(src)
 
 
-def _counts(reader: object, what: str) -> Iterator[np.ndarray]:
-    for f in reader:  # type: ignore[attr-defined]
+def _counts(reader: object, what: str, scale: float) -> Iterator[np.ndarray]:
+    """The recording's uint16 depth, checked (values, and the scale on the first frame)."""
+    return (f.depth for f in _checked(reader, what, scale))
+
+
+def _checked(reader: object, what: str, scale: float) -> Iterator[Frame]:
+    for i, f in enumerate(reader):  # type: ignore[attr-defined]
         if f.depth.dtype != np.uint16:
             raise InputError(f"{f.name}: {what} frame is {f.depth.dtype}; d2sr label needs 16-bit depth")
-        yield f.depth
+        check_depth(f.depth, f"frame {f.name}")
+        if i == 0:
+            check_plausible(f.name, f.depth.astype(np.float32) / np.float32(scale), scale)
+        yield f
 
 
 def label(
@@ -139,7 +148,7 @@ def label(
     with progress_bar() as bar:
         task = bar.add_task("clean statistics", total=1.0)
         stats = clean_stats(
-            lambda: _counts(creader, "clean"),
+            lambda: _counts(creader, "clean", scale),
             scale,
             memory_mb,
             lambda f: bar.update(task, completed=f),
@@ -149,9 +158,9 @@ def label(
 
         def refs() -> Iterator[np.ndarray]:
             while True:
-                yield from _counts(creader, "clean")
+                yield from _counts(creader, "clean", scale)
 
-        frames = ((f.name, f.depth) for f in ireader)  # type: ignore[attr-defined]
+        frames = ((f.name, f.depth) for f in _checked(ireader, "interfered", scale))
         rows = []
         task2 = bar.add_task("labelling", total=len(ireader))  # type: ignore[arg-type]
         with atomic_dir(out) as tmp:
@@ -185,6 +194,9 @@ def calibrate(
         list[Path], typer.Option(help="Clean static recordings of the real sensor (repeatable).")
     ],
     out: Annotated[Path, typer.Option(help="Folder for calibration.json and calibration.png.")],
+    depth_scale: Annotated[
+        float | None, typer.Option(help="Units per metre (default: what the recording says).")
+    ] = None,
     skip: Annotated[int, typer.Option(help="Frames to skip at the start of each recording.")] = 45,
     rooms: Annotated[int, typer.Option(help="Simulated rooms per evaluation.")] = 8,
     frames: Annotated[int, typer.Option(help="Frames per simulated room.")] = 24,
@@ -197,9 +209,9 @@ def calibrate(
 
     real_stats = {}
     for path in real:
-        reader, scale = open_input(path, None, None, "clean")
+        reader, scale = open_input(path, None, depth_scale, "clean")
         real_stats[path.name] = sequence_stats(
-            (d for i, d in enumerate(_counts(reader, "clean")) if i >= skip), scale
+            (d for i, d in enumerate(_counts(reader, "clean", scale)) if i >= skip), scale
         )
     keys = list(real_stats)
     target = real_stats[keys[0]]

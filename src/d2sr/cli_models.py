@@ -21,7 +21,16 @@ from d2sr.ui import progress_bar
 
 __all__ = ["detect", "recover"]
 
-MODEL_CHOICES = ("unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32")
+MODEL_CHOICES = (
+    "unet8",
+    "unet16",
+    "unet32",
+    "unet8-temporal",
+    "unet8-direct",
+    "paper-unet8",
+    "paper-unet16",
+    "paper-unet32",
+)
 
 
 def detect(
@@ -37,6 +46,7 @@ def detect(
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered)."""
     from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.loop import padded
 
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
@@ -49,7 +59,7 @@ def detect(
     with progress_bar() as bar:
         task = bar.add_task(f"detecting ({net.name})", total=len(reader))  # type: ignore[arg-type]
         for f, metres in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
-            s = float(net.scores(metres[None])[0])
+            s = float(net.scores(padded(metres[None]))[0])
             flagged += s >= threshold
             w.writerow([f.name, f"{s:.6f}", int(s >= threshold)])
             bar.advance(task)
@@ -70,8 +80,11 @@ def recover(
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
 ) -> None:
-    """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside)."""
-    from d2sr.runtime.backends import open_backend, to_depth_units
+    """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
+    Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed."""
+    from d2sr.desync import make_controller
+    from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.loop import Capture, SensorLoop
 
     if model not in MODEL_CHOICES:
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(MODEL_CHOICES)}")
@@ -79,22 +92,22 @@ def recover(
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
     reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
     net = open_backend(model, backend, weights)
+    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
+    loop = SensorLoop(
+        net, make_controller("static", 30, 30), threshold=threshold, repair="all" if every else "flagged"
+    )
     rows, repaired = [], 0
     with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
         (tmp / "masks").mkdir()
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))  # type: ignore[arg-type]
         pending: deque[Future[None]] = deque()
-        for f, metres in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
+        for f, _ in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
             if f.depth.dtype != np.uint16:
                 raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
-            fix = every or float(net.scores(metres[None])[0]) >= threshold
-            if fix:
-                pred, mask = net.recover(metres[None])
-                depth, mask = to_depth_units(f.depth, pred[0], mask[0], scale), mask[0]
-                repaired += 1
-            else:
-                depth, mask = f.depth, np.zeros(f.depth.shape, bool)
-            pending.append(writer.submit(_write, tmp, f.name, depth, mask))
+            res = loop.process(Capture(f, scale))
+            fix = every or res.flagged
+            repaired += fix
+            pending.append(writer.submit(_write, tmp, f.name, res.depth, res.mask))
             while len(pending) > 4:  # bounded: a slow disk must not pile frames up in memory
                 pending.popleft().result()
             rows.append({"name": f.name, "timestamp_ns": f.timestamp_ns, "repaired": bool(fix)})

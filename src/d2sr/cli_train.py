@@ -161,7 +161,9 @@ def eval_recovery(
     out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")] = Path(
         "docs/results/recovery"
     ),
-    models: Annotated[str, typer.Option(help="Recovery models (comma-separated).")] = "unet8,unet16,unet32",
+    models: Annotated[
+        str, typer.Option(help="Recovery models (comma-separated).")
+    ] = "unet8,unet16,unet32,unet8-temporal",
     weights: Weights = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
@@ -192,8 +194,8 @@ def eval_recovery(
         raise ConfigError(f"no recovery weights for {models} in {wdir}")
 
     def repair_fn(net: TorchBackend, scale: float) -> object:
-        def fn(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            pred, mask = net.recover(x[None])
+        def fn(x: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+            pred, mask = net.recover(x[None], None if prev is None else prev[None])
             units = to_depth_units(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
             return units.astype(np.float32) / np.float32(scale), mask[0]
 
@@ -224,7 +226,7 @@ def eval_recovery(
             for i in idx:
                 x = ts.metres(i)
                 y = ts.clean[i].astype(np.float32) / np.float32(ts.scale)
-                o, m = fns[first](x)
+                o, m = fns[first](x, ts.previous(int(i)))
                 rows_g.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
             save(gallery(rows_g), out / f"gallery_{ts.name}.png")
     atomic_write(out / "recovery.json", json.dumps(tables, indent=1) + "\n")

@@ -14,7 +14,7 @@ from d2sr.atomic import atomic_file
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
 from d2sr.models.registry import DETECTOR_NAMES
-from d2sr.models.weights import load_model
+from d2sr.models.weights import load_model, mask_logit
 
 __all__ = ["export", "parity"]
 
@@ -33,7 +33,7 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
     model, name = load_model(weights)
     net, outputs = _wrapped(model, name)
     h = int(getattr(model, "height", 0) or 480)
-    x = torch.rand(2, 1, h, 640) * 5
+    x = torch.rand(2, int(getattr(model, "frames", 1)), h, 640) * 5
     axes = {"depth": {0: "batch", 2: "height", 3: "width"}} | {o: {0: "batch"} for o in outputs}
     with atomic_file(out) as tmp:
         with warnings.catch_warnings():
@@ -55,6 +55,8 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
             "model": name,
             "stride": str(getattr(model, "stride", 1)),
             "height": str(getattr(model, "height", "") or ""),
+            "frames": str(getattr(model, "frames", 1)),
+            "mask_logit": repr(mask_logit(weights)),
         }
         for k, v in meta.items():
             entry = proto.metadata_props.add()

@@ -11,22 +11,24 @@ import numpy as np
 
 from d2sr.atomic import atomic_file
 from d2sr.errors import InputError
+from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
 
 __all__ = ["CALIBRATION_SEED", "int8_path", "quantize"]
-
-CALIBRATION_SEED = 900_000  # generated frames below the test seeds and above the training ones
 
 
 def int8_path(onnx: Path) -> Path:
     return onnx.with_name(onnx.stem + ".int8.onnx")
 
 
-def _calibration(frames: int) -> Iterator[dict[str, np.ndarray]]:
-    from d2sr.train.synth import synth_frame
+def _calibration(frames: int, channels: int) -> Iterator[dict[str, np.ndarray]]:
+    """Generated validation frames; a temporal model (2 channels) also gets each one's last clean frame."""
+    from d2sr.sim.scene import L515
+    from d2sr.train.synth import synth_sequence_frame
 
     for i in range(frames):
-        depth, _ = synth_frame(CALIBRATION_SEED + i, interfered=bool(i % 2))
-        yield {"depth": (depth.astype(np.float32) / np.float32(4000.0))[None, None]}
+        depth, _, prev = synth_sequence_frame(CALIBRATION_SEED + i, bool(i % 2), previous=channels > 1)
+        x = np.stack([depth] + ([prev] if prev is not None else [])).astype(np.float32)
+        yield {"depth": (x / np.float32(L515.depth_scale))[None]}
 
 
 def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
@@ -38,9 +40,14 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
     if not onnx.is_file():
         raise InputError(f"{onnx}: no such model file (d2sr export writes it)")
 
+    import onnx as onnx_lib
+
+    meta = {p.key: p.value for p in onnx_lib.load(str(onnx), load_external_data=False).metadata_props}
+    channels = int(meta.get("frames", 1))
+
     class Reader(CalibrationDataReader):
         def __init__(self) -> None:
-            self.it = _calibration(frames)
+            self.it = _calibration(frames, channels)
 
         def get_next(self) -> dict[str, np.ndarray] | None:
             return next(self.it, None)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.baselines import BASELINES
+from d2sr.baselines import BASELINES, last_clean
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
 
@@ -35,6 +35,7 @@ class TestSet:
     clean: list[np.ndarray]
     scale: float
     hard: np.ndarray  # bool per frame: a clean frame that is a known hard negative (people moving)
+    last_clean: np.ndarray | None = None  # per frame, the index of its sequence's last clean frame (-1: none)
 
     @cached_property
     def labels(self) -> np.ndarray:
@@ -43,12 +44,33 @@ class TestSet:
     def metres(self, i: int) -> np.ndarray:
         return self.frames[i].astype(np.float32) / np.float32(self.scale)
 
+    def previous(self, i: int) -> np.ndarray | None:
+        """The last truly clean frame before frame ``i`` in its sequence (what a temporal model sees, with
+        a perfect detector), in metres; None when there is none."""
+        j = -1 if self.last_clean is None else int(self.last_clean[i])
+        return None if j < 0 else self.metres(j)
+
+
+def _last_clean(labels: np.ndarray, starts: list[int]) -> np.ndarray:
+    """For each frame, the index of the last clean frame before it, not reaching back past its sequence's
+    start (``starts``: the first index of each sequence)."""
+    out = np.full(len(labels), -1)
+    last = -1
+    for i in range(len(labels)):
+        if i in starts:
+            last = -1
+        out[i] = last
+        if not labels[i]:
+            last = i
+    return out
+
 
 def l515_set(root: Path, seed: int = 7) -> TestSet:
     """Every other frame of each capture interfered by one or two drifting interferers."""
-    frames, clean, hard = [], [], []
+    frames, clean, hard, starts = [], [], [], []
     scale = 4000.0
     for k, (name, skip) in enumerate((("dev0", PERSON_FRAMES), ("dev1", 0))):
+        starts.append(len(frames))
         reader = open_frames(root / name)
         scale = reader.depth_scale or scale
         seq = [f.depth for f in reader]
@@ -61,7 +83,9 @@ def l515_set(root: Path, seed: int = 7) -> TestSet:
         frames += out
         clean += seq
         hard += [t < skip for t in range(len(seq))]
-    return TestSet("l515", frames, clean, scale, np.array(hard))
+    ts = TestSet("l515", frames, clean, scale, np.array(hard))
+    ts.last_clean = _last_clean(ts.labels, starts)
+    return ts
 
 
 def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
@@ -82,7 +106,9 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
         if f is not None and ev.sensor == robot and f.slot % every == 0:
             frames.append(f.depth)
             clean.append(f.clean)
-    return TestSet("moving", frames, clean, room.model.depth_scale, np.zeros(len(frames), bool))
+    ts = TestSet("moving", frames, clean, room.model.depth_scale, np.zeros(len(frames), bool))
+    ts.last_clean = _last_clean(ts.labels, [0])
+    return ts
 
 
 def generated_set(cache: Path, count: int = 600) -> TestSet:
@@ -116,7 +142,8 @@ def detector_metrics(scores: np.ndarray, ts: TestSet, threshold: float = 0.5) ->
     return out
 
 
-Repair = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # metres -> (repaired metres, mask)
+# (metres, last clean frame or None) -> (repaired metres, mask)
+Repair = Callable[[np.ndarray, np.ndarray | None], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass
@@ -157,15 +184,18 @@ class _Acc:
         }
 
 
-def _interfered(ts: TestSet, limit: int | None) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """The interfered frames (``limit``: that many, evenly spread over the set)."""
+def _interfered(
+    ts: TestSet, limit: int | None
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]]:
+    """The interfered frames (``limit``: that many, evenly spread over the set): (metres, ground truth,
+    true mask, last clean frame or None)."""
     idx = np.flatnonzero(ts.labels)
     if limit is not None and limit < len(idx):
         idx = idx[np.linspace(0, len(idx) - 1, limit).round().astype(int)]
     s = np.float32(ts.scale)
     for i in idx:
         f, c = ts.frames[i], ts.clean[i]
-        yield f.astype(np.float32) / s, c.astype(np.float32) / s, f != c
+        yield f.astype(np.float32) / s, c.astype(np.float32) / s, f != c, ts.previous(int(i))
 
 
 def recovery_metrics(
@@ -182,18 +212,24 @@ def recovery_metrics(
     accs: dict[str, _Acc] = {"identity": _Acc(errors=[])}
     for name in models:
         accs[name] = _Acc(errors=[])
-    for b in BASELINES:
+    temporal = ts.last_clean is not None
+    names = [*BASELINES, *(["last clean"] if temporal else [])]
+    for b in names:
         if baseline_mask_from:
             accs[f"{b} (predicted mask)"] = _Acc(errors=[])
         accs[f"{b} (true mask)"] = _Acc()
-    for x, y, true in _interfered(ts, limit):
+    for x, y, true, prev in _interfered(ts, limit):
         accs["identity"].add(x, np.zeros_like(true), x, y, true)
         masks = {}
         for name, fn in models.items():
-            out, mask = fn(x)
+            out, mask = fn(x, prev)
             masks[name] = mask
             accs[name].add(out, mask, x, y, true)
-        for b, fn in BASELINES.items():
+        fills = dict(BASELINES)
+        if temporal:
+            before = prev if prev is not None else np.zeros_like(x)
+            fills["last clean"] = lambda d, m, before=before: last_clean(d, m, before)
+        for b, fn in fills.items():
             if baseline_mask_from:
                 m = masks[baseline_mask_from]
                 accs[f"{b} (predicted mask)"].add(fn(x, m), m, x, y, true)

@@ -18,7 +18,16 @@ import numpy as np
 from d2sr.atomic import commit, discard, temp_for
 from d2sr.errors import InputError
 
-__all__ = ["Frame", "Intrinsics", "Reader", "Writer", "check_depth", "to_metres"]
+__all__ = [
+    "PLAUSIBLE_M",
+    "Frame",
+    "Intrinsics",
+    "Reader",
+    "Writer",
+    "check_depth",
+    "check_plausible",
+    "to_metres",
+]
 
 
 @dataclass(frozen=True)
@@ -77,6 +86,20 @@ def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
 def to_metres(depth: np.ndarray, depth_scale: float) -> np.ndarray:
     """float32 metres (0 = no return)."""
     return depth.astype(np.float32) / np.float32(depth_scale)
+
+
+PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
+
+
+def check_plausible(name: str, metres: np.ndarray, scale: float) -> None:
+    """A frame's median depth must be plausible indoors: a wrong --depth-scale shows there."""
+    valid = metres[metres > 0]
+    med = float(np.median(valid)) if valid.size else 0.0
+    if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
+        raise InputError(
+            f"frame {name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
+            "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
+        )
 
 
 def check_scale(depth_scale: float | None, where: str) -> float | None:

@@ -9,7 +9,8 @@ import torch
 
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
-from d2sr.models.weights import load_model, torch_device
+from d2sr.models.weights import load_model, mask_logit, torch_device
+from d2sr.runtime.backends import model_input
 
 __all__ = ["TorchBackend"]
 
@@ -23,6 +24,8 @@ class TorchBackend:
         self.device = torch_device()
         self.det = load_model(detector)[0].to(self.device) if detector is not None else None
         self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
+        self.frames = int(getattr(self.rec, "frames", 1))
+        self.mask_logit = mask_logit(recovery) if recovery is not None else 0.0
 
     def _tensor(self, metres: np.ndarray) -> torch.Tensor:
         return torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
@@ -34,10 +37,13 @@ class TorchBackend:
         with torch.inference_mode():
             return torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
 
-    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         if self.rec is None:
             raise InputError("no recovery model loaded")
         check_input_size(self.rec, *metres.shape[1:])
+        x = torch.from_numpy(model_input(metres, previous, self.frames)).to(self.device)
         with torch.inference_mode():
-            logit, pred = self.rec(self._tensor(metres))
-        return pred[:, 0].cpu().numpy(), (logit[:, 0] > 0).cpu().numpy()
+            logit, pred = self.rec(x)
+        return pred[:, 0].cpu().numpy(), (logit[:, 0] > self.mask_logit).cpu().numpy()

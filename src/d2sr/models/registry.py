@@ -16,10 +16,14 @@ __all__ = ["DETECTOR_NAMES", "MODELS", "RECOVERY_NAMES", "build", "check_input_s
 MODELS: dict[str, Callable[[], nn.Module]] = {
     "detector": FastDetector,
     "paper-detector": PaperDetector,
-    # Ours: space-to-depth stem (see unet.py). The paper's layout is kept as the paper-* reference variants.
-    "unet8": lambda: UNet(8, s2d=4),
-    "unet16": lambda: UNet(16, s2d=4),
-    "unet32": lambda: UNet(32, s2d=4),
+    # Ours: space-to-depth stem and a depth head that corrects a fill (see unet.py). The paper's layout is
+    # kept as the paper-* reference variants.
+    "unet8": lambda: UNet(8, s2d=4, fill=True),
+    "unet16": lambda: UNet(16, s2d=4, fill=True),
+    "unet32": lambda: UNet(32, s2d=4, fill=True),
+    "unet8-temporal": lambda: UNet(8, s2d=4, fill=True, frames=2),
+    # Ablation, and the start of unet8's training: the same trunk with an absolute-depth head.
+    "unet8-direct": lambda: UNet(8, s2d=4),
     "paper-unet8": lambda: UNet(8, s2d=1),
     "paper-unet16": lambda: UNet(16, s2d=1),
     "paper-unet32": lambda: UNet(32, s2d=1),

@@ -15,15 +15,36 @@ from d2sr.errors import InputError
 from d2sr.models.registry import build
 from d2sr.runtime.backends import WEIGHTS
 
-__all__ = ["SHIPPED", "load_model", "read_card", "save_model", "torch_device", "write_card"]
+__all__ = [
+    "SHIPPED",
+    "load_model",
+    "mask_logit",
+    "read_card",
+    "save_model",
+    "torch_device",
+    "warm_start",
+    "write_card",
+]
 
 SHIPPED = WEIGHTS  # the one shipped-weights folder (defined where the torch-free runtime can see it)
 
 
-def save_model(model: nn.Module, name: str, path: Path) -> None:
+def save_model(model: nn.Module, name: str, path: Path, mask_logit: float | None = None) -> None:
+    """``mask_logit``: a recovery model's calibrated mask threshold (logit; 0 when absent)."""
     state = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
+    meta = {"model": name, "format": "d2sr-1"}
+    if mask_logit is not None:
+        meta["mask_logit"] = repr(float(mask_logit))
     with atomic_file(path) as tmp:
-        save_file(state, str(tmp), metadata={"model": name, "format": "d2sr-1"})
+        save_file(state, str(tmp), metadata=meta)
+
+
+def mask_logit(path: Path) -> float:
+    """The mask threshold (logit) stored with a recovery model's weights; 0 (probability 0.5) if none."""
+    try:
+        return float(_meta(Path(path)).get("mask_logit", 0.0))
+    except (SafetensorError, OSError, ValueError) as exc:
+        raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
 
 
 def _meta(path: Path) -> dict[str, str]:
@@ -51,6 +72,42 @@ def load_model(path: Path) -> tuple[nn.Module, str]:
     except RuntimeError as exc:
         raise InputError(f"{path}: weights do not fit {name} ({str(exc).splitlines()[0]})") from None
     return model.eval(), name
+
+
+def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
+    """Start ``model`` from another model's weights (fine-tuning, or a variant that adds inputs or outputs).
+    Tensors of the same name and shape are copied; where a shape grew, the old values fill the leading slice
+    and the new part starts at zero (a new input channel is ignored at first, a new output reads 0).
+    Returns counts of copied, grown and untouched tensors."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such weights file to start from")
+    try:
+        old = load_file(str(path))
+    except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
+        raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
+    counts = {"copied": 0, "grown": 0, "untouched": 0}
+    state = model.state_dict()
+    with torch.no_grad():
+        for name, t in state.items():
+            src = old.get(name)
+            if (
+                src is None
+                or src.dim() != t.dim()
+                or any(a > b for a, b in zip(src.shape, t.shape, strict=True))
+            ):
+                counts["untouched"] += 1
+                continue
+            if src.shape == t.shape:
+                t.copy_(src)
+                counts["copied"] += 1
+            else:
+                t.zero_()
+                t[tuple(slice(0, n) for n in src.shape)] = src
+                counts["grown"] += 1
+    if not counts["copied"] + counts["grown"]:
+        raise InputError(f"{path}: no tensor fits this model")
+    return counts
 
 
 def read_card(path: Path) -> dict:

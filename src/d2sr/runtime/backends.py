@@ -14,7 +14,16 @@ import numpy as np
 
 from d2sr.errors import InputError
 
-__all__ = ["THRESHOLD", "WEIGHTS", "Backend", "OnnxBackend", "check_size", "open_backend", "to_depth_units"]
+__all__ = [
+    "THRESHOLD",
+    "WEIGHTS",
+    "Backend",
+    "OnnxBackend",
+    "check_size",
+    "model_input",
+    "open_backend",
+    "to_depth_units",
+]
 
 WEIGHTS = Path(__file__).resolve().parents[1] / "models" / "weights"
 DETECTOR = "detector"
@@ -28,9 +37,26 @@ class Backend(Protocol):
         """(N, H, W) float32 metres -> (N,) probability that each frame is interfered."""
         ...
 
-    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(N, H, W) float32 metres -> (predicted depth in metres, predicted mask bool), both (N, H, W)."""
+    frames: int  # 2: a temporal recovery model, which also takes the last clean frame
+
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(N, H, W) float32 metres -> (predicted depth in metres, predicted mask bool), both (N, H, W).
+        ``previous``: each frame's last clean frame (N, H, W), for temporal models (others ignore it)."""
         ...
+
+
+def model_input(metres: np.ndarray, previous: np.ndarray | None, frames: int) -> np.ndarray:
+    """(N, H, W) metres -> the recovery model's (N, frames, H, W) input; no last clean frame reads as 0."""
+    x = metres[:, None].astype(np.float32, copy=False)
+    if frames == 1:
+        return x
+    if previous is None:
+        previous = np.zeros_like(metres)
+    elif previous.shape != metres.shape:
+        raise InputError(f"the last clean frame is {previous.shape}, the frame {metres.shape}")
+    return np.concatenate([x, previous[:, None].astype(np.float32, copy=False)], axis=1)
 
 
 def to_depth_units(frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float) -> np.ndarray:
@@ -80,27 +106,35 @@ class OnnxBackend:
         }
 
     @staticmethod
-    def _props(s: object) -> dict[str, int | None]:
+    def _props(s: object) -> dict[str, float | None]:
         meta = s.get_modelmeta().custom_metadata_map  # type: ignore[attr-defined]
         return {
             "stride": int(meta.get("stride", 1)),
             "height": int(meta["height"]) if meta.get("height") else None,
+            "frames": int(meta.get("frames", 1)),
+            "mask_logit": float(meta.get("mask_logit", 0.0)),
         }
+
+    @property
+    def frames(self) -> int:
+        return int(self._meta["recovery"]["frames"] or 1) if "recovery" in self._meta else 1
 
     def scores(self, metres: np.ndarray) -> np.ndarray:
         h, w = metres.shape[1:]
         p = self._meta["detector"]
-        check_size(h, w, p["stride"] or 1, p["height"], "the detector")
+        check_size(h, w, int(p["stride"] or 1), p["height"], "the detector")  # type: ignore[arg-type]
         return self.det.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})[0]
 
-    def recover(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         if self.rec is None:
             raise InputError("no recovery model loaded")
         h, w = metres.shape[1:]
         p = self._meta["recovery"]
-        check_size(h, w, p["stride"] or 1, p["height"], "the recovery model")
-        logit, pred = self.rec.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})
-        return pred[:, 0], logit[:, 0] > 0
+        check_size(h, w, int(p["stride"] or 1), p["height"], "the recovery model")  # type: ignore[arg-type]
+        logit, pred = self.rec.run(None, {"depth": model_input(metres, previous, self.frames)})
+        return pred[:, 0], logit[:, 0] > p["mask_logit"]
 
 
 def open_backend(

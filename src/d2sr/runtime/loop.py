@@ -23,7 +23,16 @@ from d2sr.runtime.backends import THRESHOLD, Backend, to_depth_units
 REPAIR = ("flagged", "all", "none")
 PAD = 32  # the largest stride of the shipped models
 
-__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
+__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger", "padded"]
+
+
+def padded(metres: np.ndarray) -> np.ndarray:
+    """(N, H, W) metres with a border of "no return" (zeros) at the bottom and right up to the models'
+    stride, so any sensor size works (320x240 as well as 640x480); crop results back to (H, W)."""
+    h, w = metres.shape[-2:]
+    if not (h % PAD or w % PAD):
+        return metres
+    return np.pad(metres, ((0, 0), (0, -h % PAD), (0, -w % PAD)))
 
 
 @dataclass
@@ -87,6 +96,7 @@ class SensorLoop:
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
+    _last_clean: np.ndarray | None = None  # metres, padded: what a temporal recovery model also sees
 
     @property
     def offset(self) -> int:
@@ -111,19 +121,18 @@ class SensorLoop:
         check_depth(raw, cap.name)
         t = time.perf_counter()
         h, w = raw.shape
-        metres = raw.astype(np.float32)[None] / np.float32(cap.scale)
-        # Frames whose size the models' strides do not divide get a border of "no return" (zeros) at the
-        # bottom and right, cropped off again: a 320x240 sensor works as well as a 640x480 one.
-        pad = ((0, 0), (0, -h % PAD), (0, -w % PAD))
-        if pad[1][1] or pad[2][1]:
-            metres = np.pad(metres, pad)
+        metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
         score = float(self.backend.scores(metres)[0])
         flagged = score >= self.threshold
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):
-            pred, m = self.backend.recover(metres)
+            last = self._last_clean
+            previous = last if last is not None and last.shape == metres.shape else None
+            pred, m = self.backend.recover(metres, previous)
             pred, m = pred[0, :h, :w], m[0, :h, :w]
             depth, mask = to_depth_units(raw, pred, m, cap.scale), m
+        if not flagged and getattr(self.backend, "frames", 1) > 1:
+            self._last_clean = metres
         seconds = time.perf_counter() - t
         res = Result(cap, score, flagged, depth, mask, self.period, self.controller.offset, seconds)
         if self.sink is not None:

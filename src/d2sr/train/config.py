@@ -30,11 +30,15 @@ class TrainConfig(Settings):
     batch: int = Field(16, ge=1)
     lr: float = Field(2e-3, gt=0)
     weight_decay: float = Field(1e-4, ge=0)
+    init: Path | None = Field(None, description="weights to start from (fine-tuning); see warm_start")
     crop: tuple[int, int] = Field((192, 256), description="recovery trains on crops (height, width)")
     mask_weight: float = Field(3.0, ge=0, description="recovery: weight of the mask head's BCE")
     dice: float = Field(1.0, ge=0, description="recovery: weight of the soft-F1 (Dice) term on the mask")
     clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
+    validation: int = Field(
+        100, ge=2, description="recovery: generated validation frames that choose the mask threshold"
+    )
     cache: Path = Field(Path("out/data"), description="where generated data sets are kept")
     folders: tuple[Folders, ...] = ()
     checkpoint_every: int = Field(250, ge=1)

@@ -11,6 +11,7 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
+from d2sr.frames.base import check_depth, check_plausible
 from d2sr.train.config import TrainConfig
 from d2sr.train.synth import SynthSet, generate
 
@@ -19,7 +20,7 @@ __all__ = ["Batch", "Pool", "synth_set"]
 
 @dataclass
 class Batch:
-    x: np.ndarray  # (N, 1, H, W) float32 metres: what the sensor delivered
+    x: np.ndarray  # (N, C, H, W) float32 metres: what the sensor delivered (C=2: then its last clean frame)
     y: np.ndarray  # ground-truth depth (metres)
     m: np.ndarray  # true interference mask (float32 0/1)
     label: np.ndarray  # (N,) float32: frame interfered
@@ -32,20 +33,22 @@ class _Source:
     masks: list[np.ndarray] | None
     scale: float
     labels: np.ndarray
+    previous: np.ndarray | None = None  # each frame's last clean frame (temporal models)
 
 
-def synth_set(cache: Path, count: int, seed: int, progress: bool = True) -> SynthSet:
-    """The generated set for (seed, count), made on first use and kept under ``cache``."""
-    root = cache / f"synth-{seed}-{count}"
+def synth_set(cache: Path, count: int, seed: int, progress: bool = True, previous: bool = False) -> SynthSet:
+    """The generated set for (seed, count), made on first use and kept under ``cache``; ``previous``: with
+    each frame's last clean frame (a separate, slower set)."""
+    root = cache / f"synth-{seed}-{count}{'-seq' if previous else ''}"
     if not (root / "meta.json").is_file():
         if progress:
             from d2sr.ui import progress_bar
 
             with progress_bar() as bar:
                 task = bar.add_task(f"generating {count} frames", total=count)
-                generate(root, count, seed, progress=lambda n: bar.advance(task, n))
+                generate(root, count, seed, progress=lambda n: bar.advance(task, n), previous=previous)
         else:
-            generate(root, count, seed)
+            generate(root, count, seed, previous=previous)
     return SynthSet(root)
 
 
@@ -58,6 +61,12 @@ def _folders(cfg: TrainConfig) -> list[_Source]:
             raise InputError(
                 f"{f.input} has {len(frames)} frames, {f.target} has {len(clean)}; need equal, > 0"
             )
+        scale = src.depth_scale or 1000.0
+        for path, seq in ((f.input, frames), (f.target, clean)):
+            for i, d in enumerate(seq):
+                if check_depth(d, f"{path} frame {i}").dtype != np.uint16:
+                    raise InputError(f"{path} frame {i}: training folders hold 16-bit depth, got {d.dtype}")
+            check_plausible(f"{path} frame 0", seq[0].astype(np.float32) / np.float32(scale), scale)
         masks = None
         if f.masks is not None:
             masks = [m.depth > 0 for m in open_frames(f.masks)]
@@ -68,27 +77,29 @@ def _folders(cfg: TrainConfig) -> list[_Source]:
             if masks
             else [(a != b).any() for a, b in zip(frames, clean, strict=True)]
         )
-        out.append(_Source(frames, clean, masks, src.depth_scale or 1000.0, labels))
+        out.append(_Source(frames, clean, masks, scale, labels))
     return out
 
 
 class Pool:
     """All training frames of a run."""
 
-    def __init__(self, sources: list[_Source]) -> None:
+    def __init__(self, sources: list[_Source], frames: int = 1) -> None:
         if not sources:
             raise InputError("no training data")
-        self.sources = sources
+        if frames > 1 and any(s.previous is None for s in sources):
+            raise InputError("a temporal model needs each frame's last clean frame: generated data only")
+        self.sources, self.frames = sources, frames
         self.index = [(s, i) for s, src in enumerate(sources) for i in range(len(src.labels))]
         self.labels = np.array([sources[s].labels[i] for s, i in self.index])
 
     @classmethod
-    def from_config(cls, cfg: TrainConfig, progress: bool = True) -> Pool:
+    def from_config(cls, cfg: TrainConfig, progress: bool = True, frames: int = 1) -> Pool:
         sources = []
         if cfg.synthetic:
-            ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress)
-            sources.append(_Source(ss.frames, ss.clean, None, ss.depth_scale, ss.labels))
-        return cls(sources + _folders(cfg))
+            ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress, previous=frames > 1)
+            sources.append(_Source(ss.frames, ss.clean, None, ss.depth_scale, ss.labels, ss.previous))
+        return cls(sources + _folders(cfg), frames)
 
     def _pick(self, rng: np.random.Generator, n: int, clean_share: float) -> np.ndarray:
         pos, neg = np.flatnonzero(self.labels), np.flatnonzero(~self.labels)
@@ -106,21 +117,27 @@ class Pool:
             src = self.sources[s]
             f, c = np.asarray(src.frames[i]), np.asarray(src.clean[i])
             m = src.masks[i] if src.masks is not None else f != c
+            ins = [f]
+            if self.frames > 1 and src.previous is not None:
+                ins.append(np.asarray(src.previous[i]))
             if crop is not None:
                 h, w = f.shape
                 ch, cw = min(crop[0], h), min(crop[1], w)
                 a, b = int(rng.integers(0, h - ch + 1)), int(rng.integers(0, w - cw + 1))
-                f, c, m = f[a : a + ch, b : b + cw], c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
+                ins = [v[a : a + ch, b : b + cw] for v in ins]
+                c, m = c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
             gain = np.float32(rng.uniform(0.85, 1.15) / src.scale)
-            x, y = f.astype(np.float32) * gain, c.astype(np.float32) * gain
+            x, y = np.stack([v.astype(np.float32) * gain for v in ins]), c.astype(np.float32) * gain
+            if len(ins) > 1 and rng.random() < 0.1:
+                x[1] = 0  # no clean frame yet (start-up): the model must fall back on the fill
             if rng.random() < 0.5:
-                x, y, m = x[:, ::-1], y[:, ::-1], m[:, ::-1]
+                x, y, m = x[:, :, ::-1], y[:, ::-1], m[:, ::-1]
             xs.append(x)
             ys.append(y)
             ms.append(m.astype(np.float32))
             ls.append(float(src.labels[i]))
         return Batch(
-            np.ascontiguousarray(np.stack(xs)[:, None]),
+            np.ascontiguousarray(np.stack(xs)),
             np.ascontiguousarray(np.stack(ys)[:, None]),
             np.ascontiguousarray(np.stack(ms)[:, None]),
             np.array(ls, np.float32),

@@ -18,14 +18,17 @@ from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write
 from d2sr.models.registry import build, describe
-from d2sr.models.weights import save_model, torch_device, write_card
+from d2sr.models.weights import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
 
-__all__ = ["loss_fn", "train"]
+__all__ = ["choose_mask_logit", "loss_fn", "train"]
 
 CHECKPOINT = "checkpoint.pt"
+MASK_LOGITS = tuple(float(t) for t in np.arange(1.0, -4.01, -0.5))  # candidate mask thresholds (logits)
+MAX_CLEAN_CHANGED = 0.01  # half the issue's 2% bar: room for real frames to differ from generated ones
+VALIDATION_FRAMES = 100
 
 
 @contextlib.contextmanager
@@ -51,7 +54,7 @@ def loss_fn(
     y, m = torch.from_numpy(b.y).to(device), torch.from_numpy(b.m).to(device)
     logit, pred = model(x)
     soft = torch.sigmoid(logit)
-    out = pred * soft + x * (1 - soft)  # the paper's composition, soft while training
+    out = pred * soft + x[:, :1] * (1 - soft)  # the paper's composition, soft while training
     depth = F.smooth_l1_loss(out, y, beta=0.05)
     # The depth head also learns on every truly interfered pixel, whatever the mask head says.
     inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * m).sum() / m.sum().clamp(min=1)
@@ -71,8 +74,12 @@ def _save_checkpoint(
     step: int,
     rng: np.random.Generator,
     cfg: TrainConfig,
+    minutes: float,
+    losses: list[float],
 ) -> None:
     state = {
+        "minutes": minutes,  # training time over every resumed part
+        "losses": losses,
         "model": model.state_dict(),
         "opt": opt.state_dict(),
         "sched": sched.state_dict(),  # type: ignore[attr-defined]
@@ -93,31 +100,44 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         if device.type == "cpu":
             torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
         torch.manual_seed(cfg.seed)
-        out.mkdir(parents=True, exist_ok=True)
         # Rank 0 generates the data set (if it is not cached yet); the others wait, then open it.
         if world > 1 and rank:
             tdist.barrier()
-        pool = Pool.from_config(cfg, progress and rank == 0)
+        model = build(cfg.model)
+        frames = int(getattr(model, "frames", 1))
+        pool = Pool.from_config(cfg, progress and rank == 0, frames)
         if world > 1 and rank == 0:
             tdist.barrier()
-        model = build(cfg.model).to(device)
+        out.mkdir(parents=True, exist_ok=True)  # only once the data opened: bad input leaves nothing
+        if cfg.init is not None:
+            counts = warm_start(model, cfg.init)
+            if rank == 0:
+                console.print(f"started from {cfg.init}: {counts}")
+        model = model.to(device)
         core = model
         if world > 1:
             model = nn.parallel.DistributedDataParallel(model)
         opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         sched = torch.optim.lr_scheduler.OneCycleLR(opt, cfg.lr, total_steps=cfg.steps, pct_start=0.05)
         rng = np.random.default_rng([cfg.seed, rank])
-        start, losses = 0, []
+        start, losses, before = 0, [], 0.0
         ckpt = out / CHECKPOINT
         if ckpt.is_file():
             state = torch.load(ckpt, weights_only=False)
-            if state["config"] == cfg.model_dump(mode="json"):
+            if _same_run(state["config"], cfg):
                 core.load_state_dict(state["model"])
                 opt.load_state_dict(state["opt"])
                 sched.load_state_dict(state["sched"])
                 rng.bit_generator.state = state["rng"]
                 torch.set_rng_state(state["torch_rng"])
                 start = state["step"]
+                before, losses = state.get("minutes"), state.get("losses")
+                if before is None or losses is None:  # a checkpoint from before these were kept in it
+                    done_card = read_card(out / f"{cfg.model}.safetensors").get("training", {})
+                    old = out / "loss.json"
+                    before = float(done_card.get("minutes", 0.0))
+                    losses = json.loads(old.read_text()) if old.is_file() else []
+                losses = list(losses)
                 if rank == 0:
                     console.print(f"resuming from step {start}")
             elif rank == 0:
@@ -144,11 +164,12 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 done = step + 1
                 over = cfg.time_limit_min and time.perf_counter() - t0 > cfg.time_limit_min * 60
                 if rank == 0 and (done % cfg.checkpoint_every == 0 or done == cfg.steps or over):
-                    _save_checkpoint(ckpt, core, opt, sched, done, rng, cfg)
+                    spent = before + (time.perf_counter() - t0) / 60
+                    _save_checkpoint(ckpt, core, opt, sched, done, rng, cfg, spent, losses)
                 if over:
                     stopped = True
                     break
-        minutes = (time.perf_counter() - t0) / 60
+        minutes = before + (time.perf_counter() - t0) / 60
         summary = {
             "steps": done,
             "stopped_early": stopped,
@@ -160,7 +181,11 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         }
         if rank == 0:
             weights = out / f"{cfg.model}.safetensors"
-            save_model(core, cfg.model, weights)
+            threshold = None
+            if cfg.task == "recovery":
+                threshold = choose_mask_logit(core, cfg.cache, progress, cfg.validation)
+                summary["mask_threshold"] = threshold
+            save_model(core, cfg.model, weights, threshold["mask_logit"] if threshold else None)
             atomic_write(out / "loss.json", json.dumps(losses))
             write_card(
                 weights,
@@ -172,6 +197,61 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 date=dt.date.today().isoformat(),
             )
         return summary
+
+
+# Settings that do not change the trained weights: a run resumes across changes to them.
+NOT_TRAINING = ("validation", "time_limit_min", "checkpoint_every")
+
+
+def _same_run(saved: dict, cfg: TrainConfig) -> bool:
+    now = cfg.model_dump(mode="json")
+    return all(saved.get(k) == v for k, v in now.items() if k not in NOT_TRAINING)
+
+
+def choose_mask_logit(
+    model: nn.Module, cache: Path, progress: bool = True, count: int = VALIDATION_FRAMES
+) -> dict:
+    """The recovery model's mask threshold: of the candidate logits, the one with the lowest RMSE on
+    generated validation frames (seeds VALIDATION_SEED+, never trained or tested on) among those that change
+    at most MAX_CLEAN_CHANGED of the clean pixels by more than 1 cm. The mask head errs towards missing
+    dropouts (a dropout and a natural no-return look alike), and each missed one costs metres."""
+    from d2sr.train.data import synth_set
+    from d2sr.train.synth import VALIDATION_SEED
+
+    frames = int(getattr(model, "frames", 1))
+    ss = synth_set(cache, count, VALIDATION_SEED, progress, previous=frames > 1)
+    device = next(model.parameters()).device
+    sums = np.zeros((len(MASK_LOGITS), 4))  # squared error, valid pixels, clean changed, clean pixels
+    ts = torch.tensor(MASK_LOGITS, device=device)[:, None, None]
+    was = model.training
+    model.eval()
+    s = np.float32(ss.depth_scale)
+    for i in np.flatnonzero(ss.labels):
+        ins = [ss.frames[i]] + ([ss.previous[i]] if frames > 1 and ss.previous is not None else [])
+        x = torch.from_numpy(np.stack(ins).astype(np.float32) / s)[None].to(device)
+        y = torch.from_numpy(ss.clean[i].astype(np.float32) / s).to(device)
+        with torch.inference_mode():
+            logit, pred = model(x)
+        masks = logit[0] > ts  # (thresholds, H, W)
+        out = torch.where(masks, pred[0].clamp(min=0), x[0, :1])
+        true = torch.from_numpy(ss.frames[i] != ss.clean[i]).to(device)
+        valid = y > 0
+        sums[:, 0] += (((out - y) ** 2) * valid).sum(dim=(1, 2)).cpu().numpy()
+        sums[:, 1] += float(valid.sum())
+        sums[:, 2] += (((out - x[0, :1]).abs() > 0.01) & ~true).sum(dim=(1, 2)).cpu().numpy()
+        sums[:, 3] += float((~true).sum())
+    model.train(was)
+    rmse = np.sqrt(sums[:, 0] / np.maximum(sums[:, 1], 1))
+    changed = sums[:, 2] / np.maximum(sums[:, 3], 1)
+    ok = np.flatnonzero(changed <= MAX_CLEAN_CHANGED)
+    k = int(ok[np.argmin(rmse[ok])]) if len(ok) else MASK_LOGITS.index(0.0)
+    return {
+        "mask_logit": MASK_LOGITS[k],
+        "rule": f"lowest RMSE with at most {MAX_CLEAN_CHANGED:.0%} of clean pixels changed, "
+        f"{count} generated validation frames (seeds {VALIDATION_SEED}+)",
+        "rmse_cm": {f"{t:g}": round(100 * float(r), 2) for t, r in zip(MASK_LOGITS, rmse, strict=True)},
+        "clean_changed": {f"{t:g}": round(float(c), 5) for t, c in zip(MASK_LOGITS, changed, strict=True)},
+    }
 
 
 _SUMMARY = {
