@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked_frames, open_input
+from d2sr.cli_models import MODEL_CHOICES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
@@ -19,7 +20,7 @@ from d2sr.ui import console, progress_bar
 
 __all__ = ["run", "stats_table"]
 
-MODELS = ("unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32")
+MODELS = MODEL_CHOICES  # the same recovery models as d2sr recover
 
 
 def run(
