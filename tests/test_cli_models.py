@@ -10,24 +10,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-import torch
 
-from d2sr.export import export
 from d2sr.frames.png import encode_png
-from d2sr.models import build
-from d2sr.models.weights import save_model
 from helpers import d2sr
-
-
-@pytest.fixture(scope="module")
-def weights(tmp_path_factory) -> Path:
-    """Random-weight models in a folder laid out like the shipped one (safetensors + onnx)."""
-    root = tmp_path_factory.mktemp("weights")
-    torch.manual_seed(0)
-    for name in ("detector", "unet8"):
-        save_model(build(name).eval(), name, root / f"{name}.safetensors")
-        export(root / f"{name}.safetensors", root / f"{name}.onnx")
-    return root
 
 
 def _folder(root: Path, n=3, shape=(96, 128), scale=1000) -> Path:

@@ -16,13 +16,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-import torch
 
 from d2sr.cli import main
-from d2sr.export import export
 from d2sr.frames.png import encode_png
-from d2sr.models import build
-from d2sr.models.weights import save_model
 
 
 def _good(root: Path, n: int = 4, shape: tuple[int, int] = (96, 128), scale: float = 1000) -> Path:
@@ -76,16 +72,6 @@ CORPUS: dict[str, tuple[Callable[[Path], Path], str]] = {
     ),
     "corrupt bag": (lambda p: _then(p, "in.bag", b"#ROSBAG V2.0\n" + b"\x00" * 64) / "in.bag", r"in\.bag"),
 }
-
-
-@pytest.fixture(scope="module")
-def weights(tmp_path_factory) -> Path:
-    root = tmp_path_factory.mktemp("weights")
-    torch.manual_seed(0)
-    for name in ("detector", "unet8"):
-        save_model(build(name).eval(), name, root / f"{name}.safetensors")
-        export(root / f"{name}.safetensors", root / f"{name}.onnx")
-    return root
 
 
 def _commands(src: Path, out: Path, weights: Path) -> dict[str, list[str]]:
