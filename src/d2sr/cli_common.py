@@ -22,6 +22,7 @@ __all__ = [
     "Scale",
     "Topic",
     "Weights",
+    "checked",
     "checked_frames",
     "int_list",
     "open_input",
@@ -75,16 +76,26 @@ def open_input(
     return reader, float(use)
 
 
-def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
-    """Checked frames with their depth in metres; the first frame's scale is checked (``check_plausible``)."""
+def _metres(f: Frame, scale: float) -> np.ndarray:
+    return to_metres(f.depth, 1.0 if f.depth.dtype == np.float32 else scale)
+
+
+def checked(reader: Iterable[Frame], scale: float) -> Iterator[Frame]:
+    """Checked frames (values; the first frame's scale, ``check_plausible``), for callers that convert
+    to metres themselves or never do."""
     first = True
     for f in reader:
-        depth = check_depth(f.depth, f"frame {f.name}")
-        metres = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
+        check_depth(f.depth, f"frame {f.name}")
         if first:
-            check_plausible(f.name, metres, scale)
+            check_plausible(f.name, _metres(f, scale), scale)
             first = False
-        yield f, metres
+        yield f
+
+
+def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:
+    """``checked`` frames with their depth in metres."""
+    for f in checked(reader, scale):
+        yield f, _metres(f, scale)
 
 
 def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:

@@ -12,9 +12,9 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, atomic_write
-from d2sr.cli_common import open_input
+from d2sr.cli_common import checked, open_input
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, check_depth, check_plausible
+from d2sr.frames.base import Frame
 from d2sr.ui import console, progress_bar
 
 __all__ = ["calibrate", "eval_labels", "gallery", "label", "simulate"]
@@ -109,12 +109,9 @@ def _counts(reader: object, what: str, scale: float) -> Iterator[np.ndarray]:
 
 
 def _checked(reader: object, what: str, scale: float) -> Iterator[Frame]:
-    for i, f in enumerate(reader):  # type: ignore[attr-defined]
+    for f in checked(reader, scale):  # type: ignore[arg-type]
         if f.depth.dtype != np.uint16:
             raise InputError(f"{f.name}: {what} frame is {f.depth.dtype}; d2sr label needs 16-bit depth")
-        check_depth(f.depth, f"frame {f.name}")
-        if i == 0:
-            check_plausible(f.name, f.depth.astype(np.float32) / np.float32(scale), scale)
         yield f
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write
-from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked_frames, open_input, prefetch
+from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked, checked_frames, open_input, prefetch
 from d2sr.errors import InputError
 from d2sr.frames.png import encode_png, write_meta
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
@@ -101,7 +101,7 @@ def recover(
         (tmp / "masks").mkdir()
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))  # type: ignore[arg-type]
         pending: deque[Future[None]] = deque()
-        for f, _ in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
+        for f in prefetch(checked(reader, scale)):  # type: ignore[arg-type]
             if f.depth.dtype != np.uint16:
                 raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
             res = loop.process(Capture(f, scale))

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked_frames, open_input
+from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked, open_input
 from d2sr.cli_models import MODEL_CHOICES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError, InputError
@@ -107,8 +107,7 @@ class _Checked:
         return len(self.reader)  # type: ignore[arg-type]
 
     def __iter__(self) -> Iterator[Frame]:
-        for f, _ in checked_frames(self.reader, self.scale):  # type: ignore[arg-type]
-            yield f
+        yield from checked(self.reader, self.scale)  # type: ignore[arg-type]
 
 
 COLUMNS = {
