@@ -16,8 +16,8 @@ from safetensors.torch import load_file
 from d2sr.errors import ConfigError
 from d2sr.models.weights import mask_logit, read_card
 from d2sr.train.config import TrainConfig
-from d2sr.train.data import Pool, synth_set
-from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, train
+from d2sr.train.data import Batch, Pool, synth_set
+from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
 
@@ -67,6 +67,33 @@ def test_batches_are_balanced_cropped_and_consistent(tmp_path):
     assert b.x.shape == b.y.shape == b.m.shape == (8, 1, 64, 96)
     assert np.array_equal(b.m > 0, b.x != b.y)  # the mask is exactly the changed pixels
     assert 0 < b.label.sum() < 8
+
+
+class _Fixed(torch.nn.Module):
+    """A "model" whose outputs are its parameters, to read the loss's gradient per pixel."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        super().__init__()
+        self.logit = torch.nn.Parameter(torch.zeros(shape))
+        self.pred = torch.nn.Parameter(torch.full(shape, 2.0))
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.logit, self.pred
+
+
+def test_depth_is_learned_only_where_the_ground_truth_has_a_return():
+    x = np.zeros((1, 1, 2, 3), np.float32)  # every pixel a dropout
+    y = np.array([[[[3.0, 3.0, 0.0], [3.0, 0.0, 0.0]]]], np.float32)
+    m = (y > 0).astype(np.float32)
+    m[0, 0, 1, 2] = 1  # interfered, but no return in the ground truth either
+    model = _Fixed(x.shape)
+    loss_fn(model, "recovery", Batch(x, y, m, np.ones(1, np.float32)), torch.device("cpu")).backward()
+    g = model.pred.grad[0, 0].abs()
+    assert (g[y[0, 0] > 0] > 0).all()
+    assert (g[y[0, 0] == 0] == 0).all()
+    # The mask head is pushed to flag the dropouts over real surfaces hardest: missing them costs depth.
+    lg = model.logit.grad[0, 0]
+    assert (lg[y[0, 0] > 0] < lg[1, 2]).all()
 
 
 def test_run_is_reproducible_and_resume_is_exact(tmp_path):

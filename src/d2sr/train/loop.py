@@ -26,7 +26,7 @@ from d2sr.ui import console, progress_bar
 __all__ = ["choose_mask_logit", "loss_fn", "train"]
 
 CHECKPOINT = "checkpoint.pt"
-MASK_LOGITS = tuple(float(t) for t in np.arange(1.0, -4.01, -0.5))  # candidate mask thresholds (logits)
+MASK_LOGITS = tuple(float(t) for t in np.arange(3.0, -6.01, -0.25))  # candidate mask thresholds (logits)
 MAX_CLEAN_CHANGED = 0.01  # half the 2% bar: room for real frames to differ from generated ones
 VALIDATION_FRAMES = 100
 
@@ -55,9 +55,14 @@ def loss_fn(
     logit, pred = model(x)
     soft = torch.sigmoid(logit)
     out = pred * soft + x[:, :1] * (1 - soft)  # the paper's composition, soft while training
-    depth = F.smooth_l1_loss(out, y, beta=0.05)
+    # Depth is scored only where the ground truth has a return (as RMSE is). Scoring the no-return pixels
+    # too taught the depth head to pull ambiguous zeros towards 0 and the mask head to leave them alone:
+    # a real surface read as "no return" costs metres, a no-return read as a surface is not a depth error.
+    valid = (y > 0).to(y.dtype)
+    depth = (F.smooth_l1_loss(out, y, beta=0.05, reduction="none") * valid).mean()
     # The depth head also learns on every truly interfered pixel, whatever the mask head says.
-    inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * m).sum() / m.sum().clamp(min=1)
+    mv = m * valid
+    inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * mv).sum() / mv.sum().clamp(min=1)
     mask = mask_weight * F.binary_cross_entropy_with_logits(logit, m)
     if dice:
         # Soft F1 over the batch: BCE alone leaves zeros inside a pattern near 0.5 (a natural no-return
