@@ -76,6 +76,23 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
 
 
+@pytest.mark.parametrize("backend", ["onnx", "torch"])
+def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
+    src = _folder(tmp_path / "in", 1)
+    masked = []
+    for logit in ("8", "-8"):
+        out = tmp_path / f"o{logit}"
+        args = ("--all", "--weights", str(weights), "--backend", backend, "--mask-logit", logit)
+        assert d2sr("recover", str(src), "--out", str(out), *args).returncode == 0
+        masked.append(int((_png(out / "masks" / "f000.png") > 0).sum()))
+    assert masked[0] < masked[1]
+    res = d2sr(
+        "recover", str(src), "--out", str(tmp_path / "bad"), "--weights", str(weights), "--mask-logit", "nan"
+    )
+    assert res.returncode == 2 and "--mask-logit" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "bad").exists()
+
+
 def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
     src = _folder(tmp_path / "in")
     out = tmp_path / "out"

@@ -38,6 +38,13 @@ Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]
 Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]
+MaskLogit = Annotated[
+    float | None,
+    typer.Option(
+        help="Recovery mask threshold as a logit: lower repairs more pixels (fills more dropouts, touches "
+        "more clean ones). Default: the model's own, chosen on validation frames."
+    ),
+]
 T = TypeVar("T")
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
 

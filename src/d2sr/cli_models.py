@@ -13,7 +13,17 @@ import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write
-from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked, checked_frames, open_input, prefetch
+from d2sr.cli_common import (
+    BackendOpt,
+    MaskLogit,
+    Scale,
+    Topic,
+    Weights,
+    checked,
+    checked_frames,
+    open_input,
+    prefetch,
+)
 from d2sr.errors import InputError
 from d2sr.frames.png import encode_png, write_meta
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
@@ -76,6 +86,7 @@ def recover(
     ] = False,
     model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODEL_CHOICES)}.")] = "unet8",
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
+    mask_logit: MaskLogit = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
@@ -91,7 +102,7 @@ def recover(
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
     reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
-    net = open_backend(model, backend, weights)
+    net = open_backend(model, backend, weights, mask_logit=mask_logit)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
     loop = SensorLoop(
         net, make_controller("static", 30, 30), threshold=threshold, repair="all" if every else "flagged"

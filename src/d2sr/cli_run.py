@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from d2sr.cli_common import BackendOpt, Scale, Topic, Weights, checked, open_input
+from d2sr.cli_common import BackendOpt, MaskLogit, Scale, Topic, Weights, checked, open_input
 from d2sr.cli_models import MODEL_CHOICES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError, InputError
@@ -38,6 +38,7 @@ def run(
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
     model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODELS)}.")] = "unet8",
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
+    mask_logit: MaskLogit = None,
     depth_scale: Scale = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
@@ -67,7 +68,14 @@ def run(
         raise ConfigError(f"--active-frames must be in 1..30, got {active_frames}")
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
-    net = open_backend(model if repair != "none" else None, backend, weights, threads=threads, int8=int8)
+    net = open_backend(
+        model if repair != "none" else None,
+        backend,
+        weights,
+        threads=threads,
+        int8=int8,
+        mask_logit=mask_logit,
+    )
     with progress_bar() as bar:
         if source == "sim":
             if not 1 <= sensors <= 63:

@@ -82,6 +82,7 @@ def export(
 
 REAL = Path("../shared/data/l515")
 CACHE = Path("out/data")
+CURVE_LOGITS = tuple(float(t) for t in range(4, -7, -1))  # mask thresholds the trade-off plot walks
 SET_TITLES = {
     "generated": "generated test set (seeds >= 1,000,000)",
     "l515": "real L515 dev0+dev1 with simulated interference on every other frame",
@@ -176,8 +177,8 @@ def eval_recovery(
     import numpy as np
 
     from d2sr.atomic import atomic_write
-    from d2sr.eval.model_plots import error_cdf, gallery
-    from d2sr.eval.models import generated_set, l515_set, moving_set, recovery_metrics
+    from d2sr.eval.model_plots import error_cdf, gallery, operating_curves
+    from d2sr.eval.models import generated_set, l515_set, moving_set, operating_curve, recovery_metrics
     from d2sr.eval.plots import save
     from d2sr.models.inference import TorchBackend
     from d2sr.models.weights import write_card
@@ -203,7 +204,15 @@ def eval_recovery(
 
     sets = ([l515_set(real)] if (real / "dev0").is_dir() else []) + [generated_set(cache), moving_set()]
     tables: dict[str, dict] = {}
+    curves: dict[str, dict] = {}
     first = next(iter(nets))
+
+    logits = sorted({*CURVE_LOGITS, nets[first].mask_logit}, reverse=True)  # the model's own on the curve
+
+    def raw(x: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        logit, pred = nets[first].raw(x[None], None if prev is None else prev[None])
+        return logit[0], pred[0]
+
     out.mkdir(parents=True, exist_ok=True)
     with progress_bar() as bar:
         for ts in sets:
@@ -212,6 +221,7 @@ def eval_recovery(
             task = bar.add_task(f"recovery on {ts.name}", total=n)
             rows, errors = recovery_metrics(ts, fns, first, n, lambda task=task: bar.advance(task))  # type: ignore[misc]
             tables[ts.name] = rows
+            curves[ts.name] = operating_curve(ts, raw, logits, n)
             keep = [
                 "identity",
                 *fns,
@@ -229,7 +239,10 @@ def eval_recovery(
                 o, m = fns[first](x, ts.previous(int(i)))
                 rows_g.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
             save(gallery(rows_g), out / f"gallery_{ts.name}.png")
-    atomic_write(out / "recovery.json", json.dumps(tables, indent=1) + "\n")
+    save(operating_curves(curves, nets[first].mask_logit, first), out / "operating_curve.png")
+    atomic_write(
+        out / "recovery.json", json.dumps(tables | {"operating_curve": {first: curves}}, indent=1) + "\n"
+    )
     lines = []
     for set_name, rows in tables.items():
         lines += [
@@ -246,6 +259,7 @@ def eval_recovery(
                 f"{r['mask_recall']:.3f} | {r['mask_f1']:.3f} | {100 * r['clean_changed']:.2f}% |"
             )
         lines.append("")
+    lines += [f"Mask threshold trade-off of {first}: [operating_curve.png](operating_curve.png)", ""]
     atomic_write(out / "table.md", "\n".join(lines))
     console.print("\n".join(lines))
     if card:

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["error_cdf", "gallery", "pr_curves"]
+__all__ = ["error_cdf", "gallery", "operating_curves", "pr_curves"]
 
 
 def pr_curves(results: dict[str, dict]) -> Figure:
@@ -43,6 +43,28 @@ def error_cdf(errors: dict[str, np.ndarray], title: str) -> Figure:
     ax.set(xscale="symlog", xlabel="absolute error (cm)", ylabel="share of interfered pixels", title=title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
+    return fig
+
+
+def operating_curves(curves: dict[str, dict], chosen: float, name: str) -> Figure:
+    """{set: operating_curve} -> RMSE change against clean pixels changed, one point per mask threshold,
+    the model's own threshold circled, the issue's bars dashed."""
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for set_name, c in curves.items():
+        x = 100 * np.asarray(c["clean_changed"])
+        y = 100 * np.asarray(c["rmse_vs_identity"])
+        (line,) = ax.plot(x, y, ".-", label=set_name)
+        k = int(np.argmin(np.abs(np.asarray(c["mask_logit"]) - chosen)))
+        ax.plot([x[k]], [y[k]], "o", ms=10, mfc="none", color=line.get_color())
+    ax.axhline(-70, color="k", ls="--", lw=0.8)
+    ax.axvline(2, color="k", ls="--", lw=0.8)
+    ax.set(
+        xlabel="clean pixels changed > 1 cm (%)",
+        ylabel="RMSE vs identity (%)",
+        title=f"{name}: mask threshold trade-off (circle: logit {chosen:g})",
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     return fig
 
 

@@ -11,7 +11,7 @@ Two test sets, neither seen in training:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -21,8 +21,17 @@ import numpy as np
 from d2sr.baselines import BASELINES, last_clean
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
+from d2sr.runtime.backends import to_depth_units
 
-__all__ = ["TestSet", "detector_metrics", "generated_set", "l515_set", "moving_set", "recovery_metrics"]
+__all__ = [
+    "TestSet",
+    "detector_metrics",
+    "generated_set",
+    "l515_set",
+    "moving_set",
+    "operating_curve",
+    "recovery_metrics",
+]
 
 TEST_SEED_ROOMS = 2_000_000  # rooms of the moving-robot test set (training never draws these seeds)
 PERSON_FRAMES = 45  # dev0: a person walks through the view in these
@@ -242,3 +251,34 @@ def recovery_metrics(
         r["rmse_vs_identity"] = round(r["rmse_cm"] / ident - 1, 4) if ident else 0.0
     errors = {k: np.concatenate(a.errors) for k, a in accs.items() if a.errors}
     return rows, errors
+
+
+Raw = Callable[[np.ndarray, np.ndarray | None], tuple[np.ndarray, np.ndarray]]
+
+
+def operating_curve(
+    ts: TestSet, raw: Raw, logits: Sequence[float], limit: int | None = None
+) -> dict[str, list[float]]:
+    """One model's trade-off over mask thresholds (``raw``: metres, previous -> mask logits, depth): RMSE
+    change against identity and share of clean pixels changed by > 1 cm, per threshold (what
+    ``--mask-logit`` chooses along)."""
+    t = np.asarray(logits, np.float32)
+    se, changed = np.zeros(len(t)), np.zeros(len(t))
+    ident = n_valid = n_clean = 0.0
+    s = np.float32(ts.scale)
+    for x, y, true, prev in _interfered(ts, limit):
+        logit, pred = raw(x, prev)
+        valid = y > 0
+        ident += float(((x - y)[valid] ** 2).sum())
+        n_valid += float(valid.sum())
+        n_clean += float((~true).sum())
+        units = np.rint(x * s).astype(np.uint16)
+        for k, m in enumerate(logit[None] > t[:, None, None]):
+            out = to_depth_units(units, pred, m, ts.scale).astype(np.float32) / s
+            se[k] += float(((out - y)[valid] ** 2).sum())
+            changed[k] += float((np.abs(out - x)[~true] > 0.01).sum())
+    return {
+        "mask_logit": [float(v) for v in t],
+        "rmse_vs_identity": [round(float(np.sqrt(v / max(ident, 1e-12)) - 1), 4) for v in se],
+        "clean_changed": [round(float(v / max(n_clean, 1)), 5) for v in changed],
+    }

@@ -9,7 +9,8 @@ import torch
 
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
-from d2sr.models.weights import load_model, mask_logit, torch_device
+from d2sr.models.weights import load_model, torch_device
+from d2sr.models.weights import mask_logit as read_mask_logit
 from d2sr.runtime.backends import model_input
 
 __all__ = ["TorchBackend"]
@@ -20,12 +21,14 @@ class TorchBackend:
 
     name = "torch"
 
-    def __init__(self, detector: Path | None, recovery: Path | None) -> None:
+    def __init__(self, detector: Path | None, recovery: Path | None, mask_logit: float | None = None) -> None:
         self.device = torch_device()
         self.det = load_model(detector)[0].to(self.device) if detector is not None else None
         self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
         self.frames = int(getattr(self.rec, "frames", 1))
-        self.mask_logit = mask_logit(recovery) if recovery is not None else 0.0
+        if mask_logit is None:  # the model's own, chosen on validation frames
+            mask_logit = read_mask_logit(recovery) if recovery is not None else 0.0
+        self.mask_logit = mask_logit
 
     def _tensor(self, metres: np.ndarray) -> torch.Tensor:
         return torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
@@ -37,13 +40,18 @@ class TorchBackend:
         with torch.inference_mode():
             return torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
 
-    def recover(
-        self, metres: np.ndarray, previous: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(mask logits, predicted depth), before any threshold."""
         if self.rec is None:
             raise InputError("no recovery model loaded")
         check_input_size(self.rec, *metres.shape[1:])
         x = torch.from_numpy(model_input(metres, previous, self.frames)).to(self.device)
         with torch.inference_mode():
             logit, pred = self.rec(x)
-        return pred[:, 0].cpu().numpy(), (logit[:, 0] > self.mask_logit).cpu().numpy()
+        return logit[:, 0].cpu().numpy(), pred[:, 0].cpu().numpy()
+
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        logit, pred = self.raw(metres, previous)
+        return pred, logit > self.mask_logit

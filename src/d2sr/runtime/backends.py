@@ -78,7 +78,13 @@ class OnnxBackend:
 
     name = "onnxruntime"
 
-    def __init__(self, detector: Path, recovery: Path | None, threads: int | None = None) -> None:
+    def __init__(
+        self,
+        detector: Path,
+        recovery: Path | None,
+        threads: int | None = None,
+        mask_logit: float | None = None,
+    ) -> None:
         try:
             import onnxruntime as ort
         except ImportError:  # pragma: no cover - depends on the install
@@ -104,6 +110,8 @@ class OnnxBackend:
         self._meta = {
             k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
         }
+        if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
+            self._meta["recovery"]["mask_logit"] = mask_logit
 
     @staticmethod
     def _props(s: object) -> dict[str, float | None]:
@@ -144,11 +152,15 @@ def open_backend(
     detector: str = DETECTOR,
     threads: int | None = None,
     int8: bool = False,
+    mask_logit: float | None = None,
 ) -> Backend:
     """The shipped (or given folder's) detector and recovery model. ``auto``: onnxruntime when it is
-    installed and the ONNX files exist, torch otherwise."""
+    installed and the ONNX files exist, torch otherwise. ``mask_logit`` overrides the recovery model's
+    own mask threshold."""
     if backend not in ("auto", "onnx", "torch"):
         raise InputError(f"unknown backend {backend!r}; choose auto, onnx or torch")
+    if mask_logit is not None and not np.isfinite(mask_logit):
+        raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
     ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
     onnx_files = [weights / f"{detector}{ext}"] + ([weights / f"{model}{ext}"] if model else [])
     if int8 and backend == "torch":
@@ -163,11 +175,10 @@ def open_backend(
         except ImportError:
             backend = "torch"
     if backend == "onnx":
-        return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads)
+        return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads, mask_logit)
     if importlib.util.find_spec("torch") is None:
         raise InputError(f"no ONNX models in {weights} and torch is not installed")
     from d2sr.models.inference import TorchBackend
 
-    return TorchBackend(
-        weights / f"{detector}.safetensors", weights / f"{model}.safetensors" if model else None
-    )
+    rec = weights / f"{model}.safetensors" if model else None
+    return TorchBackend(weights / f"{detector}.safetensors", rec, mask_logit)
