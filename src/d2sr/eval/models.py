@@ -263,22 +263,18 @@ def operating_curve(
     change against identity and share of clean pixels changed by > 1 cm, per threshold (what
     ``--mask-logit`` chooses along)."""
     t = np.asarray(logits, np.float32)
-    se, changed = np.zeros(len(t)), np.zeros(len(t))
-    ident = n_valid = n_clean = 0.0
+    ident, accs = _Acc(), [_Acc() for _ in t]
     s = np.float32(ts.scale)
     for x, y, true, prev in _interfered(ts, limit):
         logit, pred = raw(x, prev)
-        valid = y > 0
-        ident += float(((x - y)[valid] ** 2).sum())
-        n_valid += float(valid.sum())
-        n_clean += float((~true).sum())
+        ident.add(x, np.zeros_like(true), x, y, true)
         units = np.rint(x * s).astype(np.uint16)
-        for k, m in enumerate(logit[None] > t[:, None, None]):
-            out = to_depth_units(units, pred, m, ts.scale).astype(np.float32) / s
-            se[k] += float(((out - y)[valid] ** 2).sum())
-            changed[k] += float((np.abs(out - x)[~true] > 0.01).sum())
+        for acc, m in zip(accs, logit[None] > t[:, None, None], strict=True):
+            acc.add(to_depth_units(units, pred, m, ts.scale).astype(np.float32) / s, m, x, y, true)
+    base = max(ident.result()["rmse_cm"], 1e-12)
+    rows = [a.result() for a in accs]
     return {
         "mask_logit": [float(v) for v in t],
-        "rmse_vs_identity": [round(float(np.sqrt(v / max(ident, 1e-12)) - 1), 4) for v in se],
-        "clean_changed": [round(float(v / max(n_clean, 1)), 5) for v in changed],
+        "rmse_vs_identity": [round(r["rmse_cm"] / base - 1, 4) for r in rows],
+        "clean_changed": [round(r["clean_changed"], 5) for r in rows],
     }
