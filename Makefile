@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml constraints.txt
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/d2sr demo --out out/demo
+	$(BIN)/d2sr demo --out out/demo --overwrite
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests bench
@@ -29,7 +29,7 @@ lint: $(STAMP)
 
 # Long jobs: their results are committed under docs/results/.
 sweep: $(STAMP)
-	$(BIN)/d2sr desync sweep --out docs/results/desync
+	$(BIN)/d2sr desync sweep --out docs/results/desync --overwrite
 
 bench: $(STAMP)
 	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json
@@ -45,11 +45,11 @@ soak: $(STAMP)
 # These read ../shared/data (real captures that must never be copied into the repository).
 REAL ?= ../shared/data/l515
 calibrate: $(STAMP)
-	$(BIN)/d2sr calibrate --real $(REAL)/dev0 --real $(REAL)/dev1 --out docs/results/sim
-	$(BIN)/d2sr gallery --out docs/results/sim/gallery.png
+	$(BIN)/d2sr calibrate --real $(REAL)/dev0 --real $(REAL)/dev1 --out docs/results/sim --overwrite
+	$(BIN)/d2sr gallery --out docs/results/sim/gallery.png --overwrite
 
 labels: $(STAMP)
-	$(BIN)/d2sr eval labels --real $(REAL) --out docs/results/labels --sims 4
+	$(BIN)/d2sr eval labels --real $(REAL) --out docs/results/labels --sims 4 --overwrite
 
 # Shipped weights: trained on generated data only (never on ../shared/data), then exported to ONNX.
 # Each run resumes from runs/<model>/checkpoint.pt if interrupted.
@@ -65,17 +65,17 @@ weights: $(STAMP)
 	mkdir -p $(SHIP)
 	for m in detector paper-detector unet8 unet8-temporal unet16 unet32; do \
 	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
-	$(BIN)/d2sr export
+	$(BIN)/d2sr export --overwrite
 
 # Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);
 # they also go into the model cards.
 eval-models: $(STAMP)
-	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector
-	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60
+	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector --overwrite
+	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60 --overwrite
 
 # The paper's evaluation side by side with its numbers, one report (docs/results/paper/report.md).
 eval-paper: $(STAMP)
-	$(BIN)/d2sr eval paper --real $(REAL) --out docs/results/paper
+	$(BIN)/d2sr eval paper --real $(REAL) --out docs/results/paper --overwrite
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache

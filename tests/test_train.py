@@ -150,7 +150,7 @@ def test_ddp_on_two_gloo_processes_matches_itself(tmp_path):
         "-m",
         "torch.distributed.run",
         "--nproc-per-node=2",
-        "--master-port=29517",
+        "--standalone",  # a rendezvous on a port the OS picks: no fixed port to collide with
         "-m",
         "d2sr",
         "train",

@@ -1,21 +1,110 @@
-"""Write outputs under a temporary name and rename at the end, so a failed or killed run leaves nothing
-half-written: either the old output, or the complete new one."""
+"""Outputs: written under a temporary name and renamed at the end (a failed or killed run leaves nothing
+half-written), and never at the cost of a file d2sr did not make.
+
+The policy, one place for every command:
+
+- ``check_out`` runs before any work: ``--out`` may not be the input, inside it or around it, nor the
+  current folder or one of its parents; an existing non-empty output is refused unless ``overwrite``.
+- A folder d2sr writes carries a manifest (``.d2sr-manifest.json``: the files it made). ``commit``
+  replaces only those files when it writes the folder again; every other file in it is kept. A
+  non-empty folder without a manifest is never replaced.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
+import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-__all__ = ["atomic_dir", "atomic_file", "atomic_write", "commit", "discard", "temp_for"]
+from d2sr.errors import OutputError
+
+__all__ = [
+    "MANIFEST",
+    "atomic_dir",
+    "atomic_file",
+    "atomic_write",
+    "check_out",
+    "commit",
+    "discard",
+    "record_manifest",
+    "temp_for",
+]
+
+MANIFEST = ".d2sr-manifest.json"
+
+
+def _abs(path: Path) -> Path:
+    """Absolute and normalized, without following links (``.`` and ``..`` resolved)."""
+    return Path(os.path.abspath(os.fspath(path)))
+
+
+def _real(path: Path) -> Path:
+    return Path(os.path.realpath(os.fspath(path)))
+
+
+def check_out(
+    out: Path,
+    *,
+    is_dir: bool,
+    overwrite: bool = False,
+    inputs: Iterable[Path | None] = (),
+    resume: bool = False,
+) -> Path:
+    """Refuse an output path that would destroy something d2sr did not make; the absolute path otherwise.
+
+    ``resume``: an existing folder d2sr made is taken as it is (a run folder a command resumes)."""
+    if not os.fspath(out).strip():
+        raise OutputError("--out is empty; name a new file or folder")
+    path = _abs(out)
+    real, cwd = _real(path), _real(Path.cwd())
+    if real == Path(real.anchor) or real == cwd or real in cwd.parents or real == _real(Path.home()):
+        raise OutputError(
+            f"--out {out} is the current folder, one of its parents or your home; name a new one"
+        )
+    for src in inputs:
+        if src is None:
+            continue
+        s = _real(Path(src))
+        if real == s or s in real.parents or real in s.parents:
+            how = "is" if real == s else "is inside" if s in real.parents else "contains"
+            raise OutputError(f"--out {out} {how} the input ({src}); d2sr never writes over its input")
+    if path.parent.exists() and not path.parent.is_dir():
+        raise OutputError(f"--out {out}: {path.parent} is a file, not a folder")
+    if not (path.exists() or path.is_symlink()):
+        return path
+    if is_dir:
+        if not path.is_dir() or path.is_symlink():
+            raise OutputError(f"--out {out} exists and is not a folder; name a new folder")
+        if not any(path.iterdir()):
+            return path
+        mine = (path / MANIFEST).is_file()
+        if resume and mine:
+            return path
+        if not overwrite:
+            raise OutputError(
+                f"--out {out} exists and is not empty; pass --overwrite to replace what d2sr wrote there "
+                "(other files are kept), or name a new folder"
+            )
+        if not mine:
+            raise OutputError(f"--out {out} holds files d2sr did not make (no {MANIFEST}); name a new folder")
+        return path
+    if path.is_dir() or path.is_symlink():
+        raise OutputError(f"--out {out} is a folder or a link; name a file")
+    if not overwrite:
+        raise OutputError(f"--out {out} exists; pass --overwrite to replace it")
+    return path
 
 
 def temp_for(path: Path, is_dir: bool) -> Path:
     """A fresh temporary file or folder next to ``path`` (same file system, so the rename is atomic)."""
-    path = Path(path)
+    path = _abs(path)
+    if not path.name:
+        raise OutputError(f"{path}: not a usable output path")
     path.parent.mkdir(parents=True, exist_ok=True)
     # tempfile creates private (0600/0700) entries; outputs get the usual permissions (umask applies).
     mask = _umask()
@@ -35,21 +124,90 @@ def _umask() -> int:
     return mask
 
 
-def commit(tmp: Path, path: Path) -> None:
-    """Move a finished temporary output into place, replacing an old file or folder."""
-    path = Path(path)
-    if path.is_dir() and not path.is_symlink():
-        old = path.with_name(f".{path.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        path.rename(old)
-        tmp.rename(path)
-        shutil.rmtree(old, ignore_errors=True)
+def _files(root: Path) -> list[str]:
+    """Every file and link under ``root``, relative, without following links."""
+    found = []
+    for top, dirs, files in os.walk(root):
+        rel = Path(top).relative_to(root)
+        found += [str(rel / f) for f in files]
+        found += [str(rel / d) for d in dirs if (Path(top) / d).is_symlink()]
+    return sorted(os.path.normpath(f) for f in found)
+
+
+def _made(folder: Path) -> set[str]:
+    """The files d2sr made in an existing output folder (its manifest); refuses a folder it did not make."""
+    if not any(folder.iterdir()):
+        return set()
+    try:
+        listed = json.loads((folder / MANIFEST).read_text())["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise OutputError(
+            f"{folder} holds files d2sr did not make (no valid {MANIFEST}); not replaced"
+        ) from None
+    return {os.path.normpath(f) for f in listed if isinstance(f, str)}
+
+
+def record_manifest(folder: Path, files: Iterable[str] | None = None) -> None:
+    """Write ``folder``'s manifest. ``files=None``: everything in it (a fresh temporary folder, all
+    d2sr's); else the files named, added to those the manifest already lists (a folder written in place,
+    where a user may have put files of their own)."""
+    from d2sr import __version__
+
+    if files is None:
+        listed = {f for f in _files(folder) if f != MANIFEST}
     else:
+        listed = (_made(folder) if (folder / MANIFEST).is_file() else set()) | {
+            os.path.normpath(f) for f in files
+        }
+    text = json.dumps(
+        {"made_by": f"d2sr {__version__}", "command": sys.argv[1:], "files": sorted(listed)}, indent=1
+    )
+    (folder / MANIFEST).write_text(text + "\n")
+
+
+def _prune(root: Path) -> None:
+    """Remove the folders under ``root`` (and ``root``) that are empty, deepest first."""
+    for top, _dirs, _files in sorted(os.walk(root), key=lambda t: -len(t[0])):
+        with contextlib.suppress(OSError):
+            Path(top).rmdir()
+
+
+def commit(tmp: Path, path: Path) -> None:
+    """Move a finished temporary output into place. A file replaces a file; a folder replaces only what
+    d2sr made in an old folder of that name, and keeps everything else in it."""
+    path = _abs(path)
+    if not tmp.is_dir():
+        if path.is_dir():
+            raise OutputError(f"{path} is a folder; not replaced by a file")
         tmp.replace(path)
+        return
+    if not path.exists() and not path.is_symlink():
+        record_manifest(tmp)
+        tmp.rename(path)
+        return
+    if not path.is_dir() or path.is_symlink():
+        raise OutputError(f"{path} exists and is not a folder; not replaced")
+    made = _made(path)
+    keep = [f for f in _files(path) if f not in made and f != MANIFEST]
+    clash = [f for f in keep if (tmp / f).exists() or (tmp / f).is_symlink()]
+    if clash:
+        raise OutputError(f"{path / clash[0]} is not d2sr's and the new output has a file of that name")
+    record_manifest(tmp)
+    old = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".old", dir=path.parent))
+    old.rmdir()
+    path.rename(old)
+    tmp.rename(path)
+    for f in keep:  # the user's files go back where they were
+        (path / f).parent.mkdir(parents=True, exist_ok=True)
+        (old / f).rename(path / f)
+    for f in [*made, MANIFEST]:
+        if (old / f).is_file() or (old / f).is_symlink():
+            (old / f).unlink()
+    _prune(old)
 
 
 def discard(tmp: Path) -> None:
-    if tmp.is_dir():
+    if tmp.is_dir() and not tmp.is_symlink():
         shutil.rmtree(tmp, ignore_errors=True)
     else:
         tmp.unlink(missing_ok=True)
@@ -72,7 +230,7 @@ def atomic_file(path: Path) -> contextlib.AbstractContextManager[Path]:
 
 
 def atomic_dir(path: Path) -> contextlib.AbstractContextManager[Path]:
-    """Yield a fresh temporary folder; on success it becomes ``path`` (replacing an old one)."""
+    """Yield a fresh temporary folder; on success it becomes ``path`` (see ``commit``)."""
     return _atomic(path, is_dir=True)
 
 

@@ -13,12 +13,12 @@ import typer
 from rich.table import Table
 
 from d2sr import __version__, cli_data, cli_models, cli_run, cli_train
-from d2sr.atomic import atomic_write
-from d2sr.cli_common import int_list, split_list
+from d2sr.atomic import atomic_write, check_out
+from d2sr.cli_common import Overwrite, int_list, out_dir, split_list
 from d2sr.config import load_toml
 from d2sr.errors import ConfigError, D2SRError
 from d2sr.sim.timing import TimingConfig
-from d2sr.ui import console, progress_bar
+from d2sr.ui import console, flush_warnings, progress_bar
 
 app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
 desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
@@ -66,6 +66,7 @@ def _compare(
     config: TimingConfig,
     seed: int,
     json_out: Path | None = None,
+    overwrite: bool = False,
 ) -> None:
     """Run each controller on the same rooms; print a table, write timelines and the ratio over time."""
     from d2sr.desync import DEFAULT_CONTROLLER
@@ -74,6 +75,9 @@ def _compare(
 
     if sensors < 1 or rooms < 2:
         raise ConfigError("need --sensors >= 1 and --rooms >= 2")
+    check_out(out, is_dir=True, overwrite=overwrite)
+    if json_out:
+        check_out(json_out, is_dir=False, overwrite=overwrite)
     where = "a robot among fixed sensors" if scenario == "moving" else "one room"
     table = Table(
         title=f"{sensors} sensors in {where}, {fps} of {config.total_frames} frames per second, "
@@ -89,7 +93,7 @@ def _compare(
         table.add_column(col, justify="left" if col == "controller" else "right")
     series, rows, written = {}, [], []
     base = None
-    with progress_bar() as bar:
+    with out_dir(out, overwrite) as tmp, progress_bar() as bar:
         task = bar.add_task("simulating", total=len(controllers))
         for name in controllers:
             cell = Cell(scenario, fps, sensors, name, replicas=rooms, duration_s=seconds, seed=seed)
@@ -118,16 +122,17 @@ def _compare(
             written.append(
                 save(
                     sensor_timeline(run.frames, config.total_frames, shown, min(run.periods, 30), title),
-                    out / f"timeline_{name}.png",
+                    tmp / f"timeline_{name}.png",
                 )
             )
             bar.advance(task)
-    written.append(
-        save(
-            ratio_over_time(series, DEFAULT_CONTROLLER, f"mean over {rooms} rooms"),
-            out / "ratio_over_time.png",
+        written.append(
+            save(
+                ratio_over_time(series, DEFAULT_CONTROLLER, f"mean over {rooms} rooms"),
+                tmp / "ratio_over_time.png",
+            )
         )
-    )
+    written = [out / p.name for p in written]
     console.print(table)
     if scenario == "moving":
         console.print("Moving robot: the ratios count the robot's frames only (as in the paper).")
@@ -145,6 +150,7 @@ def demo(
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 20.0,
     backend: Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")] = "auto",
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
 ) -> None:
     """The closed loop: 3 simulated L515s in one room under static, d2sr and the default controller, with
     the shipped models; a table, and a report with plots."""
@@ -153,6 +159,7 @@ def demo(
 
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
+    check_out(out, is_dir=True, overwrite=overwrite)
     net = open_backend("unet8", backend)
     t = time.perf_counter()
     with progress_bar() as bar:
@@ -193,6 +200,7 @@ def desync_run(
     setup: Annotated[int | None, typer.Option(help="Laser start-up slots before a window.")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Also write the results as JSON.")] = None,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
 ) -> None:
     """Compare controllers on one scenario with your own settings (flags override --config)."""
     from d2sr.desync import CONTROLLERS
@@ -213,7 +221,8 @@ def desync_run(
         "setup": setup,
     }
     values = {**base, **{k: v for k, v in flags.items() if v is not None}, "active_frames": fps}
-    _compare(out, scenario, sensors, fps, seconds, rooms, names, TimingConfig.make(**values), seed, json_out)
+    timing = TimingConfig.make(**values)
+    _compare(out, scenario, sensors, fps, seconds, rooms, names, timing, seed, json_out, overwrite)
 
 
 @desync_app.command("sweep")
@@ -230,6 +239,7 @@ def desync_sweep(
     profiles: Annotated[str, typer.Option(help="Noise profiles: default,harsh.")] = "default,harsh",
     jobs: Annotated[int, typer.Option(help="Worker processes (0 = all cores).")] = 0,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
 ) -> None:
     """Interference ratio against frame rate and N for every controller (paper Fig. 9 and ours)."""
     from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
@@ -241,6 +251,7 @@ def desync_sweep(
     fps_l, n_l = int_list(fps, "fps"), int_list(sensors, "sensors")
     if replicas < 2 or duration <= 0 or any(f < 1 or f > 30 for f in fps_l) or any(n < 1 for n in n_l):
         raise ConfigError("need replicas >= 2, duration > 0, fps in 1..30 and sensors >= 1")
+    check_out(out, is_dir=True, overwrite=overwrite)
     grid = ev.cells(scen, fps_l, n_l, ctrl, ["default"], replicas, duration, seed)
     if "harsh" in prof:  # robustness: only the default and Algorithm 1 are rerun
         grid += ev.cells(
@@ -259,16 +270,18 @@ def desync_sweep(
     order = {c: i for i, c in enumerate(ctrl)}
     results.sort(key=lambda r: (r.profile, r.scenario, r.fps, r.sensors, order.get(r.controller, 99)))
     command = ("d2sr desync sweep " + " ".join(sys.argv[3:])).strip()
-    _report(results, out, command)
+    _report(results, out, command, overwrite)
 
 
 @desync_app.command("report")
 def desync_report(
     folder: Annotated[Path, typer.Argument(help="A sweep's output folder (holds sweep.json).")],
 ) -> None:
-    """Rebuild a sweep's summary, README.md and plots from its sweep.json (no simulation)."""
+    """Rebuild a sweep's summary, README.md and plots from its sweep.json (no simulation), in place:
+    only the files the sweep wrote are replaced."""
     from d2sr.eval import desync as ev
 
+    check_out(folder, is_dir=True, overwrite=True)
     path = folder / "sweep.json"
     if not path.is_file():
         raise ConfigError(f"{path}: no such file (run d2sr desync sweep --out {folder} first)")
@@ -277,28 +290,28 @@ def desync_report(
         raise ConfigError(f"{path}: no results in it")
     old = folder / "summary.json"
     command = json.loads(old.read_text()).get("command", "") if old.is_file() else ""
-    _report(results, folder, command or "d2sr desync sweep")
+    _report(results, folder, command or "d2sr desync sweep", overwrite=True)  # rebuilds its own output
 
 
-def _report(results: list, out: Path, command: str) -> None:
+def _report(results: list, out: Path, command: str, overwrite: bool) -> None:
     """Write CSV, JSON, summary with the bar checks, README.md and plots of sweep results."""
     from d2sr.desync import DEFAULT_CONTROLLER
     from d2sr.eval import desync as ev
     from d2sr.eval import plots
 
-    out.mkdir(parents=True, exist_ok=True)
-    ev.write_csv(results, out / "sweep.csv")
     checks = ev.check_bars(results, DEFAULT_CONTROLLER)
     head = ev.headline(results, DEFAULT_CONTROLLER)
     failed = [c for c in checks if not c["ok"]]
     summary = {"command": command, "headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed}
-    atomic_write(out / "sweep.json", ev.to_json(results))
-    atomic_write(out / "summary.json", json.dumps(summary, indent=1, default=float))
-    atomic_write(out / "README.md", ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
-    for p in dict.fromkeys(r.profile for r in results):
-        plots.save(plots.fig9(results, DEFAULT_CONTROLLER, p), out / f"fig9_{p}.png")
-        plots.save(plots.paired(results, DEFAULT_CONTROLLER, p), out / f"paired_{p}.png")
-    plots.save(plots.convergence_cdf(results, DEFAULT_CONTROLLER), out / "convergence.png")
+    with out_dir(out, overwrite) as tmp:
+        ev.write_csv(results, tmp / "sweep.csv")
+        (tmp / "sweep.json").write_text(ev.to_json(results))
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=1, default=float))
+        (tmp / "README.md").write_text(ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
+        for p in dict.fromkeys(r.profile for r in results):
+            plots.save(plots.fig9(results, DEFAULT_CONTROLLER, p), tmp / f"fig9_{p}.png")
+            plots.save(plots.paired(results, DEFAULT_CONTROLLER, p), tmp / f"paired_{p}.png")
+        plots.save(plots.convergence_cdf(results, DEFAULT_CONTROLLER), tmp / "convergence.png")
     console.print(
         f"{len(results)} cells; bars: {len(checks) - len(failed)}/{len(checks)} pass; "
         "headline (N=2, 15 fps, reduction vs static): " + ", ".join(f"{k} {v:.1%}" for k, v in head.items())
@@ -318,6 +331,7 @@ def bench(
     sensors: Annotated[int, typer.Option(help="Sensors in the timing-world benchmark.")] = 1000,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 600.0,
     repeats: Annotated[int, typer.Option(help="Repeats (median reported).")] = 3,
+    overwrite: Overwrite = False,
 ) -> None:
     """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
     runtime pipeline at 640x480 and 320x240; the timing world at warehouse scale; writing simulated
@@ -327,6 +341,8 @@ def bench(
     names = split_list(what, "benchmark", ("timing", "simulate", "models", "pipeline"))
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
+    if json_out is not None:
+        check_out(json_out, is_dir=False, overwrite=overwrite)
     results = {}
     with progress_bar() as bar:
         if "timing" in names:
@@ -371,6 +387,7 @@ def main() -> None:
     try:
         app()
     except D2SRError as exc:
+        flush_warnings(show=False)
         print(f"d2sr: error: {exc}", file=sys.stderr)
         raise SystemExit(2) from None
     except ModuleNotFoundError as exc:
@@ -378,8 +395,11 @@ def main() -> None:
         if top not in EXTRAS:
             raise
         extra = EXTRAS[top]
+        flush_warnings(show=False)
         print(
             f"d2sr: error: this command needs {top}, not installed: pip install 'd2sr[{extra}]'",
             file=sys.stderr,
         )
         raise SystemExit(2) from None
+    finally:
+        flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited

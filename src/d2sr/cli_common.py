@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import threading
 from collections.abc import Iterable, Iterator
@@ -11,13 +12,17 @@ from typing import Annotated, TypeVar
 import numpy as np
 import typer
 
+from d2sr.atomic import atomic_dir, check_out
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame, check_depth, open_frames, to_metres
-from d2sr.frames.base import check_plausible
+from d2sr.frames import Frame, Reader, check_depth, open_frames, to_metres
+from d2sr.frames.base import KNOWN_SCALES, PLAUSIBLE_M, probe
+from d2sr.ui import console, warn
 
 __all__ = [
     "BackendOpt",
     "Cache",
+    "MaxRange",
+    "Overwrite",
     "Real",
     "Scale",
     "Topic",
@@ -26,6 +31,7 @@ __all__ = [
     "checked_frames",
     "int_list",
     "open_input",
+    "out_dir",
     "prefetch",
     "split_list",
 ]
@@ -45,8 +51,28 @@ MaskLogit = Annotated[
         "more clean ones). Default: the model's own, chosen on validation frames."
     ),
 ]
+Overwrite = Annotated[
+    bool,
+    typer.Option(
+        "--overwrite",
+        help="Replace what d2sr wrote at --out before; files d2sr did not make there are kept.",
+    ),
+]
+MaxRange = Annotated[
+    float,
+    typer.Option(help="Farthest median scene depth (m) the scale check accepts; raise it for large halls."),
+]
 T = TypeVar("T")
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
+
+
+@contextlib.contextmanager
+def out_dir(out: Path, overwrite: bool, inputs: Iterable[Path | None] = ()) -> Iterator[Path]:
+    """A temporary folder that becomes ``out`` when the block succeeds (``d2sr.atomic``'s policy: the
+    input and files d2sr did not make are never replaced)."""
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs)
+    with atomic_dir(out) as tmp:
+        yield tmp
 
 
 def split_list(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
@@ -68,19 +94,43 @@ def int_list(value: str, what: str) -> list[int]:
 
 
 def open_input(
-    path: Path, topic: str | None, scale: float | None, what: str, default: float | None = None
-) -> tuple[object, float]:
+    path: Path,
+    topic: str | None,
+    scale: float | None,
+    what: str,
+    default: float | None = None,
+    max_range: float = PLAUSIBLE_M[1],
+) -> tuple[Reader, float]:
     """A non-empty recording and its depth scale: ``scale`` if given, else what the recording says, else
-    ``default`` (None: the user must say)."""
+    ``default`` (None: the user must say). Frames sampled through it are checked before any work (values,
+    size, a scale that makes indoor sense); the scale used and where it came from are printed."""
     reader = open_frames(path, topic=topic)
-    use = scale if scale is not None else (reader.depth_scale or default)
+    notes = []  # warnings wait until every check passed: an error stays the only line
+    if scale is not None:
+        use, source = scale, "--depth-scale"
+        if reader.depth_scale and abs(reader.depth_scale - scale) > 1e-6 * scale:
+            notes.append(f"it says its depth scale is {reader.depth_scale:g}; using --depth-scale {scale:g}")
+    elif reader.depth_scale:
+        use, source = reader.depth_scale, "from the recording"
+    else:
+        use, source = default, f"default: {KNOWN_SCALES.get(default or 0, 'given')}"
     if use is None:
         raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
     if not (np.isfinite(use) and use > 0):
         raise InputError(f"--depth-scale must be a positive number, got {use}")
+    if not (np.isfinite(max_range) and max_range > PLAUSIBLE_M[0]):
+        raise InputError(f"--max-range must be a number of metres above {PLAUSIBLE_M[0]}, got {max_range}")
     if len(reader) == 0:
         raise InputError(f"{path}: the {what} sequence is empty")
+    for w in notes + probe(reader.sample(SAMPLED), float(use), max_range):
+        warn(f"{path}: {w}")
+    console.print(
+        f"{path}: {len(reader)} frames, depth scale {use:g} units per metre ({source})", soft_wrap=True
+    )
     return reader, float(use)
+
+
+SAMPLED = 12  # frames checked before a recording is processed
 
 
 def _metres(f: Frame, scale: float) -> np.ndarray:
@@ -88,15 +138,21 @@ def _metres(f: Frame, scale: float) -> np.ndarray:
 
 
 def checked(reader: Iterable[Frame], scale: float) -> Iterator[Frame]:
-    """Checked frames (values; the first frame's scale, ``check_plausible``), for callers that convert
-    to metres themselves or never do."""
-    first = True
+    """Frames whose values pass ``check_depth`` (the scale was checked by ``open_input``); frames with no
+    valid depth are counted and named in one warning at the end."""
+    empty: list[str] = []
+    count = 0
     for f in reader:
         check_depth(f.depth, f"frame {f.name}")
-        if first:
-            check_plausible(f.name, _metres(f, scale), scale)
-            first = False
+        count += 1
+        if not f.depth.any():
+            empty.append(f.name)
         yield f
+    if empty:
+        warn(
+            f"{len(empty)} of {count} frames have no valid depth (e.g. {empty[0]}); "
+            "they pass through as they are"
+        )
 
 
 def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:

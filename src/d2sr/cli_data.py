@@ -11,8 +11,8 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from d2sr.atomic import atomic_dir, atomic_write
-from d2sr.cli_common import checked, open_input
+from d2sr.atomic import atomic_dir, check_out
+from d2sr.cli_common import Overwrite, checked, open_input, out_dir
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame
 from d2sr.ui import console, progress_bar
@@ -54,6 +54,7 @@ def simulate(
     ] = "png",
     seed: Annotated[int, typer.Option(help="Random seed (room, poses, noise, interference).")] = 0,
     workers: Annotated[int, typer.Option(help="Worker processes (0: one per core, at most 2).")] = 0,
+    overwrite: Overwrite = False,
 ) -> None:
     """Write recordings of a simulated multi-sensor room: per sensor depth/, clean/ and masks/ PNG folders
     with meta.json (timestamps, interfered frames), and scene.json."""
@@ -69,6 +70,7 @@ def simulate(
     if sensors < 1 or sensors > 63 or seconds <= 0 or not 1 <= fps <= 30 or workers < 0:
         raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= fps <= 30 and workers >= 0")
     w, h = _resolution(resolution)
+    check_out(out, is_dir=True, overwrite=overwrite)
     from d2sr.sim.scene import L515_INTRINSICS
 
     rig = make_rig(seed, sensors, moving_robot, people, L515_INTRINSICS.scaled(w, h))
@@ -80,16 +82,16 @@ def simulate(
             bar.update(task, completed=done, total=total)
 
         summary = record(
-            rig, out, seconds, fps, controller, seed, model, workers=workers or None, progress=tick
-        )
-        if fmt == "ros2":
-            _to_bags(out, sensors)
+            rig, out, seconds, fps, controller, seed, model, workers=workers or None, progress=tick,
+            finish=(lambda tmp: _to_bags(tmp, sensors)) if fmt == "ros2" else None,
+        )  # fmt: skip
     n, bad = summary["frames"], summary["interfered_frames"]
     console.print(f"Wrote {n} frames ({bad} interfered) of {sensors} sensors to {out}")
 
 
 def _to_bags(out: Path, sensors: int) -> None:
-    """Replace each sensor's depth/ PNG folder by a ROS 2 bag depth_ros2/ (millimetres, 16UC1)."""
+    """Replace each sensor's depth/ PNG folder by a ROS 2 bag depth_ros2/ (millimetres, 16UC1), in the
+    temporary output before it is moved into place."""
     import shutil
 
     from d2sr.frames import open_frames, open_writer
@@ -128,6 +130,7 @@ def label(
     method: Annotated[str, typer.Option(help="stats (ours, default) or paper (Section V-C.1).")] = "stats",
     topic: Topic = None,
     memory_mb: Annotated[float, typer.Option(help="Memory for the clean sequence's statistics.")] = 64.0,
+    overwrite: Overwrite = False,
 ) -> None:
     """Ground truth from recordings: interference masks and depth for each interfered frame."""
     from d2sr.frames.png import encode_png, write_meta
@@ -135,6 +138,7 @@ def label(
 
     if memory_mb <= 0:
         raise ConfigError("--memory-mb must be positive")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[clean, interfered])
     creader, scale = open_input(clean, topic, depth_scale, "clean")
     ireader, _ = open_input(interfered, topic, scale, "interfered")
     cshape, ishape = creader.shape, ireader.shape  # type: ignore[attr-defined]
@@ -197,6 +201,7 @@ def calibrate(
     skip: Annotated[int, typer.Option(help="Frames to skip at the start of each recording.")] = 45,
     rooms: Annotated[int, typer.Option(help="Simulated rooms per evaluation.")] = 8,
     frames: Annotated[int, typer.Option(help="Frames per simulated room.")] = 24,
+    overwrite: Overwrite = False,
 ) -> None:
     """Fit the sensor model to real captures; plot real vs simulated statistics (bar: within 20%)."""
     from d2sr.eval.plots import calibration as plot
@@ -204,6 +209,7 @@ def calibrate(
     from d2sr.sim.calibrate import calibrate as fit
     from d2sr.sim.calibrate import sequence_stats, simulated_stats
 
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=real)
     real_stats = {}
     for path in real:
         reader, scale = open_input(path, None, depth_scale, "clean")
@@ -249,8 +255,9 @@ def calibrate(
         "model": model.model_dump(),
         "checks": checks,
     }
-    atomic_write(out / "calibration.json", json.dumps(result, indent=1) + "\n")
-    save(plot(real_stats, sim), out / "calibration.png")
+    with atomic_dir(out) as tmp:
+        (tmp / "calibration.json").write_text(json.dumps(result, indent=1) + "\n")
+        save(plot(real_stats, sim), tmp / "calibration.png")
     t = Table("statistic", "real", "simulated", "ratio", "within 20%")
     for key in STATS:
         c = checks[key]
@@ -280,11 +287,13 @@ def _nanmean(a: np.ndarray) -> np.ndarray:
 def gallery(
     out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("docs/results/sim/gallery.png"),
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
 ) -> None:
     """A gallery of simulated frames: each interference kind, clean / interfered / true mask."""
     from d2sr.eval.plots import save
     from d2sr.eval.sim_gallery import gallery_figure
 
+    check_out(out, is_dir=False, overwrite=overwrite)
     save(gallery_figure(seed), out)
     console.print(f"Wrote {out}")
 
@@ -295,6 +304,7 @@ def eval_labels(
         Path | None, typer.Option(help="Folder holding the L515 captures dev0/ and dev1/.")
     ] = None,
     sims: Annotated[int, typer.Option(help="Simulated static rooms.")] = 4,
+    overwrite: Overwrite = False,
 ) -> None:
     """Mask F1 of the labelling methods on simulated static sequences and on real captures with simulated
     interference (per threshold for the paper's method)."""
@@ -305,6 +315,7 @@ def eval_labels(
         raise ConfigError("--sims must be >= 0")
     if real is not None and not real.is_dir():
         raise InputError(f"{real}: not a folder")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     with progress_bar() as bar:
         task = bar.add_task("cases", total=sims + (2 if real else 0))
         results = run_all(real, sims, progress=lambda _: bar.advance(task))
@@ -313,6 +324,7 @@ def eval_labels(
         t.add_row(case, *(f"{v['f1']:.3f}" for v in row.values()))
     console.print(t)
     cmd = f"d2sr eval labels --out {out}" + (f" --real {real}" if real else "") + f" --sims {sims}"
-    atomic_write(out / "labels.json", json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
-    save(label_f1(results), out / "labels.png")
+    with out_dir(out, overwrite, [real]) as tmp:
+        (tmp / "labels.json").write_text(json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
+        save(label_f1(results), tmp / "labels.png")
     console.print(f"Wrote {out}/labels.json and labels.png")

@@ -12,10 +12,12 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from d2sr.atomic import atomic_dir, atomic_write
+from d2sr.atomic import atomic_dir, atomic_write, check_out
 from d2sr.cli_common import (
     BackendOpt,
     MaskLogit,
+    MaxRange,
+    Overwrite,
     Scale,
     Topic,
     Weights,
@@ -25,6 +27,7 @@ from d2sr.cli_common import (
     prefetch,
 )
 from d2sr.errors import InputError
+from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.png import encode_png, write_meta
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.ui import progress_bar
@@ -53,6 +56,8 @@ def detect(
     topic: Topic = None,
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
+    max_range: MaxRange = PLAUSIBLE_M[1],
+    overwrite: Overwrite = False,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered)."""
     from d2sr.runtime.backends import open_backend
@@ -60,7 +65,8 @@ def detect(
 
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
-    reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
+    check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(None, backend, weights)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -90,6 +96,8 @@ def recover(
     topic: Topic = None,
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
+    max_range: MaxRange = PLAUSIBLE_M[1],
+    overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
     Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed."""
@@ -101,7 +109,8 @@ def recover(
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(MODEL_CHOICES)}")
     if not 0 < threshold < 1:
         raise InputError(f"--threshold must be in (0, 1), got {threshold}")
-    reader, scale = open_input(input, topic, depth_scale, "input", default=1000.0)
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(model, backend, weights, mask_logit=mask_logit)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
     loop = SensorLoop(

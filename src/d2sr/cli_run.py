@@ -9,14 +9,26 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from d2sr.cli_common import BackendOpt, MaskLogit, Scale, Topic, Weights, checked, open_input
+from d2sr.atomic import check_out
+from d2sr.cli_common import (
+    BackendOpt,
+    MaskLogit,
+    MaxRange,
+    Overwrite,
+    Scale,
+    Topic,
+    Weights,
+    checked,
+    open_input,
+)
 from d2sr.cli_models import MODEL_CHOICES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
+from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.runtime.loop import REPAIR
-from d2sr.ui import console, progress_bar
+from d2sr.ui import NA, console, progress_bar
 
 __all__ = ["run", "stats_table"]
 
@@ -46,6 +58,8 @@ def run(
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
     int8: Annotated[bool, typer.Option("--int8", help="int8 models (d2sr export --int8).")] = False,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    max_range: MaxRange = PLAUSIBLE_M[1],
+    overwrite: Overwrite = False,
 ) -> None:
     """Detect every frame, de-synchronize (closed loop where a trigger exists), repair, write it all.
 
@@ -68,6 +82,8 @@ def run(
         raise ConfigError(f"--active-frames must be in 1..30, got {active_frames}")
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
+    is_recording = source != "sim" and not source.startswith("realsense")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[Path(source)] if is_recording else [])
     net = open_backend(
         model if repair != "none" else None,
         backend,
@@ -94,7 +110,7 @@ def run(
             path = Path(source)
             if not path.exists():
                 raise InputError(f"{source}: no such recording (or use 'sim' / 'realsense')")
-            reader, scale = open_input(path, topic, depth_scale, "input", default=1000.0)
+            reader, scale = open_input(path, topic, depth_scale, "input", 1000.0, max_range)
             frames = _Checked(reader, scale)
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
@@ -138,5 +154,5 @@ def stats_table(summary: dict, title: str) -> Table:
         t.add_column(COLUMNS[c], justify="right")
     rows = [(str(i), s) for i, s in enumerate(summary["sensors"])] if len(summary["sensors"]) > 1 else []
     for name, s in [*rows, ("all", summary["all"])]:
-        t.add_row(name, *("" if s.get(c) is None else str(s[c]) for c in cols))
+        t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
     return t

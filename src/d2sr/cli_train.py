@@ -9,7 +9,8 @@ from typing import Annotated
 
 import typer
 
-from d2sr.cli_common import Cache, Real, Weights, split_list
+from d2sr.atomic import check_out
+from d2sr.cli_common import Cache, Overwrite, Real, Weights, out_dir, split_list
 from d2sr.errors import ConfigError
 from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.ui import console
@@ -26,6 +27,7 @@ def train(
     seed: Annotated[int | None, typer.Option(help="Seed (overrides the config).")] = None,
     synthetic: Annotated[int | None, typer.Option(help="Generated frames (overrides the config).")] = None,
     minutes: Annotated[float | None, typer.Option(help="Stop after this many minutes (0: none).")] = None,
+    overwrite: Overwrite = False,
 ) -> None:
     """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes)."""
     from d2sr.config import read_toml
@@ -47,6 +49,8 @@ def train(
         if v is not None:
             values[key] = v
     cfg = TrainConfig.make(**values)
+    inputs = [p for f in cfg.folders for p in (f.input, f.target)]
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs, resume=True)
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     summary = run(cfg, out, command)
     console.print(
@@ -64,6 +68,7 @@ def export(
     int8: Annotated[
         bool, typer.Option("--int8", help="Also write <model>.int8.onnx (static int8, onnxruntime).")
     ] = False,
+    overwrite: Overwrite = False,
 ) -> None:
     """Export models to ONNX (dynamic batch, height, width) after a parity check against torch."""
     from d2sr.export import export as run
@@ -72,8 +77,12 @@ def export(
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
         raise ConfigError("no weights to export")
-    for w in files:
-        target = (out or w.parent) / (w.stem + ".onnx")
+    targets = [(out or w.parent) / (w.stem + ".onnx") for w in files]
+    for t in targets:
+        check_out(t, is_dir=False, overwrite=overwrite, inputs=files)
+        if int8:
+            check_out(t.with_suffix(".int8.onnx"), is_dir=False, overwrite=overwrite)
+    for w, target in zip(files, targets, strict=True):
         r = run(w, target)
         console.print(f"{w.name} -> {target} (max |onnx - torch| = {r['max_abs_diff']:.1e})")
         if int8:
@@ -102,6 +111,7 @@ def eval_detector(
     cache: Cache = CACHE,
     threshold: Annotated[float, typer.Option(help="Operating threshold.")] = THRESHOLD,
     card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
+    overwrite: Overwrite = False,
 ) -> None:
     """Detector precision/recall on the generated test set and on real L515 frames with simulated
     interference; PR curves."""
@@ -109,7 +119,6 @@ def eval_detector(
 
     import numpy as np
 
-    from d2sr.atomic import atomic_write
     from d2sr.eval.model_plots import pr_curves
     from d2sr.eval.models import detector_metrics, generated_set, l515_set
     from d2sr.eval.plots import save
@@ -117,6 +126,7 @@ def eval_detector(
     from d2sr.models.weights import write_card
     from d2sr.ui import progress_bar
 
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     wdir = weights
     sets = [generated_set(cache)] + ([l515_set(real)] if (real / "dev0").is_dir() else [])
     results: dict[str, dict] = {}
@@ -146,10 +156,10 @@ def eval_detector(
                         if k.startswith(name + "/")
                     },
                 )
-    out.mkdir(parents=True, exist_ok=True)
-    save(pr_curves(results), out / "pr.png")
     slim = {k: {m: v for m, v in r.items() if m != "pr_curve"} for k, r in results.items()}
-    atomic_write(out / "detector.json", json.dumps(results, indent=1) + "\n")
+    with out_dir(out, overwrite, [real]) as tmp:
+        save(pr_curves(results), tmp / "pr.png")
+        (tmp / "detector.json").write_text(json.dumps(results, indent=1) + "\n")
     for k, r in slim.items():
         extra = f", people {r['false_alarm_rate_people']:.3f}" if "false_alarm_rate_people" in r else ""
         console.print(
@@ -170,13 +180,13 @@ def eval_recovery(
     cache: Cache = CACHE,
     limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
     card: Annotated[bool, typer.Option(help="Write the metrics into the model cards.")] = True,
+    overwrite: Overwrite = False,
 ) -> None:
     """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery."""
     import json
 
     import numpy as np
 
-    from d2sr.atomic import atomic_write
     from d2sr.eval.model_plots import error_cdf, gallery, operating_curves
     from d2sr.eval.models import generated_set, l515_set, moving_set, operating_curve, recovery_metrics
     from d2sr.eval.plots import save
@@ -185,6 +195,7 @@ def eval_recovery(
     from d2sr.runtime.backends import to_depth_units
     from d2sr.ui import progress_bar
 
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     wdir = weights
     nets = {
         name: TorchBackend(None, wdir / f"{name}.safetensors")
@@ -213,54 +224,54 @@ def eval_recovery(
         logit, pred = nets[first].raw(x[None], None if prev is None else prev[None])
         return logit[0], pred[0]
 
-    out.mkdir(parents=True, exist_ok=True)
-    with progress_bar() as bar:
-        for ts in sets:
-            fns = {k: repair_fn(v, ts.scale) for k, v in nets.items()}
-            n = int(ts.labels.sum()) if not limit else min(limit, int(ts.labels.sum()))
-            task = bar.add_task(f"recovery on {ts.name}", total=n)
-            rows, errors = recovery_metrics(ts, fns, first, n, lambda task=task: bar.advance(task))  # type: ignore[misc]
-            tables[ts.name] = rows
-            curves[ts.name] = operating_curve(ts, raw, logits, n)
-            keep = [
-                "identity",
-                *fns,
-                *(f"{b} (predicted mask)" for b in ("median", "nearest", "ip-basic", "inpaint")),
+    with out_dir(out, overwrite, [real]) as tmp:
+        with progress_bar() as bar:
+            for ts in sets:
+                fns = {k: repair_fn(v, ts.scale) for k, v in nets.items()}
+                n = int(ts.labels.sum()) if not limit else min(limit, int(ts.labels.sum()))
+                task = bar.add_task(f"recovery on {ts.name}", total=n)
+                rows, errors = recovery_metrics(ts, fns, first, n, lambda task=task: bar.advance(task))  # type: ignore[misc]
+                tables[ts.name] = rows
+                curves[ts.name] = operating_curve(ts, raw, logits, n)
+                keep = [
+                    "identity",
+                    *fns,
+                    *(f"{b} (predicted mask)" for b in ("median", "nearest", "ip-basic", "inpaint")),
+                ]
+                save(
+                    error_cdf({k: errors[k] for k in keep if k in errors}, f"Per-pixel error, {ts.name}"),
+                    tmp / f"error_cdf_{ts.name}.png",
+                )
+                idx = [i for i in np.flatnonzero(ts.labels)][:: max(1, int(ts.labels.sum()) // 4)][:4]
+                rows_g = []
+                for i in idx:
+                    x = ts.metres(i)
+                    y = ts.clean[i].astype(np.float32) / np.float32(ts.scale)
+                    o, m = fns[first](x, ts.previous(int(i)))
+                    rows_g.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
+                save(gallery(rows_g), tmp / f"gallery_{ts.name}.png")
+        save(operating_curves(curves, nets[first].mask_logit, first), tmp / "operating_curve.png")
+        (tmp / "recovery.json").write_text(
+            json.dumps(tables | {"operating_curve": {first: curves}}, indent=1) + "\n"
+        )
+        lines = []
+        for set_name, rows in tables.items():
+            lines += [
+                f"### {set_name}",
+                "",
+                "| method | RMSE (cm) | vs identity | mask precision | mask recall | mask F1 "
+                "| clean px changed >1 cm |",
+                "|---|---|---|---|---|---|---|",
             ]
-            save(
-                error_cdf({k: errors[k] for k in keep if k in errors}, f"Per-pixel error, {ts.name}"),
-                out / f"error_cdf_{ts.name}.png",
-            )
-            idx = [i for i in np.flatnonzero(ts.labels)][:: max(1, int(ts.labels.sum()) // 4)][:4]
-            rows_g = []
-            for i in idx:
-                x = ts.metres(i)
-                y = ts.clean[i].astype(np.float32) / np.float32(ts.scale)
-                o, m = fns[first](x, ts.previous(int(i)))
-                rows_g.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
-            save(gallery(rows_g), out / f"gallery_{ts.name}.png")
-    save(operating_curves(curves, nets[first].mask_logit, first), out / "operating_curve.png")
-    atomic_write(
-        out / "recovery.json", json.dumps(tables | {"operating_curve": {first: curves}}, indent=1) + "\n"
-    )
-    lines = []
-    for set_name, rows in tables.items():
-        lines += [
-            f"### {set_name}",
-            "",
-            "| method | RMSE (cm) | vs identity | mask precision | mask recall | mask F1 "
-            "| clean px changed >1 cm |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for k, r in rows.items():
-            lines.append(
-                f"| {k} | {r['rmse_cm']:.2f} | {100 * r['rmse_vs_identity']:+.1f}% "
-                f"| {r['mask_precision']:.3f} | "
-                f"{r['mask_recall']:.3f} | {r['mask_f1']:.3f} | {100 * r['clean_changed']:.2f}% |"
-            )
-        lines.append("")
-    lines += [f"Mask threshold trade-off of {first}: [operating_curve.png](operating_curve.png)", ""]
-    atomic_write(out / "table.md", "\n".join(lines))
+            for k, r in rows.items():
+                lines.append(
+                    f"| {k} | {r['rmse_cm']:.2f} | {100 * r['rmse_vs_identity']:+.1f}% "
+                    f"| {r['mask_precision']:.3f} | "
+                    f"{r['mask_recall']:.3f} | {r['mask_f1']:.3f} | {100 * r['clean_changed']:.2f}% |"
+                )
+            lines.append("")
+        lines += [f"Mask threshold trade-off of {first}: [operating_curve.png](operating_curve.png)", ""]
+        (tmp / "table.md").write_text("\n".join(lines))
     console.print("\n".join(lines))
     if card:
         for name in nets:
@@ -287,24 +298,25 @@ def eval_paper(
     cache: Cache = CACHE,
     rooms: Annotated[int, typer.Option(help="Rooms per Fig. 9 cell.")] = 4,
     limit: Annotated[int, typer.Option(help="Interfered frames per recovery test set.")] = 60,
+    overwrite: Overwrite = False,
 ) -> None:
     """The paper's evaluation in one report: Fig. 3, Fig. 9, detector P/R/F1, Tables I-II, Fig. 10, Table
     III (latency here), side by side with the paper's numbers."""
     import json
 
-    from d2sr.atomic import atomic_dir
     from d2sr.bench import bench_models
     from d2sr.eval import paper
 
     if rooms < 2 or limit < 1:
         raise ConfigError("need --rooms >= 2 and --limit >= 1")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     command = f"d2sr eval paper --out {out} --rooms {rooms} --limit {limit}"
 
     def step(name: str, fn: object) -> object:
         with console.status(name):
             return fn()  # type: ignore[operator]
 
-    with atomic_dir(out) as tmp:
+    with out_dir(out, overwrite, [real]) as tmp:
         res = paper.run_all(tmp, step, rooms)
         eval_detector(out=tmp / "detector", weights=weights, real=real, cache=cache, card=False)
         eval_recovery(out=tmp / "recovery", weights=weights, real=real, cache=cache, limit=limit, card=False)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "D2SRError", "InputError"]
+__all__ = ["ConfigError", "D2SRError", "InputError", "OutputError"]
 
 
 class D2SRError(Exception):
@@ -15,3 +15,7 @@ class ConfigError(D2SRError, ValueError):
 
 class InputError(D2SRError, ValueError):
     """An input (file, array, sequence) is unusable."""
+
+
+class OutputError(D2SRError):
+    """An output path would destroy something d2sr did not make, or cannot be written."""

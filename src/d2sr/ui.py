@@ -1,17 +1,51 @@
-"""Console and progress bars shared by the CLI commands (rich)."""
+"""Console, warnings and progress bars shared by the CLI commands (rich)."""
 
 from __future__ import annotations
+
+import sys
+from types import TracebackType
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-__all__ = ["console", "progress_bar"]
+__all__ = ["NA", "console", "flush_warnings", "progress_bar", "warn"]
 
 console = Console()
+NA = "n/a"  # where a figure does not apply (no ground truth, no timestamp)
+
+
+_pending: list[str] = []
+
+
+def warn(message: str) -> None:
+    """One line on stderr for what may be a mistake but is not an error. It waits until the work starts
+    (a progress bar opens) or the command ends well: a command that fails prints its error alone."""
+    _pending.append(f"d2sr: warning: {message}")
+
+
+def flush_warnings(show: bool = True) -> None:
+    """Print (or, after an error, drop) the warnings waiting."""
+    if show:
+        for line in _pending:
+            print(line, file=sys.stderr)
+    _pending.clear()
+
+
+class _Progress(Progress):
+    """A progress bar that leaves nothing behind when the block fails: the error stays the only line."""
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if kind is not None:
+            self.live.transient = True
+            self.disable = True
+        super().__exit__(kind, exc, tb)
 
 
 def progress_bar() -> Progress:
-    return Progress(
+    flush_warnings()
+    return _Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),

@@ -24,8 +24,11 @@ __all__ = [
     "Intrinsics",
     "Reader",
     "Writer",
+    "better_scale",
     "check_depth",
     "check_plausible",
+    "looks_like_intensity",
+    "probe",
     "to_metres",
 ]
 
@@ -88,18 +91,115 @@ def to_metres(depth: np.ndarray, depth_scale: float) -> np.ndarray:
     return depth.astype(np.float32) / np.float32(depth_scale)
 
 
-PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres
+PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres (the upper end: --max-range)
+#: Units per metre depth sensors store, and what they are called.
+KNOWN_SCALES = {
+    1000.0: "millimetres",
+    4000.0: "raw L515 (0.25 mm)",
+    5000.0: "TUM (0.2 mm)",
+    10000.0: "0.1 mm",
+}
+TYPICAL_M = 2.5  # median depth of a typical indoor frame, metres
+MARGIN = 2.5  # how much closer to typical another scale must bring the median before we say so
+INTENSITY_GRADIENT = 0.02  # median relative step between neighbours: depth < 0.002, IR images ~ 0.05
+MAX_PIXELS = 4096 * 4096  # about 1.6 GB of working memory; larger frames are refused
+TRAINED_PIXELS = (
+    64 * 64,
+    1280 * 960,
+)  # frame sizes far outside these are far from the models' training (640x480)
 
 
-def check_plausible(name: str, metres: np.ndarray, scale: float) -> None:
+def _median_m(depth: np.ndarray, scale: float) -> float | None:
+    m = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
+    valid = m[m > 0]
+    return float(np.median(valid)) if valid.size >= max(1, depth.size // 1000) else None
+
+
+def check_plausible(name: str, metres: np.ndarray, scale: float, max_range: float = PLAUSIBLE_M[1]) -> None:
     """A frame's median depth must be plausible indoors: a wrong --depth-scale shows there."""
-    valid = metres[metres > 0]
-    med = float(np.median(valid)) if valid.size else 0.0
-    if valid.size and not PLAUSIBLE_M[0] <= med <= PLAUSIBLE_M[1]:
+    med = _median_m(metres, 1.0)
+    if med is not None and not PLAUSIBLE_M[0] <= med <= max_range:
         raise InputError(
             f"frame {name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
-            "is the scale right? (units per metre: 1000 for mm, 4000 for raw L515)"
+            f"is the scale right? ({_scales_hint(med, scale)}; a scene beyond {max_range:g} m: --max-range)"
         )
+
+
+def better_scale(med: float, scale: float) -> float | None:
+    """A known sensor scale under which the median depth ``med`` (metres at ``scale``) is much more like an
+    indoor scene (log distance to TYPICAL_M by a factor of MARGIN or more), or None."""
+
+    def off(m: float) -> float:
+        return abs(np.log(m / TYPICAL_M))
+
+    best = min((s for s in KNOWN_SCALES if s != scale), key=lambda s: off(med * scale / s))
+    return best if off(med) - off(med * scale / best) >= np.log(MARGIN) else None
+
+
+def _scales_hint(med: float, scale: float) -> str:
+    alt = better_scale(med, scale)
+    if alt is not None:
+        return f"at {alt:g}, {KNOWN_SCALES[alt]}, it would be {med * scale / alt:.2f} m"
+    return "units per metre: 1000 for mm, 4000 for raw L515"
+
+
+def looks_like_intensity(depth: np.ndarray) -> bool:
+    """Depth is piecewise smooth (neighbours within a fraction of a percent); an infrared or amplitude
+    image is textured (neighbours several percent apart)."""
+    a = depth.astype(np.float32)
+    left, right = a[:, :-1], a[:, 1:]
+    ok = (left > 0) & (right > 0)
+    if ok.sum() < 100:
+        return False
+    step = np.abs(right[ok] - left[ok]) / np.maximum(right[ok], left[ok])
+    return float(np.median(step)) > INTENSITY_GRADIENT
+
+
+def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) -> list[str]:
+    """Check frames sampled through a recording before it is processed: values, size, and a depth scale
+    that makes indoor sense over all of them (an InputError when far off). Returns warnings (one line
+    each) for what may be a mistake: a scale that fits another sensor better, frames with no valid depth,
+    frames that look like an intensity image, sizes far from the models' training."""
+    warnings, meds, empty, textured = [], [], [], []
+    for f in frames:
+        check_depth(f.depth, f"frame {f.name}")
+        if f.depth.size > MAX_PIXELS:
+            h, w = f.depth.shape
+            raise InputError(f"frame {f.name} is {w}x{h}; d2sr takes frames up to {MAX_PIXELS // 10**6} MP")
+        med = _median_m(f.depth, scale)
+        if med is None:
+            empty.append(f.name)
+            continue
+        meds.append(med)
+        if looks_like_intensity(f.depth):
+            textured.append(f.name)
+    if meds:
+        med = float(np.median(meds))
+        if not PLAUSIBLE_M[0] <= med <= max_range:
+            raise InputError(
+                f"median depth {med:.2f} m at --depth-scale {scale:g} over {len(meds)} sampled frames; is "
+                f"the scale right? ({_scales_hint(med, scale)}; a scene beyond {max_range:g} m: --max-range)"
+            )
+        uint16 = any(f.depth.dtype == np.uint16 for f in frames)
+        if uint16 and better_scale(med, scale) is not None:
+            warnings.append(f"median depth {med:.2f} m at depth scale {scale:g}; {_scales_hint(med, scale)}: "
+                            "pass --depth-scale if that is your sensor's unit")  # fmt: skip
+    if empty:
+        warnings.append(f"{len(empty)} of {len(frames)} sampled frames have no valid depth (e.g. {empty[0]})")
+    if textured:
+        warnings.append(
+            f"{len(textured)} of {len(frames)} sampled frames look like an intensity (IR) image, not depth "
+            f"(e.g. {textured[0]}); is this the depth stream?"
+        )
+    if frames:
+        h, w = frames[0].depth.shape
+        if not TRAINED_PIXELS[0] <= h * w <= TRAINED_PIXELS[1]:
+            mb = h * w * 100 / 2**20
+            warnings.append(
+                f"frames are {w}x{h}; the models were trained on 640x480 frames and their crops "
+                f"(results may be poor; about {mb:.0f} MB of working memory)"
+            )
+    return warnings
 
 
 def check_scale(depth_scale: float | None, where: str) -> float | None:
@@ -137,6 +237,15 @@ class Reader(ABC):
     def shape(self) -> tuple[int, int] | None:
         """(height, width) when known without decoding every frame."""
         return None
+
+    def sample(self, k: int) -> list[Frame]:
+        """Up to ``k`` frames spread through the recording (a stream that cannot seek: its first ``k``)."""
+        got: list[Frame] = []
+        for f in self:
+            got.append(f)
+            if len(got) >= k:
+                break
+        return got
 
     def close(self) -> None:  # noqa: B027 - most readers hold nothing open between frames
         """Release files; readers that hold none do nothing."""

@@ -55,9 +55,17 @@ class NpzReader(Reader):
         return self.depth.shape[1:]  # type: ignore[return-value]
 
     def __iter__(self) -> Iterator[Frame]:
-        for i, d in enumerate(self.depth):
-            s = int(self.stamps[i])
-            yield Frame(self.names[i], check_depth(d, f"{self.path}: frame {i}"), None if s < 0 else s)
+        for i in range(len(self.depth)):
+            yield self._frame(i)
+
+    def _frame(self, i: int) -> Frame:
+        s = int(self.stamps[i])
+        return Frame(
+            self.names[i], check_depth(self.depth[i], f"{self.path}: frame {i}"), None if s < 0 else s
+        )
+
+    def sample(self, k: int) -> list[Frame]:
+        return [self._frame(int(i)) for i in np.unique(np.linspace(0, len(self) - 1, k).round())]
 
 
 class NpzWriter(Writer):

@@ -117,6 +117,9 @@ class PngReader(Reader):
         for i in range(len(self.files)):
             yield self.read(i)
 
+    def sample(self, k: int) -> list[Frame]:
+        return [self.read(int(i)) for i in np.unique(np.linspace(0, len(self) - 1, k).round())]
+
 
 class PngWriter(Writer):
     """``<name>.png`` per frame and ``meta.json``; the folder appears when the writer closes."""

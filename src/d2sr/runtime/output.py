@@ -24,6 +24,7 @@ from d2sr.atomic import commit
 from d2sr.errors import D2SRError
 from d2sr.frames.png import encode_png
 from d2sr.runtime.loop import Result
+from d2sr.ui import NA
 
 __all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink"]
 
@@ -133,15 +134,15 @@ class RunFolder:
             [
                 sensor,
                 name,
-                "" if cap.frame.timestamp_ns is None else f"{cap.frame.timestamp_ns / 1e9:.6f}",
+                NA if cap.frame.timestamp_ns is None else f"{cap.frame.timestamp_ns / 1e9:.6f}",
                 res.period,
-                "" if cap.slot is None else cap.slot,
+                NA if cap.slot is None else cap.slot,
                 res.offset,
                 f"{res.score:.6f}",
                 int(res.flagged),
                 f"{res.mask.mean():.5f}",
-                "" if truth is None else int(truth),
-                "" if cap.mask is None else f"{cap.mask.mean():.5f}",
+                NA if truth is None else int(truth),
+                NA if cap.mask is None else f"{cap.mask.mean():.5f}",
                 f"{res.seconds * 1000:.2f}",
             ]
         )

@@ -16,7 +16,7 @@ import torch.distributed as tdist
 import torch.nn.functional as F
 from torch import nn
 
-from d2sr.atomic import atomic_file, atomic_write
+from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.models.registry import build, describe
 from d2sr.models.weights import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
@@ -114,6 +114,8 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         if world > 1 and rank == 0:
             tdist.barrier()
         out.mkdir(parents=True, exist_ok=True)  # only once the data opened: bad input leaves nothing
+        if rank == 0:  # the run folder is d2sr's: a later run may resume it, --overwrite replace it
+            record_manifest(out, [CHECKPOINT])
         if cfg.init is not None:
             counts = warm_start(model, cfg.init)
             if rank == 0:
@@ -201,6 +203,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 training=summary | {"config": cfg.model_dump(mode="json")},
                 date=dt.date.today().isoformat(),
             )
+            record_manifest(out, [weights.name, f"{cfg.model}.card.json", f"{cfg.model}.md", "loss.json"])
         return summary
 
 

@@ -1,0 +1,162 @@
+"""The output policy (``d2sr.atomic``): no command deletes or overwrites a file it did not make, writes
+over its input, or takes the current folder as its output. Every writing command is run in-process
+against an existing folder holding a user file, against ``--out`` = its input, and against ``--out .``;
+each must end in one line and exit 2 with every file byte for byte as it was."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from d2sr.atomic import MANIFEST, atomic_dir, check_out, commit, record_manifest, temp_for
+from d2sr.errors import OutputError
+from test_corpus import _good, _run
+
+
+def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
+    w = ["--weights", str(weights)]
+    s = str(src)
+    return {
+        "detect": ["detect", s, "--out", out, *w],
+        "recover": ["recover", s, "--out", out, *w],
+        "run": ["run", s, "--out", out, *w],
+        "label": ["label", "--clean", s, "--interfered", s, "--out", out, "--depth-scale", "1000"],
+        "calibrate": ["calibrate", "--real", s, "--out", out, "--depth-scale", "1000"],
+        "simulate": ["simulate", "--out", out, "--seconds", "1"],
+        "train": ["train", "detector", "--out", out, "--steps", "1", "--synthetic", "2"],
+        "eval labels": ["eval", "labels", "--out", out, "--sims", "0"],
+        "eval detector": ["eval", "detector", "--out", out, *w],
+        "eval recovery": ["eval", "recovery", "--out", out, *w],
+        "eval paper": ["eval", "paper", "--out", out, *w],
+        "gallery": ["gallery", "--out", out],
+        "desync run": ["desync", "run", "--out", out],
+        "desync sweep": ["desync", "sweep", "--out", out],
+        "desync report": ["desync", "report", out],
+        "bench": ["bench", "--json", out],
+        "demo": ["demo", "--out", out],
+        "export": ["export", str(weights / "unet8.safetensors"), "--out", out],
+    }
+
+
+READS_INPUT = ("detect", "recover", "run", "label", "calibrate")
+COMMANDS = list(_args(Path("x"), "o", Path("w")))
+
+
+def _snapshot(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def _refused(args: list[str], root: Path) -> str:
+    before = _snapshot(root)
+    code, err = _run(args)
+    lines = err.strip().splitlines()
+    assert code == 2, err
+    assert len(lines) == 1 and lines[0].startswith("d2sr: error:"), err
+    assert _snapshot(root) == before  # byte for byte, and nothing new
+    return lines[0]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_an_existing_output_with_a_user_file_is_refused(tmp_path, weights, command):
+    src = _good(tmp_path / "in")
+    out = tmp_path / "out"
+    out.mkdir()
+    # export writes <model>.onnx into --out: the user's file has that name
+    (out / ("unet8.onnx" if command == "export" else "notes.txt")).write_bytes(b"my notes\n")
+    line = _refused(_args(src, str(out), weights)[command], tmp_path)
+    assert "--overwrite" in line or "not made" in line or "folder" in line or "exists" in line
+
+
+@pytest.mark.parametrize("command", READS_INPUT)
+def test_out_equal_to_inside_or_around_the_input_is_refused(tmp_path, weights, command):
+    src = _good(tmp_path / "data" / "in")
+    (src / "notes.txt").write_text("beside the frames\n")
+    for out in (src, src / "sub", src.parent):
+        assert "input" in _refused(_args(src, str(out), weights)[command], tmp_path)
+
+
+@pytest.mark.parametrize("command", [c for c in COMMANDS if c != "export"])
+def test_out_dot_is_refused(tmp_path, weights, command, monkeypatch):
+    src = _good(tmp_path / "in")
+    (tmp_path / "notes.txt").write_text("mine\n")
+    monkeypatch.chdir(tmp_path)
+    assert "current folder" in _refused(_args(src, ".", weights)[command], tmp_path)
+
+
+def test_overwrite_replaces_only_what_d2sr_wrote(tmp_path, weights):
+    src = _good(tmp_path / "in")
+    out = tmp_path / "out"
+    assert _run(["recover", str(src), "--out", str(out), "--all", "--weights", str(weights)])[0] == 0
+    made = json.loads((out / MANIFEST).read_text())["files"]
+    assert "f000.png" in made and "masks/f000.png" in made
+    (out / "notes.txt").write_text("mine\n")
+    (out / "masks" / "mine.txt").write_text("also mine\n")
+    assert _run(["recover", str(src), "--out", str(out), "--weights", str(weights)])[0] == 2  # no --overwrite
+    code, err = _run(["recover", str(src), "--out", str(out), "--overwrite", "--weights", str(weights)])
+    assert code == 0, err
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert (out / "masks" / "mine.txt").read_text() == "also mine\n"
+    assert "notes.txt" not in json.loads((out / MANIFEST).read_text())["files"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no leftovers beside it
+
+
+def test_commit_keeps_user_files_and_refuses_a_folder_it_did_not_make(tmp_path):
+    out = tmp_path / "out"
+    with atomic_dir(out) as tmp:
+        (tmp / "a.txt").write_text("v1")
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "b.txt").write_text("v1")
+    (out / "user.txt").write_text("user")
+    with atomic_dir(out) as tmp:
+        (tmp / "a.txt").write_text("v2")  # sub/b.txt is no longer made: it goes
+    assert (out / "a.txt").read_text() == "v2" and (out / "user.txt").read_text() == "user"
+    assert not (out / "sub").exists()
+    with pytest.raises(OutputError, match="not d2sr's"), atomic_dir(out) as tmp:
+        (tmp / "user.txt").write_text("clash")
+    assert (out / "user.txt").read_text() == "user"
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "x").write_text("x")
+    tmp = temp_for(theirs, is_dir=True)
+    with pytest.raises(OutputError, match="did not make"):
+        commit(tmp, theirs)
+    assert (theirs / "x").read_text() == "x"
+
+
+def test_check_out_rules(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "f.csv").write_text("x")
+    with pytest.raises(OutputError, match="current folder"):
+        check_out(Path("."), is_dir=True)
+    with pytest.raises(OutputError, match="current folder"):
+        check_out(Path(".."), is_dir=True, overwrite=True)
+    with pytest.raises(OutputError, match="--overwrite"):
+        check_out(Path("f.csv"), is_dir=False)
+    assert check_out(Path("f.csv"), is_dir=False, overwrite=True) == tmp_path / "f.csv"
+    (tmp_path / "d").mkdir()
+    with pytest.raises(OutputError, match="name a file"):
+        check_out(Path("d"), is_dir=False, overwrite=True)
+    with pytest.raises(OutputError, match="is a file"):
+        check_out(Path("f.csv/x"), is_dir=True)
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "checkpoint.pt").write_bytes(b"\0")
+    record_manifest(run, ["checkpoint.pt"])
+    (run / "notes.txt").write_text("mine")
+    assert check_out(run, is_dir=True, resume=True) == run  # a run folder of d2sr's resumes
+    record_manifest(run, ["loss.json"])
+    listed = json.loads((run / MANIFEST).read_text())["files"]
+    assert listed == ["checkpoint.pt", "loss.json"]  # the user's notes are never claimed
+
+
+def test_outputs_get_ordinary_permissions(tmp_path):
+    with atomic_dir(tmp_path / "o") as tmp:
+        (tmp / "a").write_text("a")
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert (tmp_path / "o").stat().st_mode & 0o777 == 0o777 & ~mask
+    assert np.all([(tmp_path / "o" / "a").is_file()])
