@@ -26,6 +26,7 @@ edge-check:
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
 	$(BIN)/ruff format --check src tests bench
+	$(BIN)/mypy
 
 # Long jobs: their results are committed under docs/results/.
 sweep: $(STAMP)
@@ -68,10 +69,10 @@ weights: $(STAMP)
 	$(BIN)/d2sr export --overwrite
 
 # Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);
-# they also go into the model cards.
+# --card also writes them into the shipped models' cards.
 eval-models: $(STAMP)
-	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector --overwrite
-	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60 --overwrite
+	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector --overwrite --card
+	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60 --overwrite --card
 
 # The paper's evaluation side by side with its numbers, one report (docs/results/paper/report.md).
 eval-paper: $(STAMP)

@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.bench import write_result
+from d2sr.contract import WEIGHTS, to_depth_units
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
+from d2sr.inference import open_backend
 from d2sr.quantize import int8_path, quantize
-from d2sr.runtime.backends import WEIGHTS, open_backend, to_depth_units
 
 
 def ms(fn: object, repeats: int = 20) -> float:

@@ -20,7 +20,7 @@ from pathlib import Path
 from d2sr.bench import write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.frames import Frame
-from d2sr.runtime.backends import open_backend
+from d2sr.inference import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.sources import RoomTrigger
 from d2sr.runtime.stats import RunStats

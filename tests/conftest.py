@@ -13,7 +13,7 @@ def weights(tmp_path_factory) -> Path:
     """Random-weight models in a folder laid out like the shipped one (safetensors + onnx)."""
     from d2sr.export import export
     from d2sr.models import build
-    from d2sr.models.weights import save_model
+    from d2sr.models.store import save_model
 
     root = tmp_path_factory.mktemp("weights")
     torch.manual_seed(0)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import torch
 
+from d2sr.contract import DETECTOR_NAMES, RECOVERY_NAMES
 from d2sr.errors import InputError
 from d2sr.models import MODELS, build, check_input_size
-from d2sr.models.registry import DETECTOR_NAMES, RECOVERY_NAMES
+from d2sr.models.store import load_model, save_model, warm_start
 from d2sr.models.unet import push_pull
-from d2sr.models.weights import load_model, save_model, warm_start
 
 
 def _depth(n=2, h=96, w=128, seed=0) -> torch.Tensor:
@@ -133,6 +133,7 @@ def test_every_recovery_model_has_the_paper_composition():
     # Recovery names cover ours and the paper's reference layouts; both share one class and the heads.
     assert {"unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32"} <= set(RECOVERY_NAMES)
     assert {"unet8-temporal", "unet8-direct"} <= set(RECOVERY_NAMES)
+    assert tuple(MODELS) == DETECTOR_NAMES + RECOVERY_NAMES  # the torch registry and the torch-free contract
     assert build("paper-unet8").s2d == 1 and build("unet8").s2d == 4
     assert build("unet8").fill and not build("paper-unet8").fill and not build("unet8-direct").fill
 

@@ -17,8 +17,9 @@ CORES = [
     "atomic.py",
     "runtime",
     "baselines.py",
-    "cli_models.py",
-    "cli_run.py",
+    "contract.py",
+    "inference.py",
+    "cli",
     "eval/demo.py",
 ]
 
@@ -65,7 +66,7 @@ def test_edge_inference_runs_without_torch(tmp_path):
 
     from d2sr.export import export
     from d2sr.models import build
-    from d2sr.models.weights import save_model
+    from d2sr.models.store import save_model
 
     torch.manual_seed(0)
     for name in ("detector", "unet8"):
@@ -80,8 +81,8 @@ class Block:
 sys.meta_path.insert(0, Block())
 import numpy as np
 from pathlib import Path
-from d2sr.runtime import open_backend
-from d2sr.runtime.backends import to_depth_units
+from d2sr.inference import open_backend
+from d2sr.contract import to_depth_units
 from d2sr.baselines import BASELINES
 net = open_backend('unet8', 'auto', Path({str(tmp_path)!r}))
 assert net.name == 'onnxruntime'
@@ -95,7 +96,7 @@ from d2sr.runtime.session import run_sim
 summary = run_sim(net, Path({str(tmp_path / "run")!r}), 'damped', sensors=2, seconds=2)
 assert summary['all']['frames'] == 2 * 2 * 6 and 'torch' not in sys.modules
 sys.argv = ['d2sr', '--help']
-import d2sr.cli_models, d2sr.cli_run
+import d2sr.cli, d2sr.cli.stages, d2sr.cli.run
 print('ok')
 """
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)

@@ -13,7 +13,7 @@ from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
-from d2sr.runtime.backends import open_backend
+from d2sr.inference import open_backend
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
 from d2sr.runtime.session import run_recording, run_sim
 from d2sr.sim.overlap import OverlapGraph
@@ -256,7 +256,7 @@ def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
 
     from d2sr.export import export
     from d2sr.models import build
-    from d2sr.models.weights import save_model
+    from d2sr.models.store import save_model
     from d2sr.quantize import int8_path, quantize
 
     torch.manual_seed(0)

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 import torch
 
-from d2sr.models.weights import SHIPPED, load_model
-from d2sr.runtime import open_backend
-from d2sr.runtime.backends import to_depth_units
+from d2sr.contract import WEIGHTS as SHIPPED
+from d2sr.contract import to_depth_units
+from d2sr.inference import open_backend
+from d2sr.models.store import load_model
 from d2sr.train.synth import TEST_SEED, synth_frame, synth_sequence_frame
 
 NAMES = sorted(p.stem for p in SHIPPED.glob("*.safetensors"))

@@ -14,7 +14,7 @@ import torch
 from safetensors.torch import load_file
 
 from d2sr.errors import ConfigError
-from d2sr.models.weights import mask_logit, read_card
+from d2sr.models.store import mask_logit, read_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool, synth_set
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, loss_fn, train

@@ -65,7 +65,7 @@ def ip_basic(depth: np.ndarray, mask: np.ndarray, max_depth: float = 10.0) -> np
     """IP-Basic's fast fill (Ku et al., 2018), as published: invert depth so near wins, dilate with a
     diamond, close, fill small then large holes by dilation, median and Gaussian smoothing; only the
     masked pixels take the result."""
-    d = np.where(_sources(depth, mask), depth, 0).astype(np.float32)
+    d: np.ndarray = np.where(_sources(depth, mask), depth, 0).astype(np.float32)
     valid = d > 0.1
     d[valid] = max_depth - d[valid]
     d = cv2.dilate(d, _DIAMOND)

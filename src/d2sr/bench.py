@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import platform
 import statistics
@@ -110,13 +111,13 @@ def _median_ms(fn: Callable[[], object], repeats: int, warmup: int = 3) -> float
 def _weights_with_onnx(names: list[str], tmp: str) -> Path:
     """The shipped weights folder when it has every model as ONNX and safetensors; otherwise random-weight
     copies in ``tmp`` (speed does not depend on the weights' values)."""
-    from d2sr.runtime.backends import WEIGHTS
+    from d2sr.contract import WEIGHTS
 
     if all((WEIGHTS / f"{n}.onnx").is_file() and (WEIGHTS / f"{n}.safetensors").is_file() for n in names):
         return WEIGHTS
     from d2sr.export import export
     from d2sr.models import build
-    from d2sr.models.weights import save_model
+    from d2sr.models.store import save_model
 
     root = Path(tmp)
     for n in names:
@@ -139,8 +140,9 @@ def bench_models(
 
     import torch
 
+    from d2sr.contract import WEIGHTS, to_depth_units
     from d2sr.models.inference import TorchBackend
-    from d2sr.runtime.backends import WEIGHTS, Backend, OnnxBackend, to_depth_units
+    from d2sr.runtime.backends import Backend, OnnxBackend
     from d2sr.train.synth import synth_frame
 
     torch.set_num_threads(threads)
@@ -153,8 +155,11 @@ def bench_models(
 
         def load(backend: str, detector: str, model: str | None) -> Backend:
             if backend == "onnxruntime":
-                return OnnxBackend(wdir / f"{detector}.onnx", model and wdir / f"{model}.onnx", threads)
-            return TorchBackend(wdir / f"{detector}.safetensors", model and wdir / f"{model}.safetensors")
+                rec = wdir / f"{model}.onnx" if model else None
+                return OnnxBackend(wdir / f"{detector}.onnx", rec, threads)
+            return TorchBackend(
+                wdir / f"{detector}.safetensors", wdir / f"{model}.safetensors" if model else None
+            )
 
         def fps_of(fn: Callable[[], object]) -> float:
             return round(1000 / _median_ms(fn, repeats), 1)
@@ -163,7 +168,7 @@ def bench_models(
             fps = out["fps"][backend] = {}
             for det in ("detector", "paper-detector"):
                 d = load(backend, det, None)
-                fps[det] = fps_of(lambda d=d: d.scores(metres))
+                fps[det] = fps_of(functools.partial(d.scores, metres))
             for m in models:
                 if progress:
                     progress(f"{backend} {m}")
@@ -174,7 +179,7 @@ def bench_models(
                     pred, mask = net.recover(metres)
                     to_depth_units(frame, pred[0], mask[0], 4000.0)
 
-                fps[m] = fps_of(lambda net=net: net.recover(metres))
+                fps[m] = fps_of(functools.partial(net.recover, metres))
                 fps[f"detect+{m}"] = fps_of(both)
         if outside:
             if progress:
@@ -236,7 +241,7 @@ def bench_pipeline(
 
     from d2sr.desync import make_controller
     from d2sr.frames import Frame
-    from d2sr.runtime.backends import open_backend
+    from d2sr.inference import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
     from d2sr.train.synth import TEST_SEED, synth_frame
 

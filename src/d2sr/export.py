@@ -11,10 +11,10 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
+from d2sr.contract import DETECTOR_NAMES
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
-from d2sr.models.registry import DETECTOR_NAMES
-from d2sr.models.weights import load_model, mask_logit
+from d2sr.models.store import load_model, mask_logit
 
 __all__ = ["export", "parity"]
 

@@ -48,7 +48,7 @@ class CleanStats:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.median.shape  # type: ignore[return-value]
+        return self.median.shape
 
 
 def clean_stats(

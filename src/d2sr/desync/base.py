@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -33,7 +34,7 @@ def check_flags(flags: Sequence[bool] | np.ndarray, n: int) -> list[bool]:
     if len(flags) != n:
         raise ConfigError(f"update() needs the {n} detections of the window, got {len(flags)}")
     if isinstance(flags, np.ndarray) and flags.dtype == np.bool_ and flags.ndim == 1:
-        return flags.tolist()  # the timing world's fast path
+        return cast(list[bool], flags.tolist())  # the timing world's fast path
     out = []
     for f in flags:
         if isinstance(f, bool | np.bool_) or (isinstance(f, int | np.integer) and f in (0, 1)):

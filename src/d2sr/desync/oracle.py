@@ -81,7 +81,7 @@ class OracleScheduler:
         target = cached[1][i]  # laser start, seconds on the circle
         # first frame slot: the slot boundary nearest target, plus setup; modulo the period
         g = round((target - self.t0[i]) / self.tau[i])
-        return (g + self.setup) % self.total
+        return int((g + self.setup) % self.total)
 
     # ------------------------------------------------------------------ layouts
     def _layout(self, members: np.ndarray, now: float, current: np.ndarray) -> dict[int, float]:

@@ -8,6 +8,7 @@ flags with the shipped UNet8. The controllers meet the same room, phases and luc
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import time
 from collections.abc import Callable
@@ -26,9 +27,9 @@ from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 
-__all__ = ["CONTROLLERS", "read_log", "run_demo"]
+__all__ = ["DEMO_CONTROLLERS", "read_log", "run_demo"]
 
-CONTROLLERS = ("static", "d2sr", DEFAULT_CONTROLLER)
+DEMO_CONTROLLERS = ("static", "d2sr", DEFAULT_CONTROLLER)
 TOTAL = 30
 
 
@@ -86,17 +87,17 @@ def run_demo(
             examples.append((sensor, res))
 
     with atomic_dir(out) as tmp:
-        for name in CONTROLLERS:
+        for name in DEMO_CONTROLLERS:
             t = time.perf_counter()
             results[name] = run_sim(
                 net, tmp / "runs" / name, name, sensors, seconds, active_frames, seed,
-                progress=(lambda f, name=name: progress(name, f)) if progress else None,
+                progress=functools.partial(progress, name) if progress else None,
                 on_result=keep if name == "static" else None,
             )  # fmt: skip
             results[name]["wall_s"] = round(time.perf_counter() - t, 2)
         plots = []
         series = {}
-        for name in CONTROLLERS:
+        for name in DEMO_CONTROLLERS:
             frames, flagged = read_log(tmp / "runs" / name / "log.csv", sensors, periods)
             title = f"{name}: each sensor's slots over {periods} periods (closed loop, shipped models)"
             plots.append(

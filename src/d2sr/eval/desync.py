@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,7 @@ from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
 
 __all__ = [
-    "CONTROLLERS",
+    "COMPARED",
     "FPS",
     "PROFILES",
     "SENSORS",
@@ -47,7 +48,7 @@ __all__ = [
 FPS = (6, 10, 15, 20, 25, 30)
 SENSORS = (1, 2, 3, 4, 5)
 SCENARIOS = ("stationary", "moving")
-CONTROLLERS = ("static", "d2sr", DEFAULT_CONTROLLER, "oracle")
+COMPARED = ("static", "d2sr", DEFAULT_CONTROLLER, "oracle")  # what the sweep and desync run compare
 #: Noise profiles: the issue's defaults and the robustness check.
 PROFILES: dict[str, dict[str, float]] = {
     "default": {"recall": 0.9, "false_alarm": 0.01, "drift_ppm": 50.0, "drop": 0.0},
@@ -125,7 +126,7 @@ def _graph(cell: Cell) -> OverlapGraph:
 
 def run_cell(cell: Cell, config: TimingConfig | None = None, **overrides: float) -> CellResult:
     """Simulate one cell and summarize it. ``config`` replaces the profile (its fps is the cell's)."""
-    return summarize(cell, *simulate_cell(cell, config, **overrides))[0]
+    return summarize(cell, *simulate_cell(cell, config, False, **overrides))[0]
 
 
 def simulate_cell(
@@ -186,7 +187,7 @@ def cells(
     scenarios: Iterable[str] = SCENARIOS,
     fps: Iterable[int] = FPS,
     sensors: Iterable[int] = SENSORS,
-    controllers: Iterable[str] = CONTROLLERS,
+    controllers: Iterable[str] = COMPARED,
     profiles: Iterable[str] = ("default",),
     replicas: int = 20,
     duration_s: float = 60.0,
@@ -246,7 +247,7 @@ def to_json(results: list[CellResult]) -> str:
 def from_json(text: str) -> list[CellResult]:
     """Results back from ``to_json`` (null read back as inf)."""
 
-    def back(v: object) -> object:
+    def back(v: Any) -> Any:
         if v is None:
             return float("inf")
         if isinstance(v, list):
@@ -399,7 +400,7 @@ def markdown(
             "|---|---|---|---|---|---|---|---|",
         ]
         for f, n in rows:
-            cell = {c: by.get(("default", sc, f, n, c)) for c in CONTROLLERS}
+            cell = {c: by.get(("default", sc, f, n, c)) for c in COMPARED}
             harsh = by.get(("harsh", sc, f, n, default))
             d = cell.get(default)
 

@@ -11,17 +11,19 @@ Two test sets, neither seen in training:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from d2sr.baselines import BASELINES, last_clean
+from d2sr.contract import to_depth_units
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
-from d2sr.runtime.backends import to_depth_units
 
 __all__ = [
     "TestSet",
@@ -74,9 +76,17 @@ def _last_clean(labels: np.ndarray, starts: list[int]) -> np.ndarray:
     return out
 
 
+def _every_other(t: int, skip: int) -> int:
+    """Interferers of frame ``t``: none in the first ``skip`` frames and on every other one; 1 or 2."""
+    return 0 if t < skip or (t - skip) % 2 == 0 else 1 + (t // 2) % 2
+
+
 def l515_set(root: Path, seed: int = 7) -> TestSet:
     """Every other frame of each capture interfered by one or two drifting interferers."""
-    frames, clean, hard, starts = [], [], [], []
+    frames: list[np.ndarray] = []
+    clean: list[np.ndarray] = []
+    hard: list[bool] = []
+    starts: list[int] = []
     scale = 4000.0
     for k, (name, skip) in enumerate((("dev0", PERSON_FRAMES), ("dev1", 0))):
         starts.append(len(frames))
@@ -87,7 +97,7 @@ def l515_set(root: Path, seed: int = 7) -> TestSet:
             seq,
             scale,
             seed + k,
-            lambda t, skip=skip: 0 if t < skip or (t - skip) % 2 == 0 else 1 + (t // 2) % 2,
+            functools.partial(_every_other, skip=skip),
         )
         frames += out
         clean += seq
@@ -138,7 +148,7 @@ def _prf(pred: np.ndarray, true: np.ndarray) -> dict[str, float]:
 def detector_metrics(scores: np.ndarray, ts: TestSet, threshold: float = 0.5) -> dict:
     labels = ts.labels
     pred = scores >= threshold
-    out = _prf(pred, labels) | {"frames": len(labels), "interfered": int(labels.sum())}
+    out: dict[str, Any] = _prf(pred, labels) | {"frames": len(labels), "interfered": int(labels.sum())}
     out["false_alarm_rate"] = float(pred[~labels].mean()) if (~labels).any() else 0.0
     if ts.hard.any():
         out["false_alarm_rate_people"] = float(pred[ts.hard].mean())
@@ -237,12 +247,12 @@ def recovery_metrics(
         fills = dict(BASELINES)
         if temporal:
             before = prev if prev is not None else np.zeros_like(x)
-            fills["last clean"] = lambda d, m, before=before: last_clean(d, m, before)
-        for b, fn in fills.items():
+            fills["last clean"] = functools.partial(last_clean, previous=before)
+        for b, fill in fills.items():
             if baseline_mask_from:
                 m = masks[baseline_mask_from]
-                accs[f"{b} (predicted mask)"].add(fn(x, m), m, x, y, true)
-            accs[f"{b} (true mask)"].add(fn(x, true), true, x, y, true)
+                accs[f"{b} (predicted mask)"].add(fill(x, m), m, x, y, true)
+            accs[f"{b} (true mask)"].add(fill(x, true), true, x, y, true)
         if progress:
             progress()
     rows = {k: {m: round(v, 5) for m, v in a.result().items()} for k, a in accs.items()}

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any, Protocol, TypeVar
 
 import matplotlib
 import numpy as np
@@ -22,10 +23,10 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval import desync as ev
 from d2sr.eval.plots import fig9, save
 
-__all__ = ["PAPER", "fig3", "interference_vs_rate", "markdown"]
+__all__ = ["PAPER", "fig3", "interference_vs_rate", "markdown", "report"]
 
 #: The paper's own numbers (IROS 2024 text), for comparison.
-PAPER = {
+PAPER: dict[str, Any] = {
     "detector": {"precision": 0.98, "recall": 0.82, "f1": 0.89},
     "table1": {"identity": 80.74, "unet8": (0.80, 48.07), "unet16": (0.84, 43.06), "unet32": (0.86, 39.78)},
     "table2_stationary": {
@@ -90,21 +91,23 @@ def interference_vs_rate(rooms: int = 4, seconds: float = 30.0, jobs: int | None
     return ev.sweep(grid, jobs)
 
 
-def run_all(
-    out: Path,
-    steps: Callable[[str, Callable[[], object]], object],
-    rooms: int = 4,
-) -> dict:
+T = TypeVar("T")
+
+
+class Steps(Protocol):
+    """Runs one named part of the report (showing progress) and returns what it returned."""
+
+    def __call__(self, name: str, fn: Callable[[], T]) -> T: ...
+
+
+def run_all(out: Path, steps: Steps, rooms: int = 4) -> dict[str, Any]:
     """Each part in turn (``steps(name, fn)`` runs one with progress); returns everything measured."""
-    res: dict = {}
+    res: dict[str, Any] = {}
     res["fig3"] = steps("Fig. 3: interference against N", fig3)
     save(_fig3_plot(res["fig3"]), out / "fig3.png")
     cells = steps("Fig. 9: interference ratio against frame rate and N", lambda: interference_vs_rate(rooms))
-    save(fig9(cells, DEFAULT_CONTROLLER), out / "fig9.png")  # type: ignore[arg-type]
-    res["fig9"] = {
-        f"{c.scenario}/{c.fps}fps/{c.sensors}/{c.controller}": round(c.whole, 4)
-        for c in cells  # type: ignore[attr-defined]
-    }
+    save(fig9(cells, DEFAULT_CONTROLLER), out / "fig9.png")
+    res["fig9"] = {f"{c.scenario}/{c.fps}fps/{c.sensors}/{c.controller}": round(c.whole, 4) for c in cells}
     return res
 
 
@@ -214,3 +217,39 @@ def latency_ms(bench: dict) -> dict[str, dict[str, float]]:
 
 def dump(path: Path, obj: object) -> None:
     path.write_text(json.dumps(obj, indent=1, default=str) + "\n")
+
+
+def report(
+    folder: Path,
+    weights: Path,
+    real: Path,
+    cache: Path,
+    rooms: int,
+    limit: int,
+    command: str,
+    steps: Steps,
+) -> None:
+    """The whole paper report into ``folder``: report.md, results.json, the figures, and the detector and
+    recovery evaluations in detector/ and recovery/."""
+    from d2sr.bench import bench_models
+    from d2sr.eval.learned import evaluate_detectors, evaluate_recovery, write_detectors
+
+    res = run_all(folder, steps, rooms)
+    detector = steps(
+        "detector", lambda: evaluate_detectors(["detector", "paper-detector"], weights, real, cache, 0.5)
+    )
+    (folder / "detector").mkdir()
+    write_detectors(detector, folder / "detector")
+    (folder / "recovery").mkdir()
+    names = ["unet8", "unet16", "unet32", "unet8-temporal"]
+    recovery = steps(
+        "Tables I-II, Fig. 10: recovery",
+        lambda: evaluate_recovery(names, weights, real, cache, limit, folder / "recovery"),
+    )
+    bench = steps(
+        "Table III: latency", lambda: bench_models(("unet8", "unet16", "unet32"), repeats=20, outside=False)
+    )
+    latency = latency_ms(bench)
+    tables = recovery["tables"] | {"operating_curve": {recovery["first"]: recovery["curves"]}}
+    (folder / "report.md").write_text(markdown(res, detector, tables, latency, command))
+    dump(folder / "results.json", res | {"latency_ms": latency})

@@ -70,9 +70,9 @@ def fig9(results: Sequence[CellResult], default: str, profile: str = "default") 
                     if r.scenario == sc and r.controller == ctrl and r.sensors == n
                 )
                 if pts:
-                    f, y, e = map(np.array, zip(*pts, strict=True))
+                    fs, ys, es = map(np.array, zip(*pts, strict=True))
                     ax.errorbar(
-                        f, y, yerr=e, color=colour, marker="o", ms=3, lw=1.2, capsize=2, label=f"N={n}"
+                        fs, ys, yerr=es, color=colour, marker="o", ms=3, lw=1.2, capsize=2, label=f"N={n}"
                     )
             if ctrl == "d2sr":
                 for (psc, n, f), v in PAPER_POINTS.items():

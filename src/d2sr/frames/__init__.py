@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, to_metres
@@ -40,9 +41,11 @@ class Format:
     writer: str
     takes_topic: bool = False
 
-    def load(self, which: str) -> type:
+    def load(self, which: str) -> type[Any]:
         module, name = getattr(self, which).split(":")
-        return getattr(importlib.import_module(module), name)
+        cls = getattr(importlib.import_module(module), name)
+        assert isinstance(cls, type)
+        return cls
 
 
 FORMATS: dict[str, Format] = {
@@ -88,7 +91,9 @@ def open_frames(path: Path, topic: str | None = None, format: str | None = None)
     if topic is not None and not spec.takes_topic:
         raise InputError(f"{path}: --topic applies to ROS bags, not {fmt} recordings")
     cls = spec.load("reader")
-    return cls(Path(path), topic) if spec.takes_topic else cls(Path(path))
+    reader = cls(Path(path), topic) if spec.takes_topic else cls(Path(path))
+    assert isinstance(reader, Reader)
+    return reader
 
 
 def open_writer(
@@ -97,4 +102,6 @@ def open_writer(
     """A writer; the output appears at ``path`` only when it is closed without error."""
     if format not in FORMATS:
         raise InputError(f"unknown format {format!r}; known: {', '.join(FORMATS)}")
-    return FORMATS[format].load("writer")(Path(path), depth_scale, intrinsics, **options)
+    writer = FORMATS[format].load("writer")(Path(path), depth_scale, intrinsics, **options)
+    assert isinstance(writer, Writer)
+    return writer

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from d2sr.errors import InputError
 __all__ = [
     "PLAUSIBLE_M",
     "Frame",
+    "Frames",
     "Intrinsics",
     "Reader",
     "Writer",
@@ -52,7 +54,7 @@ class Intrinsics:
         return {k: getattr(self, k) for k in ("width", "height", "fx", "fy", "px", "py")}
 
     @classmethod
-    def from_dict(cls, d: dict) -> Intrinsics:
+    def from_dict(cls, d: dict[str, Any]) -> Intrinsics:
         try:
             return cls(int(d["width"]), int(d["height"]), *(float(d[k]) for k in ("fx", "fy", "px", "py")))
         except (KeyError, TypeError, ValueError) as exc:
@@ -66,7 +68,7 @@ class Frame:
     name: str
     depth: np.ndarray
     timestamp_ns: int | None = None
-    meta: dict = field(default_factory=dict, compare=False)
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
 def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
@@ -130,7 +132,7 @@ def better_scale(med: float, scale: float) -> float | None:
     indoor scene (log distance to TYPICAL_M by a factor of MARGIN or more), or None."""
 
     def off(m: float) -> float:
-        return abs(np.log(m / TYPICAL_M))
+        return float(abs(np.log(m / TYPICAL_M)))
 
     best = min((s for s in KNOWN_SCALES if s != scale), key=lambda s: off(med * scale / s))
     return best if off(med) - off(med * scale / best) >= np.log(MARGIN) else None
@@ -217,6 +219,14 @@ def stamp_from_name(name: str) -> int | None:
     return int(m.group(1)) * 1_000_000 if m else None
 
 
+class Frames(Protocol):
+    """Frames in time order whose number is known up front: a ``Reader``, or a wrapper around one."""
+
+    def __iter__(self) -> Iterator[Frame]: ...
+
+    def __len__(self) -> int: ...
+
+
 class Reader(ABC):
     """A recording opened for reading: metadata up front, frames in time order."""
 
@@ -269,7 +279,7 @@ class Writer(ABC):
         self.intrinsics = intrinsics
         self.count = 0
         self.shape: tuple[int, int] | None = None
-        self._tmp = temp_for(self.path, is_dir=self.is_dir)
+        self._tmp: Path | None = temp_for(self.path, is_dir=self.is_dir)
 
     #: Whether the output is a folder (PNG) or a single file (npz, bags).
     is_dir = False
@@ -277,7 +287,7 @@ class Writer(ABC):
     def write(self, frame: Frame) -> None:
         depth = check_depth(frame.depth, f"{self.path}: frame {frame.name}")
         if self.shape is None:
-            self.shape = depth.shape  # type: ignore[assignment]
+            self.shape = depth.shape
         elif depth.shape != self.shape:
             raise InputError(f"{self.path}: frame {frame.name} is {depth.shape}, earlier frames {self.shape}")
         self._write(frame)

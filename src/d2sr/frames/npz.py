@@ -7,6 +7,7 @@ import json
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,7 @@ class NpzReader(Reader):
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.depth.shape[1:]  # type: ignore[return-value]
+        return int(self.depth.shape[1]), int(self.depth.shape[2])
 
     def __iter__(self) -> Iterator[Frame]:
         for i in range(len(self.depth)):
@@ -83,7 +84,7 @@ class NpzWriter(Writer):
     def _finish(self) -> None:
         if not self._frames:
             raise InputError(f"{self.path}: no frames to write")
-        arrays: dict[str, np.ndarray] = {
+        arrays: dict[str, Any] = {
             "depth": np.stack([f.depth for f in self._frames]),
             "names": np.array([f.name for f in self._frames]),
             "timestamps_ns": np.array(
@@ -95,4 +96,4 @@ class NpzWriter(Writer):
             arrays["intrinsics"] = np.array(json.dumps(self.intrinsics.to_dict()))
         assert self._tmp is not None
         with self._tmp.open("wb") as fh:
-            np.savez_compressed(fh, **arrays)  # type: ignore[arg-type]
+            np.savez_compressed(fh, **arrays)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -34,8 +35,7 @@ def decode_png(data: bytes, where: str, dtype: type = np.uint16) -> np.ndarray:
     if img.ndim != 2:
         raise InputError(f"{where}: PNG has {img.shape[2]} channels; depth needs one 16-bit channel")
     if img.dtype != dtype:
-        bits = {np.uint8: 8, np.uint16: 16}.get(img.dtype.type, img.dtype)
-        want = {np.uint8: 8, np.uint16: 16}[dtype]
+        bits, want = img.dtype.itemsize * 8, np.dtype(dtype).itemsize * 8
         raise InputError(f"{where}: {bits}-bit PNG; expected {want}-bit single-channel")
     return img
 
@@ -51,7 +51,7 @@ def encode_png(img: np.ndarray, where: str) -> bytes:
     return buf.tobytes()
 
 
-def read_meta(folder: Path) -> dict:
+def read_meta(folder: Path) -> dict[str, Any]:
     """``meta.json`` (ours) or ``intrinsics.json`` (RealSense tools); {} when neither exists."""
     for name in (META, "intrinsics.json"):
         f = folder / name
@@ -93,8 +93,8 @@ class PngReader(Reader):
     @property
     def shape(self) -> tuple[int, int]:
         if self._shape is None:
-            self._shape = self.read(0).depth.shape  # type: ignore[assignment]
-        return self._shape  # type: ignore[return-value]
+            self._shape = self.read(0).depth.shape
+        return self._shape
 
     def read(self, i: int) -> Frame:
         f = self.files[i]
@@ -108,7 +108,7 @@ class PngReader(Reader):
                 f"{f}: frame is {depth.shape[1]}x{depth.shape[0]}, earlier frames are "
                 f"{self._shape[1]}x{self._shape[0]}"
             )
-        self._shape = depth.shape  # type: ignore[assignment]
+        self._shape = depth.shape
         m = self._frame_meta.get(f.stem, {})
         stamp = m.get("timestamp_ns", stamp_from_name(f.stem))
         return Frame(f.stem, depth, None if stamp is None else int(stamp), m)
@@ -128,7 +128,7 @@ class PngWriter(Writer):
 
     def __init__(self, path: Path, depth_scale: float, intrinsics: Intrinsics | None = None) -> None:
         super().__init__(path, depth_scale, intrinsics)
-        self._frames: list[dict] = []
+        self._frames: list[dict[str, Any]] = []
 
     def _write(self, frame: Frame) -> None:
         if frame.depth.dtype != np.uint16:
@@ -144,7 +144,9 @@ class PngWriter(Writer):
         write_meta(self._tmp, self.depth_scale, self.intrinsics, self._frames)
 
 
-def write_meta(folder: Path, depth_scale: float, intrinsics: Intrinsics | None, frames: list[dict]) -> None:
+def write_meta(
+    folder: Path, depth_scale: float, intrinsics: Intrinsics | None, frames: list[dict[str, Any]]
+) -> None:
     """The ``meta.json`` of a PNG folder: depth scale, intrinsics, per-frame name, timestamp and extras."""
     meta = {
         "depth_scale": depth_scale,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Iterator
 from pathlib import Path
-from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
 __all__ = ["RealSenseReader", "RealSenseWriter", "import_rs"]
 
 
-def import_rs() -> ModuleType:
+def import_rs() -> Any:
     try:
         import pyrealsense2 as rs
     except ImportError as exc:
@@ -45,7 +45,7 @@ class RealSenseReader(Reader):
         self._count: int | None = None
 
     @contextlib.contextmanager
-    def _device(self) -> Iterator[tuple[object, object, object]]:
+    def _device(self) -> Iterator[tuple[Any, Any, Any]]:  # pyrealsense2 objects (untyped)
         rs = self.rs
         try:
             dev = rs.context().load_device(str(self.path))
@@ -64,14 +64,14 @@ class RealSenseReader(Reader):
         rs = self.rs
         with self._device() as (pb, sensor, profile):
             queue = rs.frame_queue(64, True)
-            sensor.open(profile)  # type: ignore[attr-defined]
-            sensor.start(queue)  # type: ignore[attr-defined]
+            sensor.open(profile)
+            sensor.start(queue)
             try:
                 i = 0
                 while True:
                     ok, fr = queue.try_wait_for_frame(200)
                     if not ok:
-                        if pb.current_status() == rs.playback_status.stopped:  # type: ignore[attr-defined]
+                        if pb.current_status() == rs.playback_status.stopped:
                             break
                         continue
                     depth = np.asanyarray(fr.get_data()).copy()
@@ -82,8 +82,8 @@ class RealSenseReader(Reader):
                 self._count = i
             finally:
                 with contextlib.suppress(RuntimeError):
-                    sensor.stop()  # type: ignore[attr-defined]
-                    sensor.close()  # type: ignore[attr-defined]
+                    sensor.stop()
+                    sensor.close()
 
     def __len__(self) -> int:
         if self._count is None:
@@ -106,11 +106,12 @@ class RealSenseWriter(Writer):
         super().__init__(path, depth_scale, intrinsics)
         self.rs = import_rs()
         self.fps = fps
-        self._sensor: object = None
+        self._sensor: Any = None
 
     def _start(self, h: int, w: int) -> None:
         rs = self.rs
-        self._tmp.unlink()  # type: ignore[union-attr] - the recorder creates the file itself
+        assert self._tmp is not None
+        self._tmp.unlink()  # the recorder creates the file itself
         self._dev = rs.software_device()
         sensor = self._dev.add_sensor("Depth")
         ii = self.intrinsics or Intrinsics(w, h, w / 1.4, w / 1.4, w / 2, h / 2)
@@ -142,13 +143,13 @@ class RealSenseWriter(Writer):
         f.timestamp = (frame.timestamp_ns or 0) / 1e6
         f.domain, f.frame_number = rs.timestamp_domain.system_time, self.count
         f.profile = self._profile.as_video_stream_profile()
-        self._sensor.on_video_frame(f)  # type: ignore[attr-defined]
+        self._sensor.on_video_frame(f)
         self._queue.wait_for_frame()
 
     def _stop(self) -> None:
         if self._sensor is not None:
-            self._sensor.stop()  # type: ignore[attr-defined]
-            self._sensor.close()  # type: ignore[attr-defined]
+            self._sensor.stop()
+            self._sensor.close()
             del self._recorder  # the recorder writes its index when released
             self._sensor = None
 

@@ -11,6 +11,7 @@ import contextlib
 import struct
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rosbags.highlevel import AnyReader, AnyReaderError
@@ -65,11 +66,11 @@ def bag_topics(path: Path) -> dict[str, str]:
         reader.close()
 
 
-def decode_image(msg: object, msgtype: str, where: str) -> tuple[np.ndarray, float]:
+def decode_image(msg: Any, msgtype: str, where: str) -> tuple[np.ndarray, float]:
     """(depth array, depth scale) of one Image or CompressedImage message."""
     if msgtype.endswith("CompressedImage"):
-        fmt = str(msg.format)  # type: ignore[attr-defined]
-        raw = bytes(msg.data)  # type: ignore[attr-defined]
+        fmt = str(msg.format)
+        raw = bytes(msg.data)
         if "compressedDepth" not in fmt:
             raise InputError(f"{where}: CompressedImage format {fmt!r} is not compressedDepth")
         if len(raw) < _HEADER.size:
@@ -81,13 +82,13 @@ def decode_image(msg: object, msgtype: str, where: str) -> tuple[np.ndarray, flo
                 depth = np.where(img > 0, qa / (img.astype(np.float32) - qb), 0).astype(np.float32)
             return depth, 1.0
         return img, 1000.0
-    enc = str(msg.encoding)  # type: ignore[attr-defined]
-    h, w, step = int(msg.height), int(msg.width), int(msg.step)  # type: ignore[attr-defined]
-    big = bool(msg.is_bigendian)  # type: ignore[attr-defined]
+    enc = str(msg.encoding)
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    big = bool(msg.is_bigendian)
     dt = {"16UC1": np.uint16, "mono16": np.uint16, "32FC1": np.float32}.get(enc)
     if dt is None:
         raise InputError(f"{where}: image encoding {enc!r} is not depth (16UC1 or 32FC1)")
-    data = np.asarray(msg.data, dtype=np.uint8)  # type: ignore[attr-defined]
+    data = np.asarray(msg.data, dtype=np.uint8)
     item = np.dtype(dt).itemsize
     if step < w * item or data.size < h * step:
         raise InputError(f"{where}: image data ({data.size} bytes) too short for {w}x{h} {enc}")
@@ -140,11 +141,11 @@ class BagReader(Reader):
         self._shape = first.depth.shape
 
     @staticmethod
-    def _camera_info(reader: AnyReader, conns: list) -> Intrinsics | None:
+    def _camera_info(reader: AnyReader, conns: list[Any]) -> Intrinsics | None:
         if not conns:
             return None
         for conn, _, raw in reader.messages(connections=conns):
-            m = reader.deserialize(raw, conn.msgtype)
+            m: Any = reader.deserialize(raw, conn.msgtype)  # a message class rosbags builds at run time
             k = [float(x) for x in (m.k if hasattr(m, "k") else m.K)]
             return Intrinsics(int(m.width), int(m.height), k[0], k[4], k[2], k[5])
         return None
@@ -154,7 +155,7 @@ class BagReader(Reader):
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self._shape  # type: ignore[return-value]
+        return self._shape
 
     def __iter__(self) -> Iterator[Frame]:
         reader = _open(self.path)
@@ -163,19 +164,19 @@ class BagReader(Reader):
             for i, (conn, stamp, raw) in enumerate(reader.messages(connections=conns)):
                 where = f"{self.path}: {self.topic} message {i}"
                 try:
-                    msg = reader.deserialize(raw, conn.msgtype)
+                    msg: Any = reader.deserialize(raw, conn.msgtype)
                 except Exception as exc:  # rosbags raises several types for damaged messages
                     raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
                 depth, scale = decode_image(msg, conn.msgtype, where)
-                st = msg.header.stamp  # type: ignore[attr-defined]
+                st = msg.header.stamp
                 ns = int(st.sec) * 1_000_000_000 + int(getattr(st, "nanosec", getattr(st, "nsec", 0)))
                 yield Frame(f"{i:06d}", depth, ns or int(stamp), {"depth_scale": scale})
         finally:
             reader.close()
 
 
-def _message(ts: object, frame: Frame, compressed: bool, ros1: bool) -> tuple[object, str]:
-    types = ts.types  # type: ignore[attr-defined]
+def _message(ts: Any, frame: Frame, compressed: bool, ros1: bool) -> tuple[Any, str]:
+    types = ts.types
     ns = frame.timestamp_ns or 0
     t = types["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
     hkw = {"seq": 0} if ros1 else {}
@@ -203,10 +204,10 @@ def _message(ts: object, frame: Frame, compressed: bool, ros1: bool) -> tuple[ob
     return msg, "sensor_msgs/msg/Image"
 
 
-def _camera_info(ts: object, header: object, i: Intrinsics, ros1: bool) -> object:
+def _camera_info(ts: Any, header: Any, i: Intrinsics, ros1: bool) -> Any:
     k = [i.fx, 0.0, i.px, 0.0, i.fy, i.py, 0.0, 0.0, 1.0]
     p = [i.fx, 0.0, i.px, 0.0, 0.0, i.fy, i.py, 0.0, 0.0, 0.0, 1.0, 0.0]
-    types = ts.types  # type: ignore[attr-defined]
+    types = ts.types
     roi = types["sensor_msgs/msg/RegionOfInterest"](
         x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
     )
@@ -240,8 +241,8 @@ class _BagWriter(Writer):
         self.topic = topic + ("/compressedDepth" if compressed else "")
         self.compressed = compressed
         self._bag: Writer1 | Writer2 | None = None
-        self._conn: object = None
-        self._info: object = None
+        self._conn: Any = None  # rosbags connections
+        self._info: Any = None
         self.info_topic = topic.rsplit("/", 1)[0] + "/camera_info"
 
     def _open_bag(self) -> None:
@@ -264,10 +265,10 @@ class _BagWriter(Writer):
                 self._info = self._bag.add_connection(self.info_topic, INFO, typestore=ts)
         serialize = ts.serialize_ros1 if self.ros1 else ts.serialize_cdr
         stamp = frame.timestamp_ns or self.count
-        self._bag.write(self._conn, stamp, serialize(msg, msgtype))  # type: ignore[arg-type]
-        if self._info is not None:
-            info = _camera_info(ts, msg.header, self.intrinsics, self.ros1)  # type: ignore[attr-defined, arg-type]
-            self._bag.write(self._info, stamp, serialize(info, INFO))  # type: ignore[arg-type]
+        self._bag.write(self._conn, stamp, serialize(msg, msgtype))
+        if self._info is not None and self.intrinsics is not None:
+            info = _camera_info(ts, msg.header, self.intrinsics, self.ros1)
+            self._bag.write(self._info, stamp, serialize(info, INFO))
 
     def _finish(self) -> None:
         if self._bag is None:
@@ -302,9 +303,9 @@ class Ros2Writer(_BagWriter):
         depth_scale: float,
         intrinsics: Intrinsics | None = None,
         storage: str = "sqlite3",
-        **kw: object,
+        **kw: Any,
     ) -> None:
-        super().__init__(path, depth_scale, intrinsics, **kw)  # type: ignore[arg-type]
+        super().__init__(path, depth_scale, intrinsics, **kw)
         if storage not in ("sqlite3", "mcap"):
             raise InputError(f"ROS 2 storage must be sqlite3 or mcap, got {storage!r}")
         self.storage = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from d2sr.contract import model_input
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
-from d2sr.models.weights import load_model, torch_device
-from d2sr.models.weights import mask_logit as read_mask_logit
-from d2sr.runtime.backends import model_input
+from d2sr.models.store import load_model, torch_device
+from d2sr.models.store import mask_logit as read_mask_logit
 
 __all__ = ["TorchBackend"]
 

@@ -6,12 +6,12 @@ from collections.abc import Callable
 
 from torch import nn
 
+from d2sr.contract import check_size
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector, PaperDetector
 from d2sr.models.unet import UNet
-from d2sr.runtime.backends import check_size
 
-__all__ = ["DETECTOR_NAMES", "MODELS", "RECOVERY_NAMES", "build", "check_input_size", "describe"]
+__all__ = ["MODELS", "build", "check_input_size", "describe"]
 
 MODELS: dict[str, Callable[[], nn.Module]] = {
     "detector": FastDetector,
@@ -28,8 +28,6 @@ MODELS: dict[str, Callable[[], nn.Module]] = {
     "paper-unet16": lambda: UNet(16, s2d=1),
     "paper-unet32": lambda: UNet(32, s2d=1),
 }
-DETECTOR_NAMES = ("detector", "paper-detector")
-RECOVERY_NAMES = tuple(n for n in MODELS if n not in DETECTOR_NAMES)
 
 
 def build(name: str) -> nn.Module:

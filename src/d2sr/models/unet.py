@@ -1,10 +1,11 @@
 """The two-head recovery UNet (paper Fig. 6): one trunk, a mask head and a depth head.
 
 ``UNet(width, s2d)``: four levels with ``width``, 2x, 4x, 8x filters and two 3x3 convolutions per level.
-``s2d=1`` is the paper's layout (the first level at full resolution). Our default, ``s2d=2``, folds each 2x2
-block of pixels into channels before the trunk and unfolds the heads' outputs after it
-(pixel-unshuffle / pixel-shuffle): the full-resolution level is where a plain UNet spends most of its time,
-and the heads still decide every pixel because they also see the input's own pixels.
+``s2d=1`` is the paper's layout (the first level at full resolution). Our registered models use ``s2d=4``
+(the class default is 2), which folds each 4x4 block of pixels into channels before the trunk and unfolds
+the heads' outputs after it (pixel-unshuffle / pixel-shuffle): the full-resolution level is where a plain
+UNet spends most of its time, and the heads still decide every pixel because they also see the input's own
+pixels.
 
 Depth head. The paper's head regresses depth outright (``fill=False``, kept for the paper-* variants). Ours
 (``fill=True``) predicts a correction to a push-pull fill of the pixels the mask head trusts: trained on
@@ -118,8 +119,9 @@ class UNet(nn.Module):
             base = gate * prev + (1 - gate) * base
         return mask_logit, base + depth_out
 
-    def repair(self, depth: torch.Tensor, threshold: float = 0.5) -> tuple[torch.Tensor, torch.Tensor]:
-        """(repaired depth, hard mask): predicted depth inside the mask, the input outside it."""
+    def repair(self, depth: torch.Tensor, mask_logit: float = 0.0) -> tuple[torch.Tensor, torch.Tensor]:
+        """(repaired depth, hard mask): predicted depth where the mask logit exceeds ``mask_logit``, the
+        input elsewhere."""
         logit, pred = self(depth)
-        mask = logit > torch.logit(torch.tensor(threshold))
+        mask = logit > mask_logit
         return torch.where(mask, pred.clamp(min=0), depth[:, :1]), mask

@@ -1,5 +1,6 @@
-"""Running the learned stages on frames: inference backends (onnxruntime without torch, or torch)."""
+"""The closed loop on a sensor's own computer, torch-free: the loop, its sources and sinks, run folders,
+and the onnxruntime backend (``d2sr.inference.open_backend`` opens it, or torch's)."""
 
-from d2sr.runtime.backends import Backend, OnnxBackend, open_backend
+from d2sr.runtime.backends import Backend, OnnxBackend
 
-__all__ = ["Backend", "OnnxBackend", "open_backend"]
+__all__ = ["Backend", "OnnxBackend"]

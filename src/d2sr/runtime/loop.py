@@ -15,24 +15,15 @@ from typing import Protocol
 
 import numpy as np
 
+from d2sr.contract import THRESHOLD, padded, to_depth_units
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
-from d2sr.runtime.backends import THRESHOLD, Backend, to_depth_units
+from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
-PAD = 32  # the largest stride of the shipped models
 
-__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger", "padded"]
-
-
-def padded(metres: np.ndarray) -> np.ndarray:
-    """(N, H, W) metres with a border of "no return" (zeros) at the bottom and right up to the models'
-    stride, so any sensor size works (320x240 as well as 640x480); crop results back to (H, W)."""
-    h, w = metres.shape[-2:]
-    if not (h % PAD or w % PAD):
-        return metres
-    return np.pad(metres, ((0, 0), (0, -h % PAD), (0, -w % PAD)))
+__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
 
 
 @dataclass

@@ -11,18 +11,16 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import shutil
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
+from typing import Any
 
 from d2sr.atomic import commit
 from d2sr.errors import D2SRError
-from d2sr.frames.png import encode_png
+from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
 from d2sr.runtime.loop import Result
 from d2sr.ui import NA
 
@@ -49,11 +47,11 @@ class RunFolder:
     ``run.finish(summary)``. Leaving the block on a D2SRError (bad input) discards the partial run; a kill
     leaves it for the next run to resume."""
 
-    def __init__(self, out: Path, settings: dict, resumable: bool) -> None:
+    def __init__(self, out: Path, settings: dict[str, Any], resumable: bool) -> None:
         self.out = Path(out)
         self.partial = self.out.with_name(f".{self.out.name}.partial")
         self.settings = json.loads(json.dumps(settings, default=str))
-        self.done: dict[tuple[int, str], dict] = {}
+        self.done: dict[tuple[int, str], dict[str, Any]] = {}
         self.resumed = False
         prior = self._read_settings()
         if prior is not None and prior == self.settings and resumable:
@@ -71,6 +69,7 @@ class RunFolder:
             self._log.flush()
         self._pool = ThreadPoolExecutor(1)  # PNG encoding overlaps the next frame's inference
         self._pending: deque[Future[None]] = deque()
+        self._folders: dict[int, FrameFolder] = {}
 
     def __enter__(self) -> RunFolder:
         return self
@@ -80,13 +79,14 @@ class RunFolder:
         if kind is not None and issubclass(kind, D2SRError):
             shutil.rmtree(self.partial, ignore_errors=True)
 
-    def _read_settings(self) -> dict | None:
+    def _read_settings(self) -> dict[str, Any] | None:
         try:
-            return json.loads((self.partial / "settings.json").read_text())
+            data = json.loads((self.partial / "settings.json").read_text())
         except (OSError, ValueError):
             return None
+        return data if isinstance(data, dict) else None
 
-    def _read_log(self) -> dict[tuple[int, str], dict]:
+    def _read_log(self) -> dict[tuple[int, str], dict[str, Any]]:
         """Complete log lines whose PNGs exist; the log is cut back to them (a killed run's last line may
         be torn)."""
         path = self.partial / "log.csv"
@@ -102,8 +102,7 @@ class RunFolder:
             if len(row) != len(LOG_COLUMNS):
                 break
             rec = dict(zip(LOG_COLUMNS, row, strict=True))
-            sub = self.partial / f"sensor{rec['sensor']}"
-            if not (sub / "depth" / f"{rec['frame']}.png").is_file():
+            if not FrameFolder(sensor_dir(self.partial, int(rec["sensor"])), RUN).has(rec["frame"]):
                 break
             done[(int(rec["sensor"]), rec["frame"])] = rec
             keep.append(line)
@@ -121,13 +120,10 @@ class RunFolder:
             self._pending.popleft().result()
 
     def _write(self, sensor: int, res: Result) -> None:
-        base = self.partial / f"sensor{sensor}"
         name = res.capture.name
-        for sub, img in (("depth", res.depth), ("masks", res.mask.astype(np.uint8) * 255)):
-            (base / sub).mkdir(parents=True, exist_ok=True)
-            tmp = base / sub / f".{name}.png.tmp"
-            tmp.write_bytes(encode_png(img, name))
-            os.replace(tmp, base / sub / f"{name}.png")
+        if sensor not in self._folders:
+            self._folders[sensor] = FrameFolder(sensor_dir(self.partial, sensor), RUN)
+        self._folders[sensor].write(name, depth=res.depth, masks=res.mask)
         cap = res.capture
         truth = cap.interfered
         self._csv.writerow(
@@ -152,7 +148,7 @@ class RunFolder:
         while self._pending:
             self._pending.popleft().result()
 
-    def finish(self, summary: dict) -> Path:
+    def finish(self, summary: dict[str, Any]) -> Path:
         """Write ``summary.json`` and move the complete run into place."""
         self.drain()
         self._log.close()

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,7 @@ def run_live(
     threshold: float,
     seed: int,
     trigger: Trigger | None = None,
-) -> dict:
+) -> dict[str, Any]:
     stats = RunStats()
     settings = {"source": f"realsense:{serial or ''}", "controller": controller, "seconds": seconds}
     with RunFolder(out, settings, resumable=False) as folder:

@@ -6,9 +6,12 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from d2sr.contract import THRESHOLD
 from d2sr.desync import make_controller
-from d2sr.runtime.backends import THRESHOLD, Backend
+from d2sr.frames.base import Frames
+from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result, SensorLoop
 from d2sr.runtime.output import RunFolder
 from d2sr.runtime.sources import RoomTrigger, recording, run_room
@@ -37,7 +40,7 @@ def run_sim(
     render: bool = True,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """``sensors`` simulated L515s in one room, each its own loop; returns the summary (per sensor and
     all together). With ``out``, every sensor's frames, masks and log are written (a rerun starts clean:
     the world's state is not resumable)."""
@@ -90,7 +93,7 @@ def run_sim(
 
 def run_recording(
     backend: Backend,
-    reader: object,
+    reader: Frames,
     scale: float,
     out: Path,
     controller: str,
@@ -100,12 +103,12 @@ def run_recording(
     threshold: float = THRESHOLD,
     seed: int = 0,
     progress: Progress | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied).
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags."""
     settings = {
         "source": source,
-        "frames": len(reader),  # type: ignore[arg-type]
+        "frames": len(reader),
         "depth_scale": scale,
         "controller": controller,
         "active_frames": active_frames,
@@ -115,7 +118,7 @@ def run_recording(
         "backend": backend.name,
     }
     stats = RunStats()
-    total = len(reader)  # type: ignore[arg-type]
+    total = len(reader)
     with RunFolder(out, settings, resumable=True) as folder:
         ctrl = make_controller(controller, 30, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair)
@@ -133,7 +136,7 @@ def run_recording(
     return summary
 
 
-def summarize(settings: dict, stats: list[RunStats]) -> dict:
+def summarize(settings: dict[str, Any], stats: list[RunStats]) -> dict[str, Any]:
     """The run's summary: settings, all sensors together, and each sensor."""
     allst = stats[0]
     for s in stats[1:]:

@@ -8,11 +8,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 from d2sr.frames.base import Frame
-from d2sr.runtime.loop import Capture, PeriodEnd, Result, SensorLoop
+from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.sim.record import EPOCH_NS
 from d2sr.sim.room import SimRoom, SlotEnd
 
@@ -51,7 +51,7 @@ def run_room(
         yield ev, res
 
 
-def recording(reader: object, scale: float) -> Iterator[Capture | PeriodEnd]:
+def recording(reader: Iterable[Frame], scale: float) -> Iterator[Capture]:
     """A recording's frames in time order (open loop: the loop makes a period of every n frames)."""
-    for frame in reader:  # type: ignore[attr-defined]
+    for frame in reader:
         yield Capture(frame, scale)

@@ -4,6 +4,7 @@ knows it), depth error before and after repair, and processing time."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -53,8 +54,8 @@ class RunStats:
         out.ms_hist = self.ms_hist + other.ms_hist
         return out
 
-    def summary(self) -> dict:
-        out: dict = {"frames": self.frames, "flagged": self.flagged}
+    def summary(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"frames": self.frames, "flagged": self.flagged}
         if self.frames:
             half = np.searchsorted(np.cumsum(self.ms_hist), (self.frames + 1) / 2)
             ms = (half + 0.5) / 10

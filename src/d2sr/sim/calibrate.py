@@ -47,7 +47,8 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
     n = 0
     zero, flick = [], []
     prev: np.ndarray | None = None
-    count = mean = m2 = None
+    count: np.ndarray | None = None
+    mean = m2 = np.zeros(0)
     for f in frames:
         d = f.astype(np.float64) / depth_scale
         ok = d > 0
@@ -174,3 +175,44 @@ def calibrate(
         rho = _bisect(stat("flicker", "flicker"), 0.0, 0.98, real.flicker, steps, log=False)
         model = model.model_copy(update={"flicker": rho})
     return model
+
+
+#: Statistics the calibration checks against the real captures (besides noise against range).
+STATS = ("zero_frac", "flicker", "rare", "reliable")
+WITHIN = 0.2  # the bar: every simulated statistic within 20% of the real one
+
+
+def combine(stats: list[SequenceStats]) -> SequenceStats:
+    """Several real recordings' statistics as one target (means; noise per range bin ignoring NaN)."""
+    if len(stats) == 1:
+        return stats[0]
+    noise = np.stack([s.noise for s in stats])
+    ok = ~np.isnan(noise)
+    n = ok.sum(axis=0)
+    mean_noise = np.where(n > 0, np.where(ok, noise, 0).sum(axis=0) / np.maximum(n, 1), np.nan)
+    return SequenceStats(
+        float(np.mean([s.zero_frac for s in stats])),
+        float(np.mean([s.flicker for s in stats])),
+        mean_noise,
+        np.sum([s.pixels for s in stats], axis=0),
+        sum(s.frames for s in stats),
+        float(np.mean([s.rare for s in stats])),
+        float(np.mean([s.reliable for s in stats])),
+    )
+
+
+def verdict(real: SequenceStats, sim: SequenceStats) -> dict:
+    """Each statistic's real and simulated value, their ratio and whether it is within the bar."""
+    checks: dict = {}
+    for key in STATS:
+        ratio = getattr(sim, key) / getattr(real, key)
+        checks[key] = {
+            "real": getattr(real, key),
+            "sim": getattr(sim, key),
+            "ratio": ratio,
+            "pass": bool(abs(ratio - 1) <= WITHIN),
+        }
+    ok = ~np.isnan(real.noise) & ~np.isnan(sim.noise)
+    ratios = sim.noise[ok] / real.noise[ok]
+    checks["noise"] = {"ratios": ratios.round(3).tolist(), "pass": bool(np.all(np.abs(ratios - 1) <= WITHIN))}
+    return checks

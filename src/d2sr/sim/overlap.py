@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,10 +56,10 @@ class OverlapGraph:
 
     # ----------------------------------------------------------------- builders
     @classmethod
-    def from_pairs(cls, n: int, pairs: list[tuple[int, int]] | np.ndarray, **kw: object) -> OverlapGraph:
+    def from_pairs(cls, n: int, pairs: list[tuple[int, int]] | np.ndarray, **kw: Any) -> OverlapGraph:
         """Undirected pairs -> edges both ways."""
         p = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-        return cls(n, np.concatenate([p[:, 0], p[:, 1]]), np.concatenate([p[:, 1], p[:, 0]]), **kw)  # type: ignore[arg-type]
+        return cls(n, np.concatenate([p[:, 0], p[:, 1]]), np.concatenate([p[:, 1], p[:, 0]]), **kw)
 
     @classmethod
     def complete(cls, n: int) -> OverlapGraph:

@@ -20,14 +20,18 @@ import numpy as np
 
 from d2sr.atomic import atomic_dir
 from d2sr.errors import ConfigError
-from d2sr.frames.png import encode_png, write_meta
+from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
 from d2sr.sim.interference import InterferenceConfig
 from d2sr.sim.room import Camera
 from d2sr.sim.scene import L515, SensorModel
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
 from d2sr.sim.world import Rig, overlap_graph
 
-__all__ = ["record", "render_frames"]
+__all__ = [
+    "record",
+    "render_frames",
+    "to_ros2",
+]
 
 EPOCH_NS = 1_700_000_000_000_000_000  # timestamps start here (any fixed origin would do)
 CHUNK = 40
@@ -61,11 +65,9 @@ def render_frames(
 def _work(args: tuple) -> list[dict]:
     rig, sensor, slots, run, seed, model, cfg, root = args
     rows = []
+    folder = FrameFolder(sensor_dir(Path(root), sensor), RECORDING)
     for name, stamp, depth, clean, mask, srcs in render_frames(rig, sensor, slots, run, seed, model, cfg):
-        base = Path(root) / f"sensor{sensor}"
-        (base / "depth" / f"{name}.png").write_bytes(encode_png(depth, name))
-        (base / "clean" / f"{name}.png").write_bytes(encode_png(clean, name))
-        (base / "masks" / f"{name}.png").write_bytes(encode_png(mask.astype(np.uint8) * 255, name))
+        folder.write(name, depth=depth, clean=clean, masks=mask)
         rows.append(
             {
                 "name": name,
@@ -112,8 +114,7 @@ def record(
     rows: dict[int, list[dict]] = {i: [] for i in range(rig.n)}
     with atomic_dir(out) as tmp:
         for i in range(rig.n):
-            for sub in ("depth", "clean", "masks"):
-                (tmp / f"sensor{i}" / sub).mkdir(parents=True)
+            FrameFolder(sensor_dir(tmp, i), RECORDING)
         args = [(rig, i, s, run, seed, model, cfg, str(tmp)) for i, s in jobs]
         done = 0
         n_work = workers or min(2, os.cpu_count() or 1)
@@ -131,9 +132,7 @@ def record(
                 if progress:
                     progress(done, total)
         for i in range(rig.n):
-            for sub in ("depth", "clean"):
-                write_meta(tmp / f"sensor{i}" / sub, model.depth_scale, rig.intr, rows[i])
-            write_meta(tmp / f"sensor{i}" / "masks", 1.0, rig.intr, [{"name": r["name"]} for r in rows[i]])
+            FrameFolder(sensor_dir(tmp, i), RECORDING).finish(model.depth_scale, rig.intr, rows[i])
         summary = {
             "sensors": rig.n,
             "seconds": seconds,
@@ -156,3 +155,19 @@ def record(
         if finish is not None:  # e.g. convert to another format, still before the output appears
             finish(tmp)
     return summary
+
+
+def to_ros2(out: Path, sensors: int) -> None:
+    """Replace each sensor's depth/ PNG folder in a recording by a ROS 2 bag depth_ros2/ (millimetres,
+    16UC1); ``record`` calls it on the temporary output, before the recording appears."""
+    import shutil
+
+    from d2sr.frames import open_frames, open_writer
+
+    for i in range(sensors):
+        src = sensor_dir(out, i) / RECORDING["depth"]
+        reader = open_frames(src)
+        with open_writer(sensor_dir(out, i) / "depth_ros2", "ros2", 1000.0, reader.intrinsics) as w:
+            for f in reader:
+                w.write(f)
+        shutil.rmtree(src)

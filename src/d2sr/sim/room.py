@@ -68,7 +68,7 @@ class Camera:
                 else lit_region(self.cam, scene.depth, o, o.static().depth, self.model.max_range)
             )
             pair = self.seed * 7919 + self.sensor * 97 + j
-            its.append(Interferer.draw(clean.shape, pair, self.cfg, direct_at=direct, region=lit))  # type: ignore[arg-type]
+            its.append(Interferer.draw(clean.shape, pair, self.cfg, direct_at=direct, region=lit))
         depth, mask = interfere(
             clean, self.model.depth_scale, its, g, self.seed * 31 + self.sensor, None, self.cfg
         )
@@ -145,7 +145,7 @@ class SimRoom:
             raise ConfigError(f"{len(start)} offsets for {self.n} sensors")
         self._offsets: list[dict[int, int]] = [{0: int(o) % self.cfg.total_frames} for o in start]
         icfg = interference or InterferenceConfig()
-        shown = set(range(self.n)) if render is True else set() if render is False else set(render)  # type: ignore[arg-type]
+        shown = set(range(self.n)) if render is True else set() if render is False else set(render)
         self.cameras = [
             Camera(rig, i, seed, model, icfg, seed * 1_000_003 + i * 10_007) if i in shown else None
             for i in range(self.n)

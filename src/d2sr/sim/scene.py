@@ -198,7 +198,7 @@ def make_room(
             (float(rng.uniform(0.6, dims[0] - 0.6)), float(rng.uniform(0.6, dims[1] - 0.6))) for _ in range(4)
         )
         walkers.append(Person(pts, speed=float(rng.uniform(0.6, 1.4)), refl=float(rng.uniform(0.2, 0.6))))
-    return Room(tuple(float(d) for d in dims), faces, boxes, tuple(walkers))
+    return Room((float(dims[0]), float(dims[1]), float(dims[2])), faces, boxes, tuple(walkers))
 
 
 # ---------------------------------------------------------------- renderer
@@ -381,7 +381,7 @@ class SensorNoise:
         self.field = self._fresh(shape)
 
     def _fresh(self, shape: tuple[int, int]) -> np.ndarray:
-        g = self.rng.standard_normal(shape, dtype=np.float32)
+        g: np.ndarray = self.rng.standard_normal(shape, dtype=np.float32)
         s = self.model.speckle_px
         g = cv2.GaussianBlur(g, (0, 0), s)
         return g / np.float32(0.5 / (np.sqrt(np.pi) * s))  # unit variance after the blur

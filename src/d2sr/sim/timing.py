@@ -28,7 +28,7 @@ from pydantic import Field, model_validator
 
 from d2sr.config import Settings
 from d2sr.desync import Controller, make_controller
-from d2sr.desync.oracle import OracleScheduler
+from d2sr.desync.oracle import OracleController, OracleScheduler
 from d2sr.errors import ConfigError
 from d2sr.sim.counter_rng import uniform
 from d2sr.sim.overlap import OverlapGraph
@@ -314,8 +314,8 @@ def _end_period(
     ctrl = ctrls[i]
     if here is None or here[i]:
         new = ctrl.update(window)
-        if scheduler is not None and getattr(ctrl, "global_knowledge", False):
-            ctrl.assign(scheduler.offset_for(i, now, offset))  # type: ignore[attr-defined]
+        if scheduler is not None and isinstance(ctrl, OracleController):
+            ctrl.assign(scheduler.offset_for(i, now, offset))
             new = ctrl.offset
         if new != offset[i]:
             offset[i] = new

@@ -118,8 +118,8 @@ def direct_view(victim: Renderer, depth: np.ndarray, source: Renderer) -> tuple[
     """Where the source's emitter appears in the victim's image when the two face each other with nothing
     in between (direct interference); None otherwise."""
     assert victim.pose is not None and source.pose is not None
-    u, v, z = victim.project(source.pose.position[None])
-    u, v, z = float(u[0]), float(v[0]), float(z[0])
+    us, vs, zs = victim.project(source.pose.position[None])
+    u, v, z = float(us[0]), float(vs[0]), float(zs[0])
     if not (z > 0.1 and 0 <= u < victim.intr.width and 0 <= v < victim.intr.height):
         return None
     if depth[int(v), int(u)] and depth[int(v), int(u)] < z * 0.97:
@@ -146,9 +146,9 @@ def overlap_graph(rig: Rig, duration_s: float, min_share: float = 0.02) -> Overl
             if c.pose != pose:
                 c.move(pose)
             depths.append(c.static().depth)
-        for e, (src, dst) in enumerate(pairs):
-            lit = lit_region(cams[dst], depths[dst], cams[src], depths[src])
-            live[e, s] = lit.mean() >= min_share or direct_view(cams[dst], depths[dst], cams[src]) is not None
+        for e, (a, b) in enumerate(pairs):
+            lit = lit_region(cams[b], depths[b], cams[a], depths[a])
+            live[e, s] = lit.mean() >= min_share or direct_view(cams[b], depths[b], cams[a]) is not None
     src = np.array([p[0] for p in pairs], dtype=np.int64)
     dst = np.array([p[1] for p in pairs], dtype=np.int64)
     if steps == 1:

@@ -46,15 +46,17 @@ class TrainConfig(Settings):
 
     @model_validator(mode="after")
     def _check(self) -> TrainConfig:
-        from d2sr.models.registry import DETECTOR_NAMES, MODELS, RECOVERY_NAMES
+        from d2sr.contract import DETECTOR_NAMES, PAD, RECOVERY_NAMES
 
-        if self.model not in MODELS:
-            raise ValueError(f"unknown model {self.model!r}; choose from {', '.join(MODELS)}")
+        if self.model not in DETECTOR_NAMES + RECOVERY_NAMES:
+            raise ValueError(
+                f"unknown model {self.model!r}; choose from {', '.join(DETECTOR_NAMES + RECOVERY_NAMES)}"
+            )
         want = DETECTOR_NAMES if self.task == "detector" else RECOVERY_NAMES
         if self.model not in want:
             raise ValueError(f"task {self.task} takes one of {', '.join(want)}, not {self.model}")
         if self.synthetic == 0 and not self.folders:
             raise ValueError("no data: set synthetic > 0 or give folders")
-        if self.crop[0] % 32 or self.crop[1] % 32:
-            raise ValueError(f"crop must be multiples of 32, got {self.crop}")
+        if self.crop[0] % PAD or self.crop[1] % PAD:
+            raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
         return self

@@ -18,7 +18,7 @@ from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.models.registry import build, describe
-from d2sr.models.weights import read_card, save_model, torch_device, warm_start, write_card
+from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
@@ -75,7 +75,7 @@ def _save_checkpoint(
     path: Path,
     model: nn.Module,
     opt: torch.optim.Optimizer,
-    sched: object,
+    sched: torch.optim.lr_scheduler.LRScheduler,
     step: int,
     rng: np.random.Generator,
     cfg: TrainConfig,
@@ -87,7 +87,7 @@ def _save_checkpoint(
         "losses": losses,
         "model": model.state_dict(),
         "opt": opt.state_dict(),
-        "sched": sched.state_dict(),  # type: ignore[attr-defined]
+        "sched": sched.state_dict(),
         "step": step,
         "rng": rng.bit_generator.state,
         "torch_rng": torch.get_rng_state(),
@@ -149,7 +149,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                     console.print(f"resuming from step {start}")
             elif rank == 0:
                 console.print(f"{ckpt} is from another config: starting afresh")
-        crop = tuple(cfg.crop) if cfg.task == "recovery" else None
+        crop = (cfg.crop[0], cfg.crop[1]) if cfg.task == "recovery" else None
         share = cfg.clean_share if cfg.task == "recovery" else 0.5
         t0, stopped, done = time.perf_counter(), False, start
         bar = progress_bar() if progress and rank == 0 else contextlib.nullcontext()

@@ -1,4 +1,4 @@
-"""CLI commands for data: ``simulate``, ``label``, ``calibrate``, ``gallery`` and ``eval labels``."""
+"""CLI commands for data: ``simulate``, ``label``, ``calibrate`` and ``gallery``."""
 
 from __future__ import annotations
 
@@ -12,26 +12,12 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.cli_common import Overwrite, checked, open_input, out_dir
+from d2sr.cli.common import Overwrite, Topic, checked, open_input, resolution_of
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame
-from d2sr.ui import console, progress_bar
+from d2sr.frames.base import Frame, Reader
+from d2sr.ui import NA, console, progress_bar
 
-__all__ = ["calibrate", "eval_labels", "gallery", "label", "simulate"]
-
-#: Statistics the calibration checks against the real captures (besides noise against range).
-STATS = ("zero_frac", "flicker", "rare", "reliable")
-Topic = Annotated[str | None, typer.Option(help="Stream to read from a ROS bag.")]
-
-
-def _resolution(value: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in value.lower().split("x"))
-    except ValueError:
-        raise ConfigError(f"resolution must look like 640x480, got {value!r}") from None
-    if w < 16 or h < 16 or w > 4096 or h > 4096:
-        raise ConfigError(f"resolution {value} out of range (16..4096 per side)")
-    return w, h
+__all__ = ["calibrate", "gallery", "label", "simulate"]
 
 
 def simulate(
@@ -59,7 +45,7 @@ def simulate(
     """Write recordings of a simulated multi-sensor room: per sensor depth/, clean/ and masks/ PNG folders
     with meta.json (timestamps, interfered frames), and scene.json."""
     from d2sr.desync import CONTROLLERS
-    from d2sr.sim.record import record
+    from d2sr.sim.record import record, to_ros2
     from d2sr.sim.scene import L515
     from d2sr.sim.world import make_rig
 
@@ -69,7 +55,7 @@ def simulate(
         raise ConfigError(f"--format must be png or ros2, got {fmt!r}")
     if sensors < 1 or sensors > 63 or seconds <= 0 or not 1 <= fps <= 30 or workers < 0:
         raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= fps <= 30 and workers >= 0")
-    w, h = _resolution(resolution)
+    w, h = resolution_of(resolution)
     check_out(out, is_dir=True, overwrite=overwrite)
     from d2sr.sim.scene import L515_INTRINSICS
 
@@ -83,35 +69,19 @@ def simulate(
 
         summary = record(
             rig, out, seconds, fps, controller, seed, model, workers=workers or None, progress=tick,
-            finish=(lambda tmp: _to_bags(tmp, sensors)) if fmt == "ros2" else None,
+            finish=(lambda tmp: to_ros2(tmp, sensors)) if fmt == "ros2" else None,
         )  # fmt: skip
     n, bad = summary["frames"], summary["interfered_frames"]
     console.print(f"Wrote {n} frames ({bad} interfered) of {sensors} sensors to {out}")
 
 
-def _to_bags(out: Path, sensors: int) -> None:
-    """Replace each sensor's depth/ PNG folder by a ROS 2 bag depth_ros2/ (millimetres, 16UC1), in the
-    temporary output before it is moved into place."""
-    import shutil
-
-    from d2sr.frames import open_frames, open_writer
-
-    for i in range(sensors):
-        src = out / f"sensor{i}" / "depth"
-        reader = open_frames(src)
-        with open_writer(out / f"sensor{i}" / "depth_ros2", "ros2", 1000.0, reader.intrinsics) as w:
-            for f in reader:
-                w.write(f)
-        shutil.rmtree(src)
-
-
-def _counts(reader: object, what: str, scale: float) -> Iterator[np.ndarray]:
+def _counts(reader: Reader, what: str, scale: float) -> Iterator[np.ndarray]:
     """The recording's uint16 depth, checked (values, and the scale on the first frame)."""
     return (f.depth for f in _checked(reader, what, scale))
 
 
-def _checked(reader: object, what: str, scale: float) -> Iterator[Frame]:
-    for f in checked(reader, scale):  # type: ignore[arg-type]
+def _checked(reader: Reader, what: str, scale: float) -> Iterator[Frame]:
+    for f in checked(reader, scale):
         if f.depth.dtype != np.uint16:
             raise InputError(f"{f.name}: {what} frame is {f.depth.dtype}; d2sr label needs 16-bit depth")
         yield f
@@ -133,7 +103,7 @@ def label(
     overwrite: Overwrite = False,
 ) -> None:
     """Ground truth from recordings: interference masks and depth for each interfered frame."""
-    from d2sr.frames.png import encode_png, write_meta
+    from d2sr.frames.layout import LABELS, FrameFolder
     from d2sr.labels import Labeller, clean_stats, label_frames
 
     if memory_mb <= 0:
@@ -141,7 +111,7 @@ def label(
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[clean, interfered])
     creader, scale = open_input(clean, topic, depth_scale, "clean")
     ireader, _ = open_input(interfered, topic, scale, "interfered")
-    cshape, ishape = creader.shape, ireader.shape  # type: ignore[attr-defined]
+    cshape, ishape = creader.shape, ireader.shape
     if cshape and ishape and cshape != ishape:
         raise InputError(
             f"clean frames are {cshape[1]}x{cshape[0]} but interfered frames are {ishape[1]}x{ishape[0]}"
@@ -153,7 +123,7 @@ def label(
             scale,
             memory_mb,
             lambda f: bar.update(task, completed=f),
-            count=len(creader),  # type: ignore[arg-type]
+            count=len(creader),
         )
         lab = Labeller(stats, method, threshold)
 
@@ -163,17 +133,15 @@ def label(
 
         frames = ((f.name, f.depth) for f in _checked(ireader, "interfered", scale))
         rows = []
-        task2 = bar.add_task("labelling", total=len(ireader))  # type: ignore[arg-type]
+        task2 = bar.add_task("labelling", total=len(ireader))
         with atomic_dir(out) as tmp:
-            (tmp / "masks").mkdir()
-            (tmp / "depth").mkdir()
+            folder = FrameFolder(tmp, LABELS)
             references = refs() if method == "paper" else None
             for name, mask, gt in label_frames(lab, frames, scale, references):
-                (tmp / "masks" / f"{name}.png").write_bytes(encode_png(mask, name))
-                (tmp / "depth" / f"{name}.png").write_bytes(encode_png(gt, name))
+                folder.write(name, masks=mask, depth=gt)
                 rows.append({"name": name, "mask_share": round(float((mask > 0).mean()), 5)})
                 bar.advance(task2)
-            write_meta(tmp / "depth", scale, getattr(ireader, "intrinsics", None), rows)
+            folder.finish(scale, ireader.intrinsics, rows)
             info = {
                 "method": method,
                 "threshold": threshold,
@@ -206,8 +174,8 @@ def calibrate(
     """Fit the sensor model to real captures; plot real vs simulated statistics (bar: within 20%)."""
     from d2sr.eval.plots import calibration as plot
     from d2sr.eval.plots import save
+    from d2sr.sim.calibrate import STATS, combine, sequence_stats, simulated_stats, verdict
     from d2sr.sim.calibrate import calibrate as fit
-    from d2sr.sim.calibrate import sequence_stats, simulated_stats
 
     check_out(out, is_dir=True, overwrite=overwrite, inputs=real)
     real_stats = {}
@@ -216,37 +184,13 @@ def calibrate(
         real_stats[path.name] = sequence_stats(
             (d for i, d in enumerate(_counts(reader, "clean", scale)) if i >= skip), scale
         )
-    keys = list(real_stats)
-    target = real_stats[keys[0]]
-    if len(keys) > 1:
-        from d2sr.sim.calibrate import SequenceStats
-
-        allst = list(real_stats.values())
-        target = SequenceStats(
-            float(np.mean([s.zero_frac for s in allst])),
-            float(np.mean([s.flicker for s in allst])),
-            _nanmean(np.stack([s.noise for s in allst])),
-            np.sum([s.pixels for s in allst], axis=0),
-            sum(s.frames for s in allst),
-            float(np.mean([s.rare for s in allst])),
-            float(np.mean([s.reliable for s in allst])),
-        )
+    target = combine(list(real_stats.values()))
     with progress_bar() as bar:
         task = bar.add_task("fitting the sensor model", total=1.0)
         model = fit(target, rooms=rooms, frames=frames, progress=lambda f: bar.update(task, completed=f))
     sim = simulated_stats(model, rooms, frames, seed=100)  # rooms not used by the fit
-    checks = {}
-    for key in STATS:
-        ratio = getattr(sim, key) / getattr(target, key)
-        checks[key] = {
-            "real": getattr(target, key),
-            "sim": getattr(sim, key),
-            "ratio": ratio,
-            "pass": bool(abs(ratio - 1) <= 0.2),
-        }
-    ok = ~np.isnan(target.noise) & ~np.isnan(sim.noise)
-    ratios = sim.noise[ok] / target.noise[ok]
-    checks["noise"] = {"ratios": ratios.round(3).tolist(), "pass": bool(np.all(np.abs(ratios - 1) <= 0.2))}
+    checks = verdict(target, sim)
+    ratios = checks["noise"]["ratios"]
     result = {
         "command": "d2sr calibrate " + " ".join(f"--real {p}" for p in real) + f" --out {out}",
         "real": {k: v.to_dict() for k, v in real_stats.items()},
@@ -266,8 +210,8 @@ def calibrate(
         )
     t.add_row(
         "noise vs range",
-        "",
-        "",
+        NA,
+        NA,
         ", ".join(f"{r:.2f}" for r in ratios),
         "yes" if checks["noise"]["pass"] else "NO",
     )
@@ -275,13 +219,6 @@ def calibrate(
     console.print(
         "Fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in model.model_dump().items() if isinstance(v, float))
     )
-
-
-def _nanmean(a: np.ndarray) -> np.ndarray:
-    """Column means ignoring NaN; NaN where a column has no value."""
-    ok = ~np.isnan(a)
-    n = ok.sum(axis=0)
-    return np.where(n > 0, np.where(ok, a, 0).sum(axis=0) / np.maximum(n, 1), np.nan)
 
 
 def gallery(
@@ -296,35 +233,3 @@ def gallery(
     check_out(out, is_dir=False, overwrite=overwrite)
     save(gallery_figure(seed), out)
     console.print(f"Wrote {out}")
-
-
-def eval_labels(
-    out: Annotated[Path, typer.Option(help="Folder for labels.json and labels.png.")],
-    real: Annotated[
-        Path | None, typer.Option(help="Folder holding the L515 captures dev0/ and dev1/.")
-    ] = None,
-    sims: Annotated[int, typer.Option(help="Simulated static rooms.")] = 4,
-    overwrite: Overwrite = False,
-) -> None:
-    """Mask F1 of the labelling methods on simulated static sequences and on real captures with simulated
-    interference (per threshold for the paper's method)."""
-    from d2sr.eval.labels import run_all
-    from d2sr.eval.plots import label_f1, save
-
-    if sims < 0:
-        raise ConfigError("--sims must be >= 0")
-    if real is not None and not real.is_dir():
-        raise InputError(f"{real}: not a folder")
-    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
-    with progress_bar() as bar:
-        task = bar.add_task("cases", total=sims + (2 if real else 0))
-        results = run_all(real, sims, progress=lambda _: bar.advance(task))
-    t = Table("case", *next(iter(results.values())).keys())
-    for case, row in results.items():
-        t.add_row(case, *(f"{v['f1']:.3f}" for v in row.values()))
-    console.print(t)
-    cmd = f"d2sr eval labels --out {out}" + (f" --real {real}" if real else "") + f" --sims {sims}"
-    with out_dir(out, overwrite, [real]) as tmp:
-        (tmp / "labels.json").write_text(json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
-        save(label_f1(results), tmp / "labels.png")
-    console.print(f"Wrote {out}/labels.json and labels.png")

@@ -33,6 +33,7 @@ __all__ = [
     "open_input",
     "out_dir",
     "prefetch",
+    "resolution_of",
     "split_list",
 ]
 
@@ -75,6 +76,17 @@ def out_dir(out: Path, overwrite: bool, inputs: Iterable[Path | None] = ()) -> I
         yield tmp
 
 
+def resolution_of(value: str) -> tuple[int, int]:
+    """``640x480`` -> (640, 480)."""
+    try:
+        w, h = (int(v) for v in value.lower().split("x"))
+    except ValueError:
+        raise ConfigError(f"resolution must look like 640x480, got {value!r}") from None
+    if w < 16 or h < 16 or w > 4096 or h > 4096:
+        raise ConfigError(f"resolution {value} out of range (16..4096 per side)")
+    return w, h
+
+
 def split_list(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:
     items = [v.strip() for v in value.split(",") if v.strip()]
     if not items:
@@ -113,9 +125,9 @@ def open_input(
     elif reader.depth_scale:
         use, source = reader.depth_scale, "from the recording"
     else:
-        use, source = default, f"default: {KNOWN_SCALES.get(default or 0, 'given')}"
-    if use is None:
-        raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
+        if default is None:
+            raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
+        use, source = default, f"default: {KNOWN_SCALES.get(default, 'given')}"
     if not (np.isfinite(use) and use > 0):
         raise InputError(f"--depth-scale must be a positive number, got {use}")
     if not (np.isfinite(max_range) and max_range > PLAUSIBLE_M[0]):

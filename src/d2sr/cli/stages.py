@@ -13,7 +13,7 @@ import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write, check_out
-from d2sr.cli_common import (
+from d2sr.cli.common import (
     BackendOpt,
     MaskLogit,
     MaxRange,
@@ -26,24 +26,13 @@ from d2sr.cli_common import (
     open_input,
     prefetch,
 )
+from d2sr.contract import DEFAULT_RECOVERY, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
 from d2sr.errors import InputError
 from d2sr.frames.base import PLAUSIBLE_M
-from d2sr.frames.png import encode_png, write_meta
-from d2sr.runtime.backends import THRESHOLD, WEIGHTS
+from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.ui import progress_bar
 
 __all__ = ["detect", "recover"]
-
-MODEL_CHOICES = (
-    "unet8",
-    "unet16",
-    "unet32",
-    "unet8-temporal",
-    "unet8-direct",
-    "paper-unet8",
-    "paper-unet16",
-    "paper-unet32",
-)
 
 
 def detect(
@@ -60,11 +49,10 @@ def detect(
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered)."""
-    from d2sr.runtime.backends import open_backend
-    from d2sr.runtime.loop import padded
+    from d2sr.contract import padded
+    from d2sr.inference import open_backend
 
-    if not 0 < threshold < 1:
-        raise InputError(f"--threshold must be in (0, 1), got {threshold}")
+    check_probability(threshold, "--threshold")
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(None, backend, weights)
@@ -73,14 +61,14 @@ def detect(
     w.writerow(["frame", "score", "interfered"])
     flagged = 0
     with progress_bar() as bar:
-        task = bar.add_task(f"detecting ({net.name})", total=len(reader))  # type: ignore[arg-type]
-        for f, metres in prefetch(checked_frames(reader, scale)):  # type: ignore[arg-type]
+        task = bar.add_task(f"detecting ({net.name})", total=len(reader))
+        for f, metres in prefetch(checked_frames(reader, scale)):
             s = float(net.scores(padded(metres[None]))[0])
             flagged += s >= threshold
             w.writerow([f.name, f"{s:.6f}", int(s >= threshold)])
             bar.advance(task)
     atomic_write(out, buf.getvalue())
-    typer.echo(f"{flagged} of {len(reader)} frames interfered -> {out}")  # type: ignore[arg-type]
+    typer.echo(f"{flagged} of {len(reader)} frames interfered -> {out}")
 
 
 def recover(
@@ -90,7 +78,9 @@ def recover(
     every: Annotated[
         bool, typer.Option("--all", help="Repair every frame, not only those the detector flags.")
     ] = False,
-    model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODEL_CHOICES)}.")] = "unet8",
+    model: Annotated[
+        str, typer.Option(help=f"Recovery model: {', '.join(RECOVERY_NAMES)}.")
+    ] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
     mask_logit: MaskLogit = None,
     topic: Topic = None,
@@ -102,13 +92,12 @@ def recover(
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
     Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed."""
     from d2sr.desync import make_controller
-    from d2sr.runtime.backends import open_backend
+    from d2sr.inference import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
 
-    if model not in MODEL_CHOICES:
-        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(MODEL_CHOICES)}")
-    if not 0 < threshold < 1:
-        raise InputError(f"--threshold must be in (0, 1), got {threshold}")
+    if model not in RECOVERY_NAMES:
+        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
+    check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(model, backend, weights, mask_logit=mask_logit)
@@ -118,26 +107,21 @@ def recover(
     )
     rows, repaired = [], 0
     with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
-        (tmp / "masks").mkdir()
-        task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))  # type: ignore[arg-type]
+        folder = FrameFolder(tmp, REPAIRED)
+        task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
         pending: deque[Future[None]] = deque()
-        for f in prefetch(checked(reader, scale)):  # type: ignore[arg-type]
+        for f in prefetch(checked(reader, scale)):
             if f.depth.dtype != np.uint16:
                 raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
             res = loop.process(Capture(f, scale))
             fix = every or res.flagged
             repaired += fix
-            pending.append(writer.submit(_write, tmp, f.name, res.depth, res.mask))
+            pending.append(writer.submit(folder.write, f.name, depth=res.depth, masks=res.mask))
             while len(pending) > 4:  # bounded: a slow disk must not pile frames up in memory
                 pending.popleft().result()
             rows.append({"name": f.name, "timestamp_ns": f.timestamp_ns, "repaired": bool(fix)})
             bar.advance(task)
         for p in pending:
             p.result()
-        write_meta(tmp, scale, getattr(reader, "intrinsics", None), rows)
+        folder.finish(scale, reader.intrinsics, rows)
     typer.echo(f"repaired {repaired} of {len(rows)} frames -> {out}")
-
-
-def _write(root: Path, name: str, depth: np.ndarray, mask: np.ndarray) -> None:
-    (root / f"{name}.png").write_bytes(encode_png(depth, name))
-    (root / "masks" / f"{name}.png").write_bytes(encode_png(mask.astype(np.uint8) * 255, name))

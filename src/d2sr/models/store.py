@@ -13,10 +13,8 @@ from torch import nn
 from d2sr.atomic import atomic_file, atomic_write
 from d2sr.errors import InputError
 from d2sr.models.registry import build
-from d2sr.runtime.backends import WEIGHTS
 
 __all__ = [
-    "SHIPPED",
     "load_model",
     "mask_logit",
     "read_card",
@@ -25,8 +23,6 @@ __all__ = [
     "warm_start",
     "write_card",
 ]
-
-SHIPPED = WEIGHTS  # the one shipped-weights folder (defined where the torch-free runtime can see it)
 
 
 def save_model(model: nn.Module, name: str, path: Path, mask_logit: float | None = None) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
@@ -10,7 +11,7 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import check_out
-from d2sr.cli_common import (
+from d2sr.cli.common import (
     BackendOpt,
     MaskLogit,
     MaxRange,
@@ -21,18 +22,15 @@ from d2sr.cli_common import (
     checked,
     open_input,
 )
-from d2sr.cli_models import MODEL_CHOICES
+from d2sr.contract import DEFAULT_RECOVERY, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame
+from d2sr.frames import Frame, Reader
 from d2sr.frames.base import PLAUSIBLE_M
-from d2sr.runtime.backends import THRESHOLD, WEIGHTS
 from d2sr.runtime.loop import REPAIR
 from d2sr.ui import NA, console, progress_bar
 
-__all__ = ["run", "stats_table"]
-
-MODELS = MODEL_CHOICES  # the same recovery models as d2sr recover
+__all__ = ["demo", "run", "stats_table"]
 
 
 def run(
@@ -48,7 +46,9 @@ def run(
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
-    model: Annotated[str, typer.Option(help=f"Recovery model: {', '.join(MODELS)}.")] = "unet8",
+    model: Annotated[
+        str, typer.Option(help=f"Recovery model: {', '.join(RECOVERY_NAMES)}.")
+    ] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
     mask_logit: MaskLogit = None,
     depth_scale: Scale = None,
@@ -65,8 +65,8 @@ def run(
 
     A recording is replayed open loop (no trigger: the controller's offsets are logged); a killed run
     resumes where it stopped. A simulated room always starts clean."""
+    from d2sr.inference import open_backend
     from d2sr.runtime import session
-    from d2sr.runtime.backends import open_backend
 
     if controller not in CONTROLLERS:
         raise ConfigError(f"--controller: unknown {controller!r}; choose from {', '.join(CONTROLLERS)}")
@@ -74,10 +74,9 @@ def run(
         raise ConfigError("--controller oracle needs the simulated world's global knowledge (source 'sim')")
     if repair not in REPAIR:
         raise ConfigError(f"--repair must be one of {', '.join(REPAIR)}, got {repair!r}")
-    if model not in MODELS:
-        raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(MODELS)}")
-    if not 0 < threshold < 1:
-        raise ConfigError(f"--threshold must be in (0, 1), got {threshold}")
+    if model not in RECOVERY_NAMES:
+        raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
+    check_probability(threshold, "--threshold")
     if not 1 <= active_frames <= 30:
         raise ConfigError(f"--active-frames must be in 1..30, got {active_frames}")
     if not seconds > 0:
@@ -124,14 +123,14 @@ def run(
 class _Checked:
     """A reader whose frames pass the CLI's checks (dtype, NaN, plausible depth scale)."""
 
-    def __init__(self, reader: object, scale: float) -> None:
+    def __init__(self, reader: Reader, scale: float) -> None:
         self.reader, self.scale = reader, scale
 
     def __len__(self) -> int:
-        return len(self.reader)  # type: ignore[arg-type]
+        return len(self.reader)
 
     def __iter__(self) -> Iterator[Frame]:
-        yield from checked(self.reader, self.scale)  # type: ignore[arg-type]
+        yield from checked(self.reader, self.scale)
 
 
 COLUMNS = {
@@ -156,3 +155,36 @@ def stats_table(summary: dict, title: str) -> Table:
     for name, s in [*rows, ("all", summary["all"])]:
         t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
     return t
+
+
+def demo(
+    out: Annotated[Path, typer.Option(help="Folder for the runs, plots and report.")] = Path("out/demo"),
+    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 20.0,
+    backend: BackendOpt = "auto",
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
+) -> None:
+    """The closed loop: 3 simulated L515s in one room under static, d2sr and the default controller, with
+    the shipped models; a table, and a report with plots."""
+    from d2sr.eval.demo import DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
+    from d2sr.inference import open_backend
+
+    if not seconds > 0:
+        raise ConfigError(f"--seconds must be positive, got {seconds}")
+    check_out(out, is_dir=True, overwrite=overwrite)
+    net = open_backend(DEFAULT_RECOVERY, backend)
+    t = time.perf_counter()
+    with progress_bar() as bar:
+        tasks = {c: bar.add_task(f"{c:8s} 3 sensors, {seconds:g} s", total=1.0) for c in DEMO_CONTROLLERS}
+        report = run_demo(
+            net, out, seconds, seed=seed, progress=lambda c, f: bar.update(tasks[c], completed=f)
+        )
+    table = Table(
+        title=f"3 simulated L515s, 6 of 30 frames per second, {seconds:g} s, closed loop ({net.name})"
+    )
+    for h in HEADERS:
+        table.add_column(h, justify="left" if h == "controller" else "right")
+    for row in table_rows(report):
+        table.add_row(*row)
+    console.print(table)
+    console.print(f"Report: {out / 'report.md'} ({time.perf_counter() - t:.0f} s)")

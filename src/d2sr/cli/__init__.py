@@ -1,0 +1,95 @@
+"""The ``d2sr`` command line (typer): one module per command group, each parsing its options and making
+one call into the pipeline below it. Every D2SRError becomes one line on stderr and exit code 2."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import Annotated
+
+import typer
+
+from d2sr import __version__
+from d2sr.cli import bench, data, desync, evaluate, run, stages, train
+from d2sr.errors import D2SRError
+from d2sr.ui import console, flush_warnings
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
+desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
+eval_app = typer.Typer(help="Evaluations that write JSON and plots.", no_args_is_help=True)
+app.add_typer(desync_app, name="desync")
+app.add_typer(eval_app, name="eval")
+COMMANDS: dict[str, Callable[..., None]] = {
+    "detect": stages.detect,
+    "recover": stages.recover,
+    "run": run.run,
+    "demo": run.demo,
+    "simulate": data.simulate,
+    "label": data.label,
+    "calibrate": data.calibrate,
+    "gallery": data.gallery,
+    "train": train.train,
+    "export": train.export,
+    "bench": bench.bench,
+}
+DESYNC: dict[str, Callable[..., None]] = {"run": desync.run, "sweep": desync.sweep, "report": desync.report}
+EVAL: dict[str, Callable[..., None]] = {
+    "detector": evaluate.detector,
+    "recovery": evaluate.recovery,
+    "paper": evaluate.paper,
+    "labels": evaluate.labels,
+}
+for group, commands in ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL)):
+    for name, fn in commands.items():
+        group.command(name)(fn)
+
+
+def _version(value: bool) -> None:
+    if value:
+        console.print(f"d2sr {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+) -> None:
+    """d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
+
+
+# Optional dependencies and the extra that brings each: an edge install (no torch) runs detect, recover, run
+# and demo; training, export and evaluation need the train extra.
+EXTRAS = {
+    "torch": "train",
+    "onnx": "train",
+    "onnxscript": "train",
+    "safetensors": "edge",
+    "onnxruntime": "edge",
+    "pyrealsense2": "realsense",
+}
+
+
+def main() -> None:
+    """Console entry point: one-line errors with exit code 2 instead of tracebacks."""
+    try:
+        app()
+    except D2SRError as exc:
+        flush_warnings(show=False)
+        print(f"d2sr: error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    except ModuleNotFoundError as exc:
+        top = (exc.name or "").split(".")[0]
+        if top not in EXTRAS:
+            raise
+        flush_warnings(show=False)
+        print(
+            f"d2sr: error: this command needs {top}, not installed: pip install 'd2sr[{EXTRAS[top]}]'",
+            file=sys.stderr,
+        )
+        raise SystemExit(2) from None
+    finally:
+        flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited

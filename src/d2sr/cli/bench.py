@@ -1,0 +1,64 @@
+"""``d2sr bench``: speed and memory benchmarks (their scripts under bench/ write the committed results)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from d2sr.atomic import check_out
+from d2sr.cli.common import Overwrite, split_list
+from d2sr.errors import ConfigError
+from d2sr.ui import console, progress_bar
+
+__all__ = ["bench"]
+
+WHAT = ("timing", "simulate", "models", "pipeline")
+
+
+def bench(
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results to this JSON file.")] = None,
+    what: Annotated[
+        str, typer.Option(help=f"Benchmarks to run: {', '.join(WHAT)} (comma-separated).")
+    ] = "models",
+    sensors: Annotated[int, typer.Option(help="Sensors in the timing-world benchmark.")] = 1000,
+    seconds: Annotated[float, typer.Option(help="Simulated seconds of the timing-world benchmark.")] = 600.0,
+    repeats: Annotated[int, typer.Option(help="Repeats (median reported).")] = 3,
+    overwrite: Overwrite = False,
+) -> None:
+    """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
+    runtime pipeline at 640x480 and 320x240; the timing world at warehouse scale; writing simulated
+    640x480 recordings."""
+    from d2sr.bench import bench_models, bench_pipeline, bench_simulate, bench_timing, write_result
+
+    names = split_list(what, "what", WHAT)
+    if sensors < 1 or seconds <= 0 or repeats < 1:
+        raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
+    if json_out is not None:
+        check_out(json_out, is_dir=False, overwrite=overwrite)
+    results = {}
+    with progress_bar() as bar:
+        if "timing" in names:
+            task = bar.add_task(f"{sensors} sensors x {seconds:g} s, {repeats} runs", total=1.0)
+            results["timing"] = bench_timing(
+                sensors, seconds, repeats, progress=lambda f: bar.update(task, completed=f)
+            )
+        if "simulate" in names:
+            task = bar.add_task(f"simulate 1000 frames, {repeats} runs", total=None)
+            results["simulate"] = bench_simulate(1000, repeats)
+            bar.update(task, total=1, completed=1)
+        if "models" in names:
+            task = bar.add_task("models", total=None)
+            results["models"] = bench_models(
+                repeats=max(repeats, 10) * 3, progress=lambda s: bar.update(task, description=s)
+            )
+            bar.update(task, total=1, completed=1)
+        if "pipeline" in names:
+            task = bar.add_task("pipeline", total=None)
+            results["pipeline"] = bench_pipeline(
+                repeats=repeats, progress=lambda s: bar.update(task, description=s)
+            )
+            bar.update(task, total=1, completed=1)
+    result = results[names[0]] if len(names) == 1 else results
+    console.print_json(write_result(result, json_out))

@@ -1,0 +1,165 @@
+"""``d2sr desync run|sweep|report``: stage 2's controllers compared in the timing world."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from d2sr.atomic import check_out
+from d2sr.cli.common import Overwrite, int_list, out_dir, split_list
+from d2sr.config import load_toml
+from d2sr.errors import ConfigError
+from d2sr.sim.timing import TimingConfig
+from d2sr.ui import console, progress_bar
+
+__all__ = ["report", "run", "sweep"]
+
+Controllers = Annotated[str, typer.Option(help="Controllers, comma-separated (default: all).")]
+
+
+def run(
+    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/desync"),
+    scenario: Annotated[
+        str, typer.Option(help="stationary (everyone overlaps) or moving (a robot).")
+    ] = "stationary",
+    sensors: Annotated[int, typer.Option(help="Sensors (moving: the robot plus N-1 fixed ones).")] = 3,
+    fps: Annotated[int, typer.Option(help="Active frames per period (total_frames = always on).")] = 6,
+    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 60.0,
+    rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
+    controllers: Controllers = "",
+    config: Annotated[
+        Path | None, typer.Option(help="TOML with timing-world settings (TimingConfig).")
+    ] = None,
+    recall: Annotated[float | None, typer.Option(help="Detector recall.")] = None,
+    false_alarm: Annotated[float | None, typer.Option(help="Detector false-alarm rate.")] = None,
+    hit_prob: Annotated[float | None, typer.Option(help="P(frame corrupted | overlapped).")] = None,
+    drift_ppm: Annotated[float | None, typer.Option(help="Clock drift range, +- ppm.")] = None,
+    drop: Annotated[float | None, typer.Option(help="P(frame dropped).")] = None,
+    setup: Annotated[int | None, typer.Option(help="Laser start-up slots before a window.")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Also write the results as JSON.")] = None,
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
+) -> None:
+    """Compare controllers on one scenario with your own settings (flags override --config)."""
+    from d2sr.desync import CONTROLLERS
+    from d2sr.eval import desync as ev
+    from d2sr.eval.controllers import compare, comparison_rows
+
+    if scenario not in ev.SCENARIOS:
+        raise ConfigError(f"--scenario must be one of {', '.join(ev.SCENARIOS)}, got {scenario!r}")
+    names = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.COMPARED)
+    if sensors < 1 or rooms < 2:
+        raise ConfigError("need --sensors >= 1 and --rooms >= 2")
+    base = load_toml(TimingConfig, config).model_dump() if config else {}
+    flags = {
+        "recall": recall,
+        "false_alarm": false_alarm,
+        "hit_prob": hit_prob,
+        "drift_ppm": drift_ppm,
+        "drop": drop,
+        "setup": setup,
+    }
+    values = {**base, **{k: v for k, v in flags.items() if v is not None}, "active_frames": fps}
+    timing = TimingConfig.make(**values)
+    check_out(out, is_dir=True, overwrite=overwrite)
+    if json_out:
+        check_out(json_out, is_dir=False, overwrite=overwrite)
+    where = "a robot among fixed sensors" if scenario == "moving" else "one room"
+    with out_dir(out, overwrite) as tmp, progress_bar() as bar:
+        task = bar.add_task("simulating", total=len(names))
+        rows = compare(tmp, scenario, sensors, rooms, seconds, names, timing, seed, lambda: bar.advance(task))
+    table = Table(
+        title=f"{sensors} sensors in {where}, {fps} of {timing.total_frames} frames per second, "
+        f"{seconds:g} s, {rooms} rooms"
+    )
+    for i, col in enumerate(
+        ("controller", "interfered (whole run)", "interfered (2nd half)", "median convergence", "vs static")
+    ):
+        table.add_column(col, justify="left" if i == 0 else "right")
+    for cells in comparison_rows(rows):
+        table.add_row(*cells)
+    console.print(table)
+    if scenario == "moving":
+        console.print("Moving robot: the ratios count the robot's frames only (as in the paper).")
+    console.print(f"Plots: {out}/timeline_<controller>.png, {out}/ratio_over_time.png")
+    if json_out:
+        from d2sr.atomic import atomic_write
+
+        atomic_write(json_out, ev.to_json(rows))
+        console.print(f"Results: {json_out}")
+
+
+def sweep(
+    out: Annotated[Path, typer.Option(help="Folder for CSV, JSON, plots and summary.")] = Path("out/sweep"),
+    replicas: Annotated[int, typer.Option(help="Independent rooms per cell.")] = 20,
+    duration: Annotated[float, typer.Option(help="Simulated seconds per run.")] = 60.0,
+    fps: Annotated[str, typer.Option(help="Frame rates, comma-separated.")] = "6,10,15,20,25,30",
+    sensors: Annotated[str, typer.Option(help="Sensor counts, comma-separated.")] = "1,2,3,4,5",
+    controllers: Controllers = "",
+    scenarios: Annotated[str, typer.Option(help="stationary,moving")] = "stationary,moving",
+    profiles: Annotated[str, typer.Option(help="Noise profiles: default,harsh.")] = "default,harsh",
+    jobs: Annotated[int, typer.Option(help="Worker processes (0 = all cores).")] = 0,
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
+) -> None:
+    """Interference ratio against frame rate and N for every controller (paper Fig. 9 and ours)."""
+    from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
+    from d2sr.eval import desync as ev
+
+    ctrl = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.COMPARED)
+    prof = split_list(profiles, "profiles", tuple(ev.PROFILES))
+    scen = split_list(scenarios, "scenarios", ev.SCENARIOS)
+    fps_l, n_l = int_list(fps, "fps"), int_list(sensors, "sensors")
+    if replicas < 2 or duration <= 0 or any(f < 1 or f > 30 for f in fps_l) or any(n < 1 for n in n_l):
+        raise ConfigError("need replicas >= 2, duration > 0, fps in 1..30 and sensors >= 1")
+    check_out(out, is_dir=True, overwrite=overwrite)
+    grid = ev.cells(scen, fps_l, n_l, ctrl, ["default"], replicas, duration, seed)
+    if "harsh" in prof:  # robustness: only the default and Algorithm 1 are rerun
+        harsh = [c for c in ctrl if c in ("d2sr", DEFAULT_CONTROLLER)]
+        grid += ev.cells(scen, fps_l, n_l, harsh, ["harsh"], replicas, duration, seed)
+    with progress_bar() as bar:
+        task = bar.add_task("cells", total=len(grid))
+        results = ev.sweep(grid, jobs or None, progress=lambda _: bar.advance(task))
+    order = {c: i for i, c in enumerate(ctrl)}
+    results.sort(key=lambda r: (r.profile, r.scenario, r.fps, r.sensors, order.get(r.controller, 99)))
+    _report(results, out, ("d2sr desync sweep " + " ".join(sys.argv[3:])).strip(), overwrite)
+
+
+def report(
+    folder: Annotated[Path, typer.Argument(help="A sweep's output folder (holds sweep.json).")],
+) -> None:
+    """Rebuild a sweep's summary, README.md and plots from its sweep.json (no simulation), in place:
+    only the files the sweep wrote are replaced."""
+    from d2sr.eval import desync as ev
+
+    check_out(folder, is_dir=True, overwrite=True)
+    path = folder / "sweep.json"
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such file (run d2sr desync sweep --out {folder} first)")
+    results = ev.from_json(path.read_text())
+    if not results:
+        raise ConfigError(f"{path}: no results in it")
+    old = folder / "summary.json"
+    command = json.loads(old.read_text()).get("command", "") if old.is_file() else ""
+    _report(results, folder, command or "d2sr desync sweep", overwrite=True)  # rebuilds its own output
+
+
+def _report(results: list, out: Path, command: str, overwrite: bool) -> None:
+    from d2sr.eval.controllers import sweep_report
+
+    with out_dir(out, overwrite) as tmp:
+        summary = sweep_report(results, tmp, command)
+    checks, failed, head = summary["bars"], summary["bars_failed"], summary["headline_reduction_N2_15fps"]
+    console.print(
+        f"{len(results)} cells; bars: {len(checks) - len(failed)}/{len(checks)} pass; "
+        "headline (N=2, 15 fps, reduction vs static): " + ", ".join(f"{k} {v:.1%}" for k, v in head.items())
+    )
+    for c in failed:
+        ref = c.get("reference", float("nan"))
+        console.print(f"  [red]fails[/red] {c['bar']}: {c['cell']} value={c['value']:.3f} ref={ref:.3f}")
+    console.print(f"Wrote {out}/README.md, sweep.csv, sweep.json, summary.json and PNG plots")

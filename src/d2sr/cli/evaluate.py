@@ -1,0 +1,162 @@
+"""``d2sr eval detector|recovery|paper|labels``: held-out evaluations that write JSON, tables and plots."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, TypeVar
+
+import typer
+from rich.progress import Progress
+from rich.table import Table
+
+from d2sr.atomic import check_out
+from d2sr.cli.common import Cache, Overwrite, Real, Weights, out_dir, split_list
+from d2sr.contract import THRESHOLD, WEIGHTS, check_probability
+from d2sr.errors import ConfigError, InputError
+from d2sr.ui import console, progress_bar
+
+__all__ = ["detector", "labels", "paper", "recovery"]
+
+T = TypeVar("T")
+REAL = Path("../shared/data/l515")
+CACHE = Path("out/data")
+Card = Annotated[bool, typer.Option("--card", help="Also write the metrics into the models' cards.")]
+
+
+def _steps(bar: Progress) -> Callable[[str, int], Callable[[], None]]:
+    def open_task(description: str, total: int) -> Callable[[], None]:
+        task = bar.add_task(description, total=total)
+        return lambda: bar.advance(task)
+
+    return open_task
+
+
+def detector(
+    out: Annotated[Path, typer.Option(help="Folder for detector.json and pr.png.")] = Path(
+        "out/eval/detector"
+    ),
+    models: Annotated[str, typer.Option(help="Detectors (comma-separated).")] = "detector,paper-detector",
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
+    threshold: Annotated[float, typer.Option(help="Detector probability that flags a frame.")] = THRESHOLD,
+    card: Card = False,
+    overwrite: Overwrite = False,
+) -> None:
+    """Detector precision/recall on the generated test set and on real L515 frames with simulated
+    interference; PR curves."""
+    from d2sr.eval.learned import detector_cards, evaluate_detectors, write_detectors
+
+    check_probability(threshold, "--threshold")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
+    with progress_bar() as bar:
+        results = evaluate_detectors(
+            split_list(models, "models"), weights, real, cache, threshold, _steps(bar)
+        )
+    if not results:
+        raise ConfigError(f"no detector weights for {models} in {weights}")
+    with out_dir(out, overwrite, [real]) as tmp:
+        write_detectors(results, tmp)
+    if card:
+        detector_cards(results, weights)
+    for k, r in results.items():
+        extra = f", people {r['false_alarm_rate_people']:.3f}" if "false_alarm_rate_people" in r else ""
+        console.print(
+            f"{k}: precision {r['precision']:.4f} recall {r['recall']:.4f} f1 {r['f1']:.4f} "
+            f"false alarms {r['false_alarm_rate']:.4f}{extra} ({r['frames']} frames)"
+        )
+
+
+def recovery(
+    out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")] = Path(
+        "out/eval/recovery"
+    ),
+    models: Annotated[
+        str, typer.Option(help="Recovery models (comma-separated).")
+    ] = "unet8,unet16,unet32,unet8-temporal",
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
+    limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
+    card: Card = False,
+    overwrite: Overwrite = False,
+) -> None:
+    """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery."""
+    from d2sr.eval.learned import evaluate_recovery, recovery_cards
+
+    if limit < 0:
+        raise ConfigError(f"--limit must be >= 0, got {limit}")
+    names = split_list(models, "models")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
+    with out_dir(out, overwrite, [real]) as tmp, progress_bar() as bar:
+        result = evaluate_recovery(names, weights, real, cache, limit, tmp, _steps(bar))
+    console.print(result["table"])
+    if card:
+        recovery_cards(result["tables"], names, weights, limit)
+
+
+def paper(
+    out: Annotated[Path, typer.Option(help="Folder for report.md, results.json and plots.")] = Path(
+        "out/eval/paper"
+    ),
+    weights: Weights = WEIGHTS,
+    real: Real = REAL,
+    cache: Cache = CACHE,
+    rooms: Annotated[int, typer.Option(help="Rooms per Fig. 9 cell.")] = 4,
+    limit: Annotated[int, typer.Option(help="Interfered frames per recovery test set.")] = 60,
+    overwrite: Overwrite = False,
+) -> None:
+    """The paper's evaluation in one report: Fig. 3, Fig. 9, detector P/R/F1, Tables I-II, Fig. 10, Table
+    III (latency here), side by side with the paper's numbers."""
+    from d2sr.eval.paper import report
+
+    if rooms < 2 or limit < 1:
+        raise ConfigError("need --rooms >= 2 and --limit >= 1")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
+    command = f"d2sr eval paper --out {out} --rooms {rooms} --limit {limit}"
+
+    def step(name: str, fn: Callable[[], T]) -> T:
+        with console.status(name):
+            return fn()
+
+    with out_dir(out, overwrite, [real]) as tmp:
+        report(tmp, weights, real, cache, rooms, limit, command, step)
+    console.print(f"Report: {out / 'report.md'}")
+
+
+def labels(
+    out: Annotated[Path, typer.Option(help="Folder for labels.json and labels.png.")] = Path(
+        "out/eval/labels"
+    ),
+    real: Annotated[
+        Path | None, typer.Option(help="Folder holding the L515 captures dev0/ and dev1/.")
+    ] = None,
+    sims: Annotated[int, typer.Option(help="Simulated static rooms.")] = 4,
+    overwrite: Overwrite = False,
+) -> None:
+    """Mask F1 of the labelling methods on simulated static sequences and on real captures with simulated
+    interference (per threshold for the paper's method)."""
+    from d2sr.eval.labels import run_all
+    from d2sr.eval.plots import label_f1, save
+
+    if sims < 0:
+        raise ConfigError("--sims must be >= 0")
+    if real is not None and not real.is_dir():
+        raise InputError(f"{real}: not a folder")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
+    with progress_bar() as bar:
+        task = bar.add_task("cases", total=sims + (2 if real else 0))
+        results = run_all(real, sims, progress=lambda _: bar.advance(task))
+    if not results:
+        raise ConfigError("nothing to evaluate: give --real or --sims > 0")
+    t = Table("case", *next(iter(results.values())).keys())
+    for case, row in results.items():
+        t.add_row(case, *(f"{v['f1']:.3f}" for v in row.values()))
+    console.print(t)
+    cmd = f"d2sr eval labels --out {out}" + (f" --real {real}" if real else "") + f" --sims {sims}"
+    with out_dir(out, overwrite, [real]) as tmp:
+        (tmp / "labels.json").write_text(json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
+        save(label_f1(results), tmp / "labels.png")
+    console.print(f"Wrote {out}/labels.json and labels.png")

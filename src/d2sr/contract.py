@@ -1,0 +1,95 @@
+"""The model contract: what the learned stages, their weights and every inference backend agree on.
+Torch-free, so that ``models/`` (torch), ``runtime/`` (onnxruntime on the edge) and the CLI share one
+source for each fact.
+
+- Depth units: models take float32 metres, shape (N, frames, H, W), 0 = no return; they normalise inside.
+- Sizes: height and width divisible by the model's stride (``check_size``); ``padded`` adds a no-return
+  border up to ``PAD`` so any sensor size works, and results are cropped back.
+- Thresholds: the detector's is a probability (``THRESHOLD``); a recovery model's mask threshold is a
+  logit (``mask_logit``, stored with its weights). Signatures say which.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.errors import ConfigError, InputError
+
+__all__ = [
+    "DEFAULT_RECOVERY",
+    "DETECTOR",
+    "DETECTOR_NAMES",
+    "PAD",
+    "RECOVERY_NAMES",
+    "SHIPPED_RECOVERY",
+    "THRESHOLD",
+    "WEIGHTS",
+    "check_probability",
+    "check_size",
+    "model_input",
+    "padded",
+    "to_depth_units",
+]
+
+WEIGHTS = Path(__file__).resolve().parent / "models" / "weights"  # the shipped weights, ONNX and cards
+DETECTOR = "detector"
+DETECTOR_NAMES = ("detector", "paper-detector")
+# Ours first; unet8-direct is the ablation unet8 starts from; paper-* are the paper's layouts.
+RECOVERY_NAMES = (
+    "unet8",
+    "unet16",
+    "unet32",
+    "unet8-temporal",
+    "unet8-direct",
+    "paper-unet8",
+    "paper-unet16",
+    "paper-unet32",
+)
+DEFAULT_RECOVERY = "unet8"
+SHIPPED_RECOVERY = ("unet8", "unet16", "unet8-temporal")  # unet32: `make weights` trains it locally
+THRESHOLD = 0.5  # detector probability at or above which a frame counts as interfered
+PAD = 32  # the largest stride of the shipped models
+
+
+def check_probability(value: float, option: str) -> float:
+    """A probability threshold strictly between 0 and 1 (a ConfigError naming the option otherwise)."""
+    if not 0 < value < 1:
+        raise ConfigError(f"{option} must be in (0, 1), got {value}")
+    return value
+
+
+def check_size(h: int, w: int, stride: int, fixed_height: int | None, what: str) -> None:
+    """The one input-size rule (torch models and exported files alike)."""
+    if fixed_height is not None and h != fixed_height:
+        raise InputError(f"{what} needs frames {fixed_height} pixels high, got {h}x{w}")
+    if h % stride or w % stride:
+        raise InputError(f"{what} needs height and width divisible by {stride}, got {h}x{w}")
+
+
+def padded(metres: np.ndarray) -> np.ndarray:
+    """(N, H, W) metres with a border of "no return" (zeros) at the bottom and right up to ``PAD``, so any
+    sensor size works (320x240 as well as 640x480); crop results back to (H, W)."""
+    h, w = metres.shape[-2:]
+    if not (h % PAD or w % PAD):
+        return metres
+    return np.pad(metres, ((0, 0), (0, -h % PAD), (0, -w % PAD)))
+
+
+def model_input(metres: np.ndarray, previous: np.ndarray | None, frames: int) -> np.ndarray:
+    """(N, H, W) metres -> the recovery model's (N, frames, H, W) input; no last clean frame reads as 0."""
+    x = metres[:, None].astype(np.float32, copy=False)
+    if frames == 1:
+        return x
+    if previous is None:
+        previous = np.zeros_like(metres)
+    elif previous.shape != metres.shape:
+        raise InputError(f"the last clean frame is {previous.shape}, the frame {metres.shape}")
+    return np.concatenate([x, previous[:, None].astype(np.float32, copy=False)], axis=1)
+
+
+def to_depth_units(frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float) -> np.ndarray:
+    """Predicted depth inside the mask (rounded to the input's units), the input itself outside it."""
+    units = np.clip(np.rint(np.maximum(pred, 0) * np.float32(scale)), 0, 65535).astype(np.uint16)
+    return np.where(mask, units, frames)

@@ -1,0 +1,52 @@
+"""Open the detector and a recovery model on the best backend at hand: onnxruntime (``d2sr.runtime``,
+no torch) when it is installed and the ONNX files exist, torch (``d2sr.models``) otherwise. It sits above
+both so that neither imports the other."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, WEIGHTS
+from d2sr.errors import InputError
+from d2sr.runtime.backends import Backend, OnnxBackend
+
+__all__ = ["BACKENDS", "open_backend"]
+
+BACKENDS = ("auto", "onnx", "torch")
+
+
+def open_backend(
+    model: str | None = DEFAULT_RECOVERY,
+    backend: str = "auto",
+    weights: Path = WEIGHTS,
+    detector: str = DETECTOR,
+    threads: int | None = None,
+    int8: bool = False,
+    mask_logit: float | None = None,
+) -> Backend:
+    """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only).
+    ``mask_logit`` overrides the recovery model's own mask threshold (a logit)."""
+    if backend not in BACKENDS:
+        raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
+    if mask_logit is not None and not np.isfinite(mask_logit):
+        raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
+    ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
+    onnx_files = [weights / f"{detector}{ext}"] + ([weights / f"{model}{ext}"] if model else [])
+    if int8 and backend == "torch":
+        raise InputError("int8 models run on onnxruntime (--backend onnx)")
+    if int8:
+        backend = "onnx"
+    if backend == "auto":
+        has_ort = importlib.util.find_spec("onnxruntime") is not None
+        backend = "onnx" if has_ort and all(f.is_file() for f in onnx_files) else "torch"
+    if backend == "onnx":
+        return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads, mask_logit)
+    if importlib.util.find_spec("torch") is None:
+        raise InputError(f"no ONNX models in {weights} and torch is not installed")
+    from d2sr.models.inference import TorchBackend
+
+    rec = weights / f"{model}.safetensors" if model else None
+    return TorchBackend(weights / f"{detector}.safetensors", rec, mask_logit)
