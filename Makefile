@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test edge-check lint sweep bench soak calibrate labels weights eval-models eval-paper clean
+.PHONY: demo test test-fast edge-check lint sweep bench soak calibrate labels weights eval-models eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,6 +18,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check src tests bench
 	$(BIN)/python -m pytest
+
+# Under a minute: no training, no subprocess CLI, no DDP (tests marked slow are left out).
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -m "not slow" -q
 
 # pip install 'd2sr[edge]' into a fresh venv: no torch comes with it; run, detect and recover work (CI runs it).
 edge-check:

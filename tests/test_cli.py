@@ -6,6 +6,7 @@ from d2sr import __version__
 from helpers import d2sr
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_version_and_help():
     res = d2sr("--version")
     assert res.returncode == 0 and res.stdout.strip() == f"d2sr {__version__}"
@@ -15,6 +16,7 @@ def test_version_and_help():
         assert cmd in res.stdout
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 @pytest.mark.parametrize(
     ("args", "message"),
     [
@@ -41,6 +43,7 @@ def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_bad_toml_and_unknown_key(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("recall = [")
@@ -54,6 +57,7 @@ def test_bad_toml_and_unknown_key(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_desync_run_with_config_moving(tmp_path):
     cfg = tmp_path / "room.toml"
     cfg.write_text("recall = 0.8\nfalse_alarm = 0.02\nsetup = 1\n")
@@ -73,6 +77,7 @@ def test_desync_run_with_config_moving(tmp_path):
     ).exists()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
     out = tmp_path / "demo"
     res = d2sr("demo", "--out", str(out), "--seconds", "6", "--backend", "onnx")
@@ -91,6 +96,7 @@ def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
     assert not list(tmp_path.glob(".*"))  # no temporary or partial leftovers
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_sweep_writes_results_and_checks_bars(tmp_path):
     res = d2sr(
         "desync", "sweep", "--out", str(tmp_path), "--replicas", "2", "--duration", "12",
@@ -123,6 +129,7 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
     assert res.returncode == 2 and "no such file" in res.stderr
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_bench_json(tmp_path):
     out = tmp_path / "b.json"
     res = d2sr(

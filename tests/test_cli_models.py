@@ -29,6 +29,7 @@ def _png(p: Path) -> np.ndarray:
     return cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 @pytest.mark.parametrize("backend", ["onnx", "torch"])
 def test_detect_writes_the_fixed_csv(tmp_path, weights, backend):
     src = _folder(tmp_path / "in")
@@ -42,6 +43,7 @@ def test_detect_writes_the_fixed_csv(tmp_path, weights, backend):
         assert 0 <= float(r["score"]) <= 1 and r["interfered"] == str(int(float(r["score"]) >= 0.5))
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_backends_agree(tmp_path, weights):
     src = _folder(tmp_path / "in")
     out = {}
@@ -63,6 +65,7 @@ def test_backends_agree(tmp_path, weights):
     np.testing.assert_allclose(out["onnx"], out["torch"], atol=1e-4)
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
     src = _folder(tmp_path / "in")
     out = tmp_path / "out"
@@ -76,6 +79,7 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 @pytest.mark.parametrize("backend", ["onnx", "torch"])
 def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     src = _folder(tmp_path / "in", 1)
@@ -93,6 +97,7 @@ def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     assert not (tmp_path / "bad").exists()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
     src = _folder(tmp_path / "in")
     out = tmp_path / "out"
@@ -103,6 +108,7 @@ def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
         assert not _png(out / "masks" / f.name).any()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_frames_of_any_size_are_padded_for_the_models_and_cropped_back(tmp_path, weights):
     src = _folder(tmp_path / "in", 2, shape=(100, 130))  # 32 divides neither side
     res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--all", "--weights", str(weights))
@@ -129,6 +135,7 @@ BAD = {
 }
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 @pytest.mark.parametrize("case", list(BAD))
 @pytest.mark.parametrize("command", ["detect", "recover"])
 def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, command):
@@ -151,6 +158,7 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, c
     assert not out.exists() and not list(tmp_path.glob(".o*"))
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_nan_depth_and_missing_or_corrupt_weights(tmp_path, weights):
     bad = tmp_path / "nan.npz"
     np.savez(bad, depth=np.full((2, 96, 128), np.nan, np.float32), depth_scale=1.0)

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SRC = Path(__file__).resolve().parents[1] / "src" / "d2sr"
 CORES = [
     "sim",
@@ -39,6 +41,7 @@ def test_core_sources_do_not_import_torch():
     assert offenders == []
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_importing_cores_never_loads_torch():
     # A finder that fails any torch import: catches indirect imports through other modules too.
     code = """
@@ -60,6 +63,7 @@ print('ok')
     assert res.stdout.strip() == "ok"
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_edge_inference_runs_without_torch(tmp_path):
     """What `pip install d2sr[edge]` gives: onnxruntime inference and d2sr detect/recover, no torch."""
     import torch
@@ -104,6 +108,7 @@ print('ok')
     assert res.stdout.strip() == "ok"
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_a_command_that_needs_torch_names_the_extra_to_install(tmp_path):
     # As on an edge install (pip install 'd2sr[edge]'): torch is simply not there.
     code = """

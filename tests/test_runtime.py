@@ -226,6 +226,7 @@ def test_recording_replays_identically_and_a_killed_run_resumes(tmp_path, net):
     assert _digest(tmp_path / "c") == _digest(tmp_path / "a") and not partial.exists()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_run_cli_on_a_recording_and_bad_inputs(tmp_path):
     rec = _recording(tmp_path, 6)
     out = tmp_path / "out"

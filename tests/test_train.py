@@ -37,6 +37,7 @@ def _cfg(tmp: Path, **kw) -> TrainConfig:
     return TrainConfig.make(**(base | kw))
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_config_rejects_what_cannot_work(tmp_path):
     with pytest.raises(ConfigError, match="task detector takes one of"):
         _cfg(tmp_path, task="detector", model="unet8")
@@ -50,6 +51,7 @@ def test_config_rejects_what_cannot_work(tmp_path):
         _cfg(tmp_path, steps=0)
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_synthetic_frames_are_a_function_of_their_seed():
     a, ac = synth_frame(11, interfered=True)
     b, bc = synth_frame(11, interfered=True)
@@ -59,6 +61,7 @@ def test_synthetic_frames_are_a_function_of_their_seed():
     assert np.array_equal(c, cc) and c.dtype == np.uint16 and c.shape == (480, 640)
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_batches_are_balanced_cropped_and_consistent(tmp_path):
     ss = synth_set(tmp_path, 4, 0, progress=False)
     assert ss.labels.tolist() == [False, True, False, True]
@@ -81,6 +84,7 @@ class _Fixed(torch.nn.Module):
         return self.logit, self.pred
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_depth_is_learned_only_where_the_ground_truth_has_a_return():
     x = np.zeros((1, 1, 2, 3), np.float32)  # every pixel a dropout
     y = np.array([[[[3.0, 3.0, 0.0], [3.0, 0.0, 0.0]]]], np.float32)
@@ -96,6 +100,7 @@ def test_depth_is_learned_only_where_the_ground_truth_has_a_return():
     assert (lg[y[0, 0] > 0] < lg[1, 2]).all()
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_run_is_reproducible_and_resume_is_exact(tmp_path):
     cfg = _cfg(tmp_path)
     train(cfg, tmp_path / "a", progress=False)
@@ -130,6 +135,7 @@ def test_run_is_reproducible_and_resume_is_exact(tmp_path):
     assert (tmp_path / "a" / "unet8.md").read_text().startswith("# Model card: unet8")
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_detector_trains_and_loss_falls(tmp_path):
     cfg = _cfg(tmp_path, task="detector", model="detector", steps=30, batch=4, synthetic=8, lr=3e-3)
     summary = train(cfg, tmp_path / "d", progress=False)
@@ -138,6 +144,7 @@ def test_detector_trains_and_loss_falls(tmp_path):
     assert np.mean(losses[-10:]) < np.mean(losses[:10])
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_ddp_on_two_gloo_processes_matches_itself(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text(
@@ -166,6 +173,7 @@ def test_ddp_on_two_gloo_processes_matches_itself(tmp_path):
     assert card["training"]["processes"] == 2 and card["training"]["steps"] == 3
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_cli_train_bad_config_is_one_line(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("steps = [")

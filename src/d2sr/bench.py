@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.desync import DEFAULT_CONTROLLER
+from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
@@ -262,7 +262,9 @@ def bench_pipeline(
             ]
             per_frame, flagged = [], 0
             for _ in range(repeats):
-                loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, 30, 15, seed=0), repair=repair)
+                loop = SensorLoop(
+                    net, make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0), repair=repair
+                )
                 for d in seq[:3]:  # warm-up
                     loop.process(Capture(Frame("w", d), 4000.0))
                 t = time.perf_counter()
@@ -285,7 +287,7 @@ def bench_pipeline(
                 worst_640 = med
     # The controller and the flag buffer alone, per frame (a loop whose models cost nothing).
     say("controller overhead")
-    loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, 30, 15, seed=0), repair="none")
+    loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0), repair="none")
     n = 30_000
     rng = np.random.default_rng(0)
     flags = rng.random(n) < 0.2

@@ -21,6 +21,7 @@ __all__ = [
     "DEFAULT_RECOVERY",
     "DETECTOR",
     "DETECTOR_NAMES",
+    "MODEL_HELP",
     "PAD",
     "RECOVERY_NAMES",
     "SHIPPED_RECOVERY",
@@ -51,6 +52,9 @@ DEFAULT_RECOVERY = "unet8"
 SHIPPED_RECOVERY = ("unet8", "unet16", "unet8-temporal")  # unet32: `make weights` trains it locally
 THRESHOLD = 0.5  # detector probability at or above which a frame counts as interfered
 PAD = 32  # the largest stride of the shipped models
+
+
+MODEL_HELP = f"Recovery model: {', '.join(RECOVERY_NAMES)} (shipped: {', '.join(SHIPPED_RECOVERY)})."
 
 
 def check_probability(value: float, option: str) -> float:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, WEIGHTS
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, SHIPPED_RECOVERY, WEIGHTS
 from d2sr.errors import InputError
 from d2sr.runtime.backends import Backend, OnnxBackend
 
@@ -33,6 +33,12 @@ def open_backend(
         raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
     if mask_logit is not None and not np.isfinite(mask_logit):
         raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
+    if not weights.is_dir():
+        raise InputError(f"{weights}: no such weights folder")
+    for name in [detector] + ([model] if model else []):
+        if not any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors")):
+            hint = f" (shipped: {', '.join(SHIPPED_RECOVERY)}; `make weights` trains the others)"
+            raise InputError(f"no such model {name} in {weights}" + (hint if weights == WEIGHTS else ""))
     ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
     onnx_files = [weights / f"{detector}{ext}"] + ([weights / f"{model}{ext}"] if model else [])
     if int8 and backend == "torch":

@@ -13,6 +13,7 @@ from rich.table import Table
 from d2sr.atomic import check_out
 from d2sr.cli.common import Overwrite, int_list, out_dir, split_list
 from d2sr.config import load_toml
+from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.sim.timing import TimingConfig
 from d2sr.ui import console, progress_bar
@@ -115,7 +116,12 @@ def sweep(
     prof = split_list(profiles, "profiles", tuple(ev.PROFILES))
     scen = split_list(scenarios, "scenarios", ev.SCENARIOS)
     fps_l, n_l = int_list(fps, "fps"), int_list(sensors, "sensors")
-    if replicas < 2 or duration <= 0 or any(f < 1 or f > 30 for f in fps_l) or any(n < 1 for n in n_l):
+    if (
+        replicas < 2
+        or duration <= 0
+        or any(f < 1 or f > TOTAL_FRAMES for f in fps_l)
+        or any(n < 1 for n in n_l)
+    ):
         raise ConfigError("need replicas >= 2, duration > 0, fps in 1..30 and sensors >= 1")
     check_out(out, is_dir=True, overwrite=overwrite)
     grid = ev.cells(scen, fps_l, n_l, ctrl, ["default"], replicas, duration, seed)

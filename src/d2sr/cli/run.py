@@ -22,8 +22,8 @@ from d2sr.cli.common import (
     checked,
     open_input,
 )
-from d2sr.contract import DEFAULT_RECOVERY, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
-from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
+from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
+from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Reader
 from d2sr.frames.base import PLAUSIBLE_M
@@ -46,9 +46,7 @@ def run(
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
-    model: Annotated[
-        str, typer.Option(help=f"Recovery model: {', '.join(RECOVERY_NAMES)}.")
-    ] = DEFAULT_RECOVERY,
+    model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
     mask_logit: MaskLogit = None,
     depth_scale: Scale = None,
@@ -77,8 +75,8 @@ def run(
     if model not in RECOVERY_NAMES:
         raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
     check_probability(threshold, "--threshold")
-    if not 1 <= active_frames <= 30:
-        raise ConfigError(f"--active-frames must be in 1..30, got {active_frames}")
+    if not 1 <= active_frames <= TOTAL_FRAMES:
+        raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     is_recording = source != "sim" and not source.startswith("realsense")

@@ -26,7 +26,8 @@ from d2sr.cli.common import (
     open_input,
     prefetch,
 )
-from d2sr.contract import DEFAULT_RECOVERY, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
+from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
+from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import InputError
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.layout import REPAIRED, FrameFolder
@@ -54,8 +55,8 @@ def detect(
 
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(None, backend, weights)
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["frame", "score", "interfered"])
@@ -78,9 +79,7 @@ def recover(
     every: Annotated[
         bool, typer.Option("--all", help="Repair every frame, not only those the detector flags.")
     ] = False,
-    model: Annotated[
-        str, typer.Option(help=f"Recovery model: {', '.join(RECOVERY_NAMES)}.")
-    ] = DEFAULT_RECOVERY,
+    model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
     mask_logit: MaskLogit = None,
     topic: Topic = None,
@@ -99,11 +98,14 @@ def recover(
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     net = open_backend(model, backend, weights, mask_logit=mask_logit)
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
     loop = SensorLoop(
-        net, make_controller("static", 30, 30), threshold=threshold, repair="all" if every else "flagged"
+        net,
+        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
+        threshold=threshold,
+        repair="all" if every else "flagged",
     )
     rows, repaired = [], 0
     with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from d2sr.desync.base import Controller, check_window
+from d2sr.desync.base import TOTAL_FRAMES, Controller, check_window
 from d2sr.desync.damped import DampedController
 from d2sr.desync.oracle import OracleController
 from d2sr.desync.paper import PaperController
 from d2sr.desync.static import StaticController
 from d2sr.errors import ConfigError
 
-__all__ = ["CONTROLLERS", "DEFAULT_CONTROLLER", "Controller", "make_controller"]
+__all__ = ["CONTROLLERS", "DEFAULT_CONTROLLER", "TOTAL_FRAMES", "Controller", "make_controller"]
 
 #: Every controller by name. "oracle" needs the timing world (global knowledge); the rest are decentralized.
 CONTROLLERS: dict[str, type[Controller]] = {
@@ -31,7 +31,7 @@ DEFAULT_CONTROLLER = DampedController.name
 
 
 def make_controller(
-    name: str, total_frames: int = 30, active_frames: int = 15, seed: int | None = 0, **options: Any
+    name: str, total_frames: int = TOTAL_FRAMES, active_frames: int = 15, seed: int | None = 0, **options: Any
 ) -> Controller:
     """Build a controller by registry name; ``options`` go to its constructor (e.g. ``setup=2``)."""
     cls = CONTROLLERS.get(name)

@@ -16,7 +16,9 @@ import numpy as np
 
 from d2sr.errors import ConfigError
 
-__all__ = ["Controller", "check_flags", "check_window"]
+__all__ = ["TOTAL_FRAMES", "Controller", "check_flags", "check_window"]
+
+TOTAL_FRAMES = 30  # slots of one 1 s observation period: a 30 fps sensor's frames
 
 
 def check_window(total_frames: int, active_frames: int) -> None:
@@ -50,7 +52,11 @@ class Controller(ABC):
     name: str = ""
 
     def __init__(
-        self, total_frames: int = 30, active_frames: int = 15, seed: int | None = 0, offset: int | None = None
+        self,
+        total_frames: int = TOTAL_FRAMES,
+        active_frames: int = 15,
+        seed: int | None = 0,
+        offset: int | None = None,
     ) -> None:
         check_window(total_frames, active_frames)
         self.total_frames = int(total_frames)

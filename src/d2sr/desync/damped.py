@@ -28,7 +28,7 @@ from both sides add up.
 
 from __future__ import annotations
 
-from d2sr.desync.base import Controller
+from d2sr.desync.base import TOTAL_FRAMES, Controller
 from d2sr.errors import ConfigError
 
 __all__ = ["DampedController"]
@@ -41,7 +41,7 @@ class DampedController(Controller):
 
     def __init__(
         self,
-        total_frames: int = 30,
+        total_frames: int = TOTAL_FRAMES,
         active_frames: int = 15,
         seed: int | None = 0,
         offset: int | None = None,

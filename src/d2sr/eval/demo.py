@@ -21,21 +21,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from d2sr.atomic import atomic_dir
-from d2sr.desync import DEFAULT_CONTROLLER
+from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
+from d2sr.sim.timing import TimingConfig
 
 __all__ = ["DEMO_CONTROLLERS", "read_log", "run_demo"]
 
 DEMO_CONTROLLERS = ("static", "d2sr", DEFAULT_CONTROLLER)
-TOTAL = 30
 
 
 def read_log(path: Path, sensors: int, periods: int) -> tuple[np.ndarray, np.ndarray]:
     """(frames, flagged) as sensors x slots from a run's log: 0 idle, 1 clean, 2 interfered."""
-    frames = np.zeros((sensors, periods * TOTAL), np.int8)
+    frames = np.zeros((sensors, periods * TOTAL_FRAMES), np.int8)
     flagged = np.zeros_like(frames, dtype=bool)
     with path.open(newline="") as fh:
         for row in csv.DictReader(fh):
@@ -76,7 +76,7 @@ def run_demo(
     progress: Callable[[str, float], None] | None = None,
 ) -> dict:
     """Run each controller's closed loop; write runs, plots, ``results.json`` and ``report.md``."""
-    periods = round(seconds * 30 / TOTAL)
+    periods = round(seconds * TimingConfig().fps / TOTAL_FRAMES)
     results: dict[str, dict] = {}
     examples: list[tuple[int, Result]] = []
 
@@ -102,11 +102,11 @@ def run_demo(
             title = f"{name}: each sensor's slots over {periods} periods (closed loop, shipped models)"
             plots.append(
                 save(
-                    sensor_timeline(frames, TOTAL, range(sensors), periods, title, flagged),
+                    sensor_timeline(frames, TOTAL_FRAMES, range(sensors), periods, title, flagged),
                     tmp / f"timeline_{name}.png",
                 )
             )
-            per = frames.reshape(sensors, periods, TOTAL)
+            per = frames.reshape(sensors, periods, TOTAL_FRAMES)
             cap = (per > 0).sum(axis=(0, 2))
             series[name] = np.where(cap > 0, (per == 2).sum(axis=(0, 2)) / np.maximum(cap, 1), 0.0)
         plots.append(
@@ -175,7 +175,8 @@ def _markdown(report: dict, plots: list[str]) -> str:
         "# d2sr demo: the closed loop in a simulated room",
         "",
         f"{sc['sensors']} simulated L515s share one room for {sc['seconds']:g} s, each running "
-        f"{sc['active_frames']} of 30 frames per second. Every sensor runs its own loop (shipped detector "
+        f"{sc['active_frames']} of {TOTAL_FRAMES} frames per second. Every sensor runs its own loop "
+        "(shipped detector "
         f"and UNet8, {sc['backend']}): detect, de-synchronize through its own trigger, repair what it flags. "
         "RMSE is over the interfered frames' valid pixels, against the simulator's clean frames; fps is "
         "detect + repair per delivered frame (median).",

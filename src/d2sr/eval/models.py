@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 
 from d2sr.baselines import BASELINES, last_clean
-from d2sr.contract import to_depth_units
+from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
+from d2sr.metrics import RepairSums, threshold_curve
 
 __all__ = [
     "TestSet",
@@ -117,7 +118,7 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
 
     rig = make_rig(TEST_SEED_ROOMS + seed, sensors=4, moving_robot=True)
     robot = rig.n - 1
-    cfg = TimingConfig(active_frames=30, setup=0, hit_prob=1.0)
+    cfg = TimingConfig(active_frames=TOTAL_FRAMES, setup=0, hit_prob=1.0)  # always on
     room = SimRoom(rig, cfg, seed=TEST_SEED_ROOMS + seed, seconds=seconds, render=[robot])
     frames, clean = [], []
     for ev in room.slots(seconds):
@@ -165,44 +166,6 @@ def detector_metrics(scores: np.ndarray, ts: TestSet, threshold: float = 0.5) ->
 Repair = Callable[[np.ndarray, np.ndarray | None], tuple[np.ndarray, np.ndarray]]
 
 
-@dataclass
-class _Acc:
-    """Pooled sums over frames for one method."""
-
-    se: float = 0.0
-    n_valid: int = 0
-    tp: int = 0
-    fp: int = 0
-    fn: int = 0
-    changed: int = 0
-    n_clean: int = 0
-    errors: list[np.ndarray] | None = None
-
-    def add(self, out: np.ndarray, mask: np.ndarray, x: np.ndarray, y: np.ndarray, true: np.ndarray) -> None:
-        valid = y > 0
-        err = out - y
-        self.se += float((err[valid] ** 2).sum())
-        self.n_valid += int(valid.sum())
-        self.tp += int((mask & true).sum())
-        self.fp += int((mask & ~true).sum())
-        self.fn += int((~mask & true).sum())
-        self.changed += int((np.abs(out - x)[~true] > 0.01).sum())
-        self.n_clean += int((~true).sum())
-        if self.errors is not None:
-            self.errors.append(np.abs(err[valid & true]).astype(np.float32))
-
-    def result(self) -> dict:
-        p = self.tp / max(self.tp + self.fp, 1)
-        r = self.tp / max(self.tp + self.fn, 1)
-        return {
-            "rmse_cm": 100 * float(np.sqrt(self.se / max(self.n_valid, 1))),
-            "mask_precision": p,
-            "mask_recall": r,
-            "mask_f1": 2 * p * r / max(p + r, 1e-12),
-            "clean_changed": self.changed / max(self.n_clean, 1),
-        }
-
-
 def _interfered(
     ts: TestSet, limit: int | None
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]]:
@@ -228,15 +191,15 @@ def recovery_metrics(
     interfered frames, for identity, each model, and each baseline given the predicted mask of
     ``baseline_mask_from`` and the true mask (a ceiling). Also the per-pixel absolute errors on truly
     interfered valid pixels, for the error CDF."""
-    accs: dict[str, _Acc] = {"identity": _Acc(errors=[])}
+    accs: dict[str, RepairSums] = {"identity": RepairSums(errors=[])}
     for name in models:
-        accs[name] = _Acc(errors=[])
+        accs[name] = RepairSums(errors=[])
     temporal = ts.last_clean is not None
     names = [*BASELINES, *(["last clean"] if temporal else [])]
     for b in names:
         if baseline_mask_from:
-            accs[f"{b} (predicted mask)"] = _Acc(errors=[])
-        accs[f"{b} (true mask)"] = _Acc()
+            accs[f"{b} (predicted mask)"] = RepairSums(errors=[])
+        accs[f"{b} (true mask)"] = RepairSums()
     for x, y, true, prev in _interfered(ts, limit):
         accs["identity"].add(x, np.zeros_like(true), x, y, true)
         masks = {}
@@ -272,19 +235,12 @@ def operating_curve(
     """One model's trade-off over mask thresholds (``raw``: metres, previous -> mask logits, depth): RMSE
     change against identity and share of clean pixels changed by > 1 cm, per threshold (what
     ``--mask-logit`` chooses along)."""
-    t = np.asarray(logits, np.float32)
-    ident, accs = _Acc(), [_Acc() for _ in t]
-    s = np.float32(ts.scale)
-    for x, y, true, prev in _interfered(ts, limit):
-        logit, pred = raw(x, prev)
-        ident.add(x, np.zeros_like(true), x, y, true)
-        units = np.rint(x * s).astype(np.uint16)
-        for acc, m in zip(accs, logit[None] > t[:, None, None], strict=True):
-            acc.add(to_depth_units(units, pred, m, ts.scale).astype(np.float32) / s, m, x, y, true)
+    samples = ((x, y, true, *raw(x, prev)) for x, y, true, prev in _interfered(ts, limit))
+    ident, accs = threshold_curve(samples, logits, ts.scale)
     base = max(ident.result()["rmse_cm"], 1e-12)
     rows = [a.result() for a in accs]
     return {
-        "mask_logit": [float(v) for v in t],
+        "mask_logit": [float(v) for v in logits],
         "rmse_vs_identity": [round(r["rmse_cm"] / base - 1, 4) for r in rows],
         "clean_changed": [round(r["clean_changed"], 5) for r in rows],
     }

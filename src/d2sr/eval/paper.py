@@ -19,7 +19,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from d2sr.desync import DEFAULT_CONTROLLER
+from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.eval import desync as ev
 from d2sr.eval.plots import fig9, save
 
@@ -53,7 +53,7 @@ def fig3(sensors: tuple[int, ...] = (1, 3, 5), seconds: float = 4.0, rooms: int 
     from d2sr.sim.timing import TimingConfig
     from d2sr.sim.world import make_rig
 
-    cfg = TimingConfig(active_frames=30, setup=0)
+    cfg = TimingConfig(active_frames=TOTAL_FRAMES, setup=0)  # always on
     out = {}
     for n in sensors:
         se, count, bad, frames = 0.0, 0, 0, 0

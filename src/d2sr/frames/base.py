@@ -28,7 +28,6 @@ __all__ = [
     "Writer",
     "better_scale",
     "check_depth",
-    "check_plausible",
     "looks_like_intensity",
     "probe",
     "to_metres",
@@ -115,16 +114,6 @@ def _median_m(depth: np.ndarray, scale: float) -> float | None:
     m = to_metres(depth, 1.0 if depth.dtype == np.float32 else scale)
     valid = m[m > 0]
     return float(np.median(valid)) if valid.size >= max(1, depth.size // 1000) else None
-
-
-def check_plausible(name: str, metres: np.ndarray, scale: float, max_range: float = PLAUSIBLE_M[1]) -> None:
-    """A frame's median depth must be plausible indoors: a wrong --depth-scale shows there."""
-    med = _median_m(metres, 1.0)
-    if med is not None and not PLAUSIBLE_M[0] <= med <= max_range:
-        raise InputError(
-            f"frame {name}: median depth {med:.2f} m at --depth-scale {scale:g}; "
-            f"is the scale right? ({_scales_hint(med, scale)}; a scene beyond {max_range:g} m: --max-range)"
-        )
 
 
 def better_scale(med: float, scale: float) -> float | None:

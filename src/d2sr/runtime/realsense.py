@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.desync import make_controller
+from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame
 from d2sr.frames.realsense import import_rs
@@ -73,7 +73,7 @@ def run_live(
     stats = RunStats()
     settings = {"source": f"realsense:{serial or ''}", "controller": controller, "seconds": seconds}
     with RunFolder(out, settings, resumable=False) as folder:
-        ctrl = make_controller(controller, 30, active_frames, seed=seed)
+        ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, trigger, folder.sink(0), threshold, repair)
         for frame, scale in live_frames(serial, seconds):
             stats.add(loop.process(Capture(frame, scale)))

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from d2sr.contract import THRESHOLD
-from d2sr.desync import make_controller
+from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.frames.base import Frames
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result, SensorLoop
@@ -120,7 +120,7 @@ def run_recording(
     stats = RunStats()
     total = len(reader)
     with RunFolder(out, settings, resumable=True) as folder:
-        ctrl = make_controller(controller, 30, active_frames, seed=seed)
+        ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair)
         done = folder.done
         for k, cap in enumerate(recording(reader, scale)):

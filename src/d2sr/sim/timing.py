@@ -27,7 +27,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from d2sr.config import Settings
-from d2sr.desync import Controller, make_controller
+from d2sr.desync import TOTAL_FRAMES, Controller, make_controller
 from d2sr.desync.oracle import OracleController, OracleScheduler
 from d2sr.errors import ConfigError
 from d2sr.sim.counter_rng import uniform
@@ -39,7 +39,7 @@ __all__ = ["TimingConfig", "TimingRun", "simulate"]
 class TimingConfig(Settings):
     """Settings of the timing world (defaults: an L515 at 30 fps running half its frames)."""
 
-    total_frames: int = Field(30, gt=0, description="slots per observation period")
+    total_frames: int = Field(TOTAL_FRAMES, gt=0, description="slots per observation period")
     active_frames: int = Field(15, gt=0, description="frames per period (n) for controllers built by name")
     fps: float = Field(30.0, gt=0, description="slot rate; a period lasts total_frames / fps seconds")
     setup: int = Field(2, ge=0, description="laser-on slots before the first frame of a window")

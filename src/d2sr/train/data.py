@@ -11,9 +11,10 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
-from d2sr.frames.base import check_depth, check_plausible
+from d2sr.frames.base import Frame, check_depth, probe
 from d2sr.train.config import TrainConfig
 from d2sr.train.synth import SynthSet, generate
+from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "synth_set"]
 
@@ -66,7 +67,11 @@ def _folders(cfg: TrainConfig) -> list[_Source]:
             for i, d in enumerate(seq):
                 if check_depth(d, f"{path} frame {i}").dtype != np.uint16:
                     raise InputError(f"{path} frame {i}: training folders hold 16-bit depth, got {d.dtype}")
-            check_plausible(f"{path} frame 0", seq[0].astype(np.float32) / np.float32(scale), scale)
+            sampled = [
+                Frame(f"{path} frame {i}", seq[i]) for i in np.linspace(0, len(seq) - 1, 12).astype(int)
+            ]
+            for w in probe(sampled, scale):  # the same checks as every command that reads depth
+                warn(f"{path}: {w}")
         masks = None
         if f.masks is not None:
             masks = [m.depth > 0 for m in open_frames(f.masks)]

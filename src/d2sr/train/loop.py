@@ -17,6 +17,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
+from d2sr.metrics import threshold_curve
 from d2sr.models.registry import build, describe
 from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
@@ -229,28 +230,23 @@ def choose_mask_logit(
     frames = int(getattr(model, "frames", 1))
     ss = synth_set(cache, count, VALIDATION_SEED, progress, previous=frames > 1)
     device = next(model.parameters()).device
-    sums = np.zeros((len(MASK_LOGITS), 4))  # squared error, valid pixels, clean changed, clean pixels
-    ts = torch.tensor(MASK_LOGITS, device=device)[:, None, None]
     was = model.training
     model.eval()
     s = np.float32(ss.depth_scale)
-    for i in np.flatnonzero(ss.labels):
-        ins = [ss.frames[i]] + ([ss.previous[i]] if frames > 1 and ss.previous is not None else [])
-        x = torch.from_numpy(np.stack(ins).astype(np.float32) / s)[None].to(device)
-        y = torch.from_numpy(ss.clean[i].astype(np.float32) / s).to(device)
-        with torch.inference_mode():
-            logit, pred = model(x)
-        masks = logit[0] > ts  # (thresholds, H, W)
-        out = torch.where(masks, pred[0].clamp(min=0), x[0, :1])
-        true = torch.from_numpy(ss.frames[i] != ss.clean[i]).to(device)
-        valid = y > 0
-        sums[:, 0] += (((out - y) ** 2) * valid).sum(dim=(1, 2)).cpu().numpy()
-        sums[:, 1] += float(valid.sum())
-        sums[:, 2] += (((out - x[0, :1]).abs() > 0.01) & ~true).sum(dim=(1, 2)).cpu().numpy()
-        sums[:, 3] += float((~true).sum())
+
+    def samples() -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        for i in np.flatnonzero(ss.labels):
+            ins = [ss.frames[i]] + ([ss.previous[i]] if frames > 1 and ss.previous is not None else [])
+            x = np.stack(ins).astype(np.float32) / s
+            with torch.inference_mode():
+                logit, pred = model(torch.from_numpy(x)[None].to(device))
+            y = ss.clean[i].astype(np.float32) / s
+            yield x[0], y, ss.frames[i] != ss.clean[i], logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy()
+
+    _, sums = threshold_curve(samples(), MASK_LOGITS, ss.depth_scale)  # the same sums as d2sr eval recovery
     model.train(was)
-    rmse = np.sqrt(sums[:, 0] / np.maximum(sums[:, 1], 1))
-    changed = sums[:, 2] / np.maximum(sums[:, 3], 1)
+    rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
+    changed = np.array([r.result()["clean_changed"] for r in sums])
     ok = np.flatnonzero(changed <= MAX_CLEAN_CHANGED)
     k = int(ok[np.argmin(rmse[ok])]) if len(ok) else MASK_LOGITS.index(0.0)
     return {
