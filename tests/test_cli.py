@@ -21,9 +21,9 @@ def test_version_and_help():
     ("args", "message"),
     [
         (["desync", "sweep", "--controllers", "nope", "--replicas", "2"], "unknown nope"),
-        (["desync", "sweep", "--fps", "0"], "fps in 1..30"),
-        (["desync", "sweep", "--fps", "six"], "comma-separated integers"),
-        (["desync", "run", "--fps", "31"], "active_frames"),
+        (["desync", "sweep", "--active-frames", "0"], "fps in 1..30"),
+        (["desync", "sweep", "--active-frames", "six"], "comma-separated integers"),
+        (["desync", "run", "--active-frames", "31"], "active_frames"),
         (["desync", "run", "--sensors", "0"], "--sensors >= 1"),
         (["desync", "run", "--recall", "1.5"], "recall"),
         (["desync", "run", "--false-alarm", "-0.1"], "false_alarm"),
@@ -62,7 +62,7 @@ def test_desync_run_with_config_moving(tmp_path):
     cfg = tmp_path / "room.toml"
     cfg.write_text("recall = 0.8\nfalse_alarm = 0.02\nsetup = 1\n")
     res = d2sr(
-        "desync", "run", "--scenario", "moving", "--sensors", "3", "--fps", "10", "--seconds", "8",
+        "desync", "run", "--scenario", "moving", "--sensors", "3", "--active-frames", "10", "--seconds", "8",
         "--rooms", "2", "--controllers", "d2sr,damped", "--config", str(cfg), "--out", str(tmp_path / "o"),
         "--json", str(tmp_path / "r.json"),
     )  # fmt: skip
@@ -99,8 +99,8 @@ def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_sweep_writes_results_and_checks_bars(tmp_path):
     res = d2sr(
-        "desync", "sweep", "--out", str(tmp_path), "--replicas", "2", "--duration", "12",
-        "--fps", "6,15", "--sensors", "1,2", "--jobs", "1",
+        "desync", "sweep", "--out", str(tmp_path), "--replicas", "2", "--seconds", "12",
+        "--active-frames", "6,15", "--sensors", "1,2", "--jobs", "1",
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     rows = json.loads((tmp_path / "sweep.json").read_text())

@@ -21,7 +21,7 @@ def test_simulate_writes_consistent_recordings(tmp_path):
         "2",
         "--seconds",
         "2",
-        "--fps",
+        "--active-frames",
         "15",
         "--resolution",
         "80x60",
@@ -83,3 +83,15 @@ def test_simulate_bad_options(tmp_path):
         r = _cli("simulate", "--out", str(tmp_path / "o"), *args)
         assert r.returncode == 2 and msg in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
     assert not (tmp_path / "o").exists()
+
+
+def test_deprecated_option_names_still_work_and_say_so(tmp_path):
+    r = _cli(
+        "simulate", "--out", str(tmp_path / "o"), "--sensors", "2", "--seconds", "1", "--fps", "6",
+        "--moving-robot", "--resolution", "80x60", "--workers", "1",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "--fps is deprecated" in r.stderr and "use --active-frames" in r.stderr
+    assert "--moving-robot is deprecated" in r.stderr
+    scene = json.loads((tmp_path / "o" / "scene.json").read_text())
+    assert scene["active_frames"] == 6 and any(scene["moving"])

@@ -26,6 +26,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "recover": stages.recover,
     "run": run.run,
     "demo": run.demo,
+    "view": run.view,
     "simulate": data.simulate,
     "label": data.label,
     "calibrate": data.calibrate,
@@ -55,7 +56,10 @@ def _version(value: bool) -> None:
 @app.callback()
 def _root(
     version: Annotated[
-        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, metavar="", help="Print the version and exit."
+        ),
     ] = False,
 ) -> None:
     """d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
@@ -70,6 +74,7 @@ EXTRAS = {
     "safetensors": "edge",
     "onnxruntime": "edge",
     "pyrealsense2": "realsense",
+    "rerun": "viewer",
 }
 
 

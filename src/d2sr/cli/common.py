@@ -24,6 +24,7 @@ __all__ = [
     "MaxRange",
     "Overwrite",
     "Real",
+    "RerunOpt",
     "Scale",
     "Topic",
     "Weights",
@@ -33,6 +34,7 @@ __all__ = [
     "open_input",
     "out_dir",
     "prefetch",
+    "renamed",
     "resolution_of",
     "split_list",
 ]
@@ -56,12 +58,21 @@ Overwrite = Annotated[
     bool,
     typer.Option(
         "--overwrite",
+        metavar="",
         help="Replace what d2sr wrote at --out before; files d2sr did not make there are kept.",
     ),
 ]
 MaxRange = Annotated[
     float,
     typer.Option(help="Farthest median scene depth (m) the scale check accepts; raise it for large halls."),
+]
+RerunOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--rerun",
+        help="Also log the run to Rerun: a FILE.rrd to save, or 'live' to spawn (or reach) a viewer.",
+        metavar="FILE.rrd|live",
+    ),
 ]
 T = TypeVar("T")
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
@@ -85,6 +96,14 @@ def resolution_of(value: str) -> tuple[int, int]:
     if w < 16 or h < 16 or w > 4096 or h > 4096:
         raise ConfigError(f"resolution {value} out of range (16..4096 per side)")
     return w, h
+
+
+def renamed(old: str, new: str, value: T | None, current: T) -> T:
+    """A deprecated option's value, if given, with a warning naming the option that replaces it."""
+    if value is None:
+        return current
+    warn(f"{old} is deprecated and will be removed; use {new}")
+    return value
 
 
 def split_list(value: str, what: str, choices: tuple[str, ...] | None = None) -> list[str]:

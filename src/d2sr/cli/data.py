@@ -12,7 +12,7 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.cli.common import Overwrite, Topic, checked, open_input, resolution_of
+from d2sr.cli.common import Overwrite, Topic, checked, open_input, renamed, resolution_of
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, Reader
 from d2sr.ui import NA, console, progress_bar
@@ -24,13 +24,19 @@ def simulate(
     out: Annotated[Path, typer.Option(help="Output folder (written atomically).")],
     sensors: Annotated[int, typer.Option(help="Sensors in the room.")] = 3,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 10.0,
-    fps: Annotated[int, typer.Option(help="Frames per second each sensor captures (of 30 slots).")] = 15,
+    active_frames: Annotated[
+        int, typer.Option(help="Frames each sensor captures per 1 s period (of 30 slots).")
+    ] = 15,
+    fps: Annotated[int | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     controller: Annotated[
         str, typer.Option(help="De-synchronization controller of every sensor.")
     ] = "static",
-    moving_robot: Annotated[
-        bool, typer.Option(help="The last sensor drives a loop through the room.")
+    moving: Annotated[
+        bool, typer.Option("--moving", metavar="", help="The last sensor rides a robot through the room.")
     ] = False,
+    moving_robot: Annotated[
+        bool | None, typer.Option("--moving-robot", hidden=True, help="Deprecated: --moving.")
+    ] = None,
     people: Annotated[
         int | None, typer.Option(help="People walking in the room (default: 0-2, random).")
     ] = None,
@@ -53,13 +59,15 @@ def simulate(
         raise ConfigError(f"unknown controller {controller!r}; choose from {', '.join(CONTROLLERS)}")
     if fmt not in ("png", "ros2"):
         raise ConfigError(f"--format must be png or ros2, got {fmt!r}")
+    fps = renamed("--fps", "--active-frames", fps, active_frames)
+    moving = renamed("--moving-robot", "--moving", moving_robot, moving)
     if sensors < 1 or sensors > 63 or seconds <= 0 or not 1 <= fps <= 30 or workers < 0:
-        raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= fps <= 30 and workers >= 0")
+        raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= --active-frames <= 30 and workers >= 0")
     w, h = resolution_of(resolution)
     check_out(out, is_dir=True, overwrite=overwrite)
     from d2sr.sim.scene import L515_INTRINSICS
 
-    rig = make_rig(seed, sensors, moving_robot, people, L515_INTRINSICS.scaled(w, h))
+    rig = make_rig(seed, sensors, moving, people, L515_INTRINSICS.scaled(w, h))
     model = L515.model_copy(update={"depth_scale": 1000.0}) if fmt == "ros2" else L515
     with progress_bar() as bar:
         task = bar.add_task(f"{sensors} sensors x {seconds:g} s at {fps} fps", total=None)

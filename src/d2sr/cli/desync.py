@@ -11,7 +11,7 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import check_out
-from d2sr.cli.common import Overwrite, int_list, out_dir, split_list
+from d2sr.cli.common import Overwrite, int_list, out_dir, renamed, split_list
 from d2sr.config import load_toml
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
@@ -29,7 +29,8 @@ def run(
         str, typer.Option(help="stationary (everyone overlaps) or moving (a robot).")
     ] = "stationary",
     sensors: Annotated[int, typer.Option(help="Sensors (moving: the robot plus N-1 fixed ones).")] = 3,
-    fps: Annotated[int, typer.Option(help="Active frames per period (total_frames = always on).")] = 6,
+    active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 = always on).")] = 6,
+    fps: Annotated[int | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 60.0,
     rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
     controllers: Controllers = "",
@@ -51,6 +52,7 @@ def run(
     from d2sr.eval import desync as ev
     from d2sr.eval.controllers import compare, comparison_rows
 
+    fps = renamed("--fps", "--active-frames", fps, active_frames)
     if scenario not in ev.SCENARIOS:
         raise ConfigError(f"--scenario must be one of {', '.join(ev.SCENARIOS)}, got {scenario!r}")
     names = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.COMPARED)
@@ -98,8 +100,12 @@ def run(
 def sweep(
     out: Annotated[Path, typer.Option(help="Folder for CSV, JSON, plots and summary.")] = Path("out/sweep"),
     replicas: Annotated[int, typer.Option(help="Independent rooms per cell.")] = 20,
-    duration: Annotated[float, typer.Option(help="Simulated seconds per run.")] = 60.0,
-    fps: Annotated[str, typer.Option(help="Frame rates, comma-separated.")] = "6,10,15,20,25,30",
+    seconds: Annotated[float, typer.Option(help="Simulated seconds per run.")] = 60.0,
+    duration: Annotated[float | None, typer.Option(hidden=True, help="Deprecated: --seconds.")] = None,
+    active_frames: Annotated[
+        str, typer.Option(help="Frames per 1 s period, comma-separated.")
+    ] = "6,10,15,20,25,30",
+    fps: Annotated[str | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     sensors: Annotated[str, typer.Option(help="Sensor counts, comma-separated.")] = "1,2,3,4,5",
     controllers: Controllers = "",
     scenarios: Annotated[str, typer.Option(help="stationary,moving")] = "stationary,moving",
@@ -112,10 +118,12 @@ def sweep(
     from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
     from d2sr.eval import desync as ev
 
+    duration = renamed("--duration", "--seconds", duration, seconds)
+    fps = renamed("--fps", "--active-frames", fps, active_frames)
     ctrl = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.COMPARED)
     prof = split_list(profiles, "profiles", tuple(ev.PROFILES))
     scen = split_list(scenarios, "scenarios", ev.SCENARIOS)
-    fps_l, n_l = int_list(fps, "fps"), int_list(sensors, "sensors")
+    fps_l, n_l = int_list(fps, "active-frames"), int_list(sensors, "sensors")
     if (
         replicas < 2
         or duration <= 0
@@ -137,7 +145,9 @@ def sweep(
 
 
 def report(
-    folder: Annotated[Path, typer.Argument(help="A sweep's output folder (holds sweep.json).")],
+    folder: Annotated[
+        Path, typer.Argument(help="A sweep's output folder (holds sweep.json).", metavar="FOLDER")
+    ],
 ) -> None:
     """Rebuild a sweep's summary, README.md and plots from its sweep.json (no simulation), in place:
     only the files the sweep wrote are replaced."""

@@ -22,7 +22,9 @@ __all__ = ["detector", "labels", "paper", "recovery"]
 T = TypeVar("T")
 REAL = Path("../shared/data/l515")
 CACHE = Path("out/data")
-Card = Annotated[bool, typer.Option("--card", help="Also write the metrics into the models' cards.")]
+Card = Annotated[
+    bool, typer.Option("--card", metavar="", help="Also write the metrics into the models' cards.")
+]
 
 
 def _steps(bar: Progress) -> Callable[[str, int], Callable[[], None]]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
@@ -16,6 +17,7 @@ from d2sr.cli.common import (
     MaskLogit,
     MaxRange,
     Overwrite,
+    RerunOpt,
     Scale,
     Topic,
     Weights,
@@ -30,12 +32,15 @@ from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.loop import REPAIR
 from d2sr.ui import NA, console, progress_bar
 
-__all__ = ["demo", "run", "stats_table"]
+__all__ = ["demo", "run", "stats_table", "view"]
 
 
 def run(
     source: Annotated[
-        str, typer.Argument(help="'sim' (a simulated room), 'realsense[:SERIAL]' (live), or a recording.")
+        str,
+        typer.Argument(
+            help="'sim' (a simulated room), 'realsense[:SERIAL]' (live), or a recording.", metavar="SOURCE"
+        ),
     ],
     out: Annotated[Path, typer.Option(help="Output folder: sensor<i>/depth, sensor<i>/masks, log.csv.")],
     controller: Annotated[
@@ -44,7 +49,7 @@ def run(
     active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")] = 6,
     sensors: Annotated[int, typer.Option(help="sim: sensors in the room.")] = 3,
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
-    moving: Annotated[bool, typer.Option(help="sim: the last sensor rides a robot.")] = False,
+    moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
@@ -54,9 +59,12 @@ def run(
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
-    int8: Annotated[bool, typer.Option("--int8", help="int8 models (d2sr export --int8).")] = False,
+    int8: Annotated[
+        bool, typer.Option("--int8", metavar="", help="int8 models (d2sr export --int8).")
+    ] = False,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     max_range: MaxRange = PLAUSIBLE_M[1],
+    rerun: RerunOpt = None,
     overwrite: Overwrite = False,
 ) -> None:
     """Detect every frame, de-synchronize (closed loop where a trigger exists), repair, write it all.
@@ -65,6 +73,7 @@ def run(
     resumes where it stopped. A simulated room always starts clean."""
     from d2sr.inference import open_backend
     from d2sr.runtime import session
+    from d2sr.runtime.viewer import LIVE, RerunLog
 
     if controller not in CONTROLLERS:
         raise ConfigError(f"--controller: unknown {controller!r}; choose from {', '.join(CONTROLLERS)}")
@@ -80,7 +89,13 @@ def run(
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     is_recording = source != "sim" and not source.startswith("realsense")
+    if source == "sim" and not 1 <= sensors <= 63:
+        raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[Path(source)] if is_recording else [])
+    if rerun is not None and rerun != LIVE:
+        check_out(
+            Path(rerun), is_dir=False, overwrite=overwrite, inputs=[Path(source)] if is_recording else []
+        )
     net = open_backend(
         model if repair != "none" else None,
         backend,
@@ -89,30 +104,45 @@ def run(
         int8=int8,
         mask_logit=mask_logit,
     )
-    with progress_bar() as bar:
+    if is_recording:
+        path = Path(source)
+        if not path.exists():
+            raise InputError(f"{source}: no such recording (or use 'sim' / 'realsense')")
+        reader, scale = open_input(path, topic, depth_scale, "input", 1000.0, max_range)
+    shown = sensors if source == "sim" else 1
+    with (
+        RerunLog(rerun, shown, f"d2sr run {source}") if rerun else nullcontext() as log,
+        progress_bar() as bar,
+    ):
+        on_result = log.write if log is not None else None
         if source == "sim":
-            if not 1 <= sensors <= 63:
-                raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
             task = bar.add_task(f"{sensors} sensors, {controller} ({net.name})", total=1.0)
             summary = session.run_sim(
                 net, out, controller, sensors, seconds, active_frames, seed, moving, repair, threshold,
-                progress=lambda f: bar.update(task, completed=f),
+                progress=lambda f: bar.update(task, completed=f), on_result=on_result,
             )  # fmt: skip
         elif source.startswith("realsense"):
             from d2sr.runtime.realsense import run_live
 
             serial = source.partition(":")[2] or None
-            summary = run_live(net, out, controller, serial, seconds, active_frames, repair, threshold, seed)
+            summary = run_live(
+                net,
+                out,
+                controller,
+                serial,
+                seconds,
+                active_frames,
+                repair,
+                threshold,
+                seed,
+                on_result=on_result,
+            )
         else:
-            path = Path(source)
-            if not path.exists():
-                raise InputError(f"{source}: no such recording (or use 'sim' / 'realsense')")
-            reader, scale = open_input(path, topic, depth_scale, "input", 1000.0, max_range)
-            frames = _Checked(reader, scale)
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
-                net, frames, scale, out, controller, str(path.resolve()), active_frames, repair,
-                threshold, seed, progress=lambda f: bar.update(task, completed=f),
+                net, _Checked(reader, scale), scale, out, controller, str(path.resolve()), active_frames,
+                repair, threshold, seed, progress=lambda f: bar.update(task, completed=f),
+                on_result=on_result,
             )  # fmt: skip
     console.print(stats_table(summary, f"d2sr run {source}"))
     console.print(f"-> {out}")
@@ -186,3 +216,23 @@ def demo(
         table.add_row(*row)
     console.print(table)
     console.print(f"Report: {out / 'report.md'} ({time.perf_counter() - t:.0f} s)")
+
+
+def view(
+    run: Annotated[
+        Path, typer.Argument(help="A finished d2sr run folder (holds log.csv).", metavar="RUN_DIR")
+    ],
+    save: Annotated[
+        Path | None, typer.Option(help="Save a FILE.rrd instead of opening a viewer.", metavar="FILE.rrd")
+    ] = None,
+    overwrite: Overwrite = False,
+) -> None:
+    """Open a finished run in Rerun: every sensor's repaired frames and predicted masks, and the detector
+    score, flag and window over time. Example: d2sr view out/demo/runs/damped"""
+    from d2sr.runtime.viewer import LIVE
+    from d2sr.runtime.viewer import view as replay
+
+    if save is not None:
+        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run])
+    n = replay(run, save if save is not None else LIVE)
+    console.print(f"{n} frames of {run} -> {save or 'the Rerun viewer'}")

@@ -6,6 +6,7 @@ import csv
 import io
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
@@ -18,6 +19,7 @@ from d2sr.cli.common import (
     MaskLogit,
     MaxRange,
     Overwrite,
+    RerunOpt,
     Scale,
     Topic,
     Weights,
@@ -37,7 +39,9 @@ __all__ = ["detect", "recover"]
 
 
 def detect(
-    input: Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.")],
+    input: Annotated[
+        Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")
+    ],
     out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
     depth_scale: Scale = None,
     threshold: Annotated[
@@ -73,11 +77,13 @@ def detect(
 
 
 def recover(
-    input: Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.")],
+    input: Annotated[
+        Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")
+    ],
     out: Annotated[Path, typer.Option(help="Output folder: <name>.png repaired, masks/<name>.png.")],
     depth_scale: Scale = None,
     every: Annotated[
-        bool, typer.Option("--all", help="Repair every frame, not only those the detector flags.")
+        bool, typer.Option("--all", metavar="", help="Repair every frame, not only those the detector flags.")
     ] = False,
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
@@ -86,6 +92,7 @@ def recover(
     backend: BackendOpt = "auto",
     weights: Weights = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
+    rerun: RerunOpt = None,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
@@ -93,11 +100,14 @@ def recover(
     from d2sr.desync import make_controller
     from d2sr.inference import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
+    from d2sr.runtime.viewer import LIVE, RerunLog
 
     if model not in RECOVERY_NAMES:
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
+    if rerun is not None and rerun != LIVE:
+        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out])
     net = open_backend(model, backend, weights, mask_logit=mask_logit)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
@@ -108,7 +118,8 @@ def recover(
         repair="all" if every else "flagged",
     )
     rows, repaired = [], 0
-    with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
+    log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
+    with log as view, atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
         folder = FrameFolder(tmp, REPAIRED)
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
         pending: deque[Future[None]] = deque()
@@ -116,6 +127,8 @@ def recover(
             if f.depth.dtype != np.uint16:
                 raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
             res = loop.process(Capture(f, scale))
+            if view is not None:
+                view.write(0, res)
             fix = every or res.flagged
             repaired += fix
             pending.append(writer.submit(folder.write, f.name, depth=res.depth, masks=res.mask))

@@ -19,7 +19,7 @@ __all__ = ["export", "train"]
 
 
 def train(
-    task: Annotated[str, typer.Argument(help="detector or recovery.")],
+    task: Annotated[str, typer.Argument(help="detector or recovery.", metavar="TASK")],
     out: Annotated[Path, typer.Option(help="Run folder: checkpoint.pt, <model>.safetensors and its card.")],
     config: Annotated[Path | None, typer.Option(help="TOML file of TrainConfig settings.")] = None,
     model: Annotated[str | None, typer.Option(help="Model name (overrides the config).")] = None,
@@ -60,13 +60,15 @@ def train(
 
 def export(
     weights: Annotated[
-        list[Path] | None, typer.Argument(help="Weights files (default: every shipped model).")
+        list[Path] | None,
+        typer.Argument(help="Weights files (default: every shipped model).", metavar="WEIGHTS..."),
     ] = None,
     out: Annotated[
         Path | None, typer.Option(help="Folder for the .onnx files (default: next to the weights).")
     ] = None,
     int8: Annotated[
-        bool, typer.Option("--int8", help="Also write <model>.int8.onnx (static int8, onnxruntime).")
+        bool,
+        typer.Option("--int8", metavar="", help="Also write <model>.int8.onnx (static int8, onnxruntime)."),
     ] = False,
     overwrite: Overwrite = False,
 ) -> None:

@@ -47,12 +47,15 @@ class DampedController(Controller):
         offset: int | None = None,
         escape: float = 0.5,
         freeze: float = 0.75,
+        reject: bool = True,
+        damp: bool = True,
     ) -> None:
         super().__init__(total_frames, active_frames, seed, offset)
         if not 0.0 <= escape <= 1.0:
             raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
         self.escape = escape
         self.freeze = freeze
+        self.reject, self.damp = reject, damp
         self.load = 0.0  # running fraction of our frames flagged: how crowded the period is
         self.last = 0  # the previous move, to spot a reversal
 
@@ -64,7 +67,7 @@ class DampedController(Controller):
         n, t = self.active_frames, self.total_frames
         hits = sum(flags)
         self.load += 0.2 * (hits / n - self.load)
-        if hits == 0 or (hits == 1 and not (flags[0] or flags[-1])):
+        if hits == 0 or (self.reject and hits == 1 and not (flags[0] or flags[-1])):
             return 0
         half = n // 2
         head, tail = sum(flags[:half]), sum(flags[n - half :])
@@ -76,6 +79,6 @@ class DampedController(Controller):
         if head and tail and self.load > self.freeze:
             return 0
         delta = head - tail
-        if self.last and (delta > 0) != (self.last > 0):
+        if self.damp and self.last and (delta > 0) != (self.last > 0):
             delta = int(delta / 2) or (1 if delta > 0 else -1)
         return delta

@@ -4,6 +4,7 @@ pyrealsense2 playback. Optional: ``pip install 'd2sr[realsense]'`` (needs libusb
 from __future__ import annotations
 
 import contextlib
+import ctypes
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -16,11 +17,24 @@ from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
 __all__ = ["RealSenseReader", "RealSenseWriter", "import_rs"]
 
 
+def _preload_libusb() -> None:
+    """pyrealsense2's wheel links libusb-1.0 without shipping it; libusb-package ships one. Load it
+    (globally) first so that a fresh pip install works without a system package."""
+    try:
+        import libusb_package
+    except ImportError:
+        return
+    path = libusb_package.get_library_path()
+    if path is not None:
+        ctypes.CDLL(str(path), mode=ctypes.RTLD_GLOBAL)
+
+
 def import_rs() -> Any:
     try:
+        _preload_libusb()
         import pyrealsense2 as rs
-    except ImportError as exc:
-        hint = " (install libusb-1.0-0)" if "libusb" in str(exc) else ""
+    except (ImportError, OSError) as exc:
+        hint = " (install libusb-1.0-0 or libusb-package)" if "libusb" in str(exc) else ""
         raise InputError(
             f"RealSense recordings need pyrealsense2: pip install 'd2sr[realsense]'{hint}"
         ) from None

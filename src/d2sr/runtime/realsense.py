@@ -10,7 +10,7 @@ Without one the window is only logged, and the sensor keeps streaming (detection
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,7 @@ from d2sr.errors import InputError
 from d2sr.frames.base import Frame
 from d2sr.frames.realsense import import_rs
 from d2sr.runtime.backends import Backend
-from d2sr.runtime.loop import Capture, SensorLoop, Trigger
+from d2sr.runtime.loop import Capture, Result, SensorLoop, Trigger
 from d2sr.runtime.output import RunFolder
 from d2sr.runtime.session import summarize
 from d2sr.runtime.stats import RunStats
@@ -69,14 +69,19 @@ def run_live(
     threshold: float,
     seed: int,
     trigger: Trigger | None = None,
+    on_result: Callable[[int, Result], None] | None = None,
 ) -> dict[str, Any]:
+    """A live camera through one loop for ``seconds``; with a ``trigger``, closed loop."""
     stats = RunStats()
     settings = {"source": f"realsense:{serial or ''}", "controller": controller, "seconds": seconds}
     with RunFolder(out, settings, resumable=False) as folder:
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, trigger, folder.sink(0), threshold, repair)
         for frame, scale in live_frames(serial, seconds):
-            stats.add(loop.process(Capture(frame, scale)))
+            res = loop.process(Capture(frame, scale))
+            stats.add(res)
+            if on_result is not None:
+                on_result(0, res)
         summary = summarize(settings, [stats])
         folder.finish(summary)
     return summary

@@ -103,6 +103,7 @@ def run_recording(
     threshold: float = THRESHOLD,
     seed: int = 0,
     progress: Progress | None = None,
+    on_result: Callable[[int, Result], None] | None = None,
 ) -> dict[str, Any]:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied).
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags."""
@@ -128,7 +129,10 @@ def run_recording(
             if rec is not None:  # resumed: replay the controller from the logged flag
                 loop.replay(bool(int(rec["flagged"])))
             else:
-                stats.add(loop.process(cap))
+                res = loop.process(cap)
+                stats.add(res)
+                if on_result is not None:
+                    on_result(0, res)
             if progress is not None:
                 progress((k + 1) / total)
         summary = summarize(settings, [stats]) | {"resumed_frames": len(done)}

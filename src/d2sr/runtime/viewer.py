@@ -1,0 +1,149 @@
+"""Runs in Rerun (``pip install 'd2sr[viewer]'``): each sensor's input and repaired depth, the predicted
+mask over the repair (and the true mask over the input in simulation), and time series of the detector
+score, the flag, the window offset and the share of pixels repaired. The timeline is the frames' own
+timestamps (``time``), with the frame count beside it (``frame``).
+
+``RerunLog(target)``: ``target`` is a ``.rrd`` file (written under a temporary name, renamed when the log
+closes) or ``live`` (spawns a viewer, or connects to the one already running). Its ``write(sensor,
+result)`` is what a run calls for every frame; ``view(run_folder)`` replays a finished run folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+
+from d2sr.atomic import commit, discard, temp_for
+from d2sr.errors import InputError
+from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
+from d2sr.frames.png import decode_png
+from d2sr.runtime.loop import Result
+
+__all__ = ["LIVE", "RerunLog", "view"]
+
+LIVE = "live"
+
+
+def _rerun() -> Any:
+    try:
+        import rerun
+    except ImportError:
+        raise InputError("Rerun logging needs rerun-sdk: pip install 'd2sr[viewer]'") from None
+    return rerun
+
+
+class RerunLog:
+    """One Rerun recording of a run (see the module docstring)."""
+
+    def __init__(self, target: str | Path, sensors: int, name: str = "d2sr run") -> None:
+        rr = self.rr = _rerun()
+        self.rec = rr.RecordingStream("d2sr", recording_id=None)
+        self.rec.send_recording_name(name)
+        self.path: Path | None = None
+        self._tmp: Path | None = None
+        if str(target) == LIVE:
+            self.rec.spawn()
+        else:
+            self.path = Path(target)
+            self._tmp = temp_for(self.path, is_dir=False)
+            self.rec.save(str(self._tmp))
+        self.rec.send_blueprint(self._blueprint(sensors))
+        self._frames = [0] * sensors
+
+    def _blueprint(self, sensors: int) -> Any:
+        rrb = self.rr.blueprint
+        rows = [
+            rrb.Horizontal(
+                rrb.Spatial2DView(origin=f"sensor{i}/input", name=f"sensor {i}: input"),
+                rrb.Spatial2DView(origin=f"sensor{i}/repaired", name=f"sensor {i}: repaired, predicted mask"),
+                rrb.TimeSeriesView(origin=f"series/sensor{i}", name=f"sensor {i}: score, flag, window"),
+            )
+            for i in range(sensors)
+        ]
+        return rrb.Blueprint(rrb.Vertical(*rows), collapse_panels=True)
+
+    def _time(self, sensor: int, timestamp_ns: int | None) -> None:
+        self.rec.set_time("frame", sequence=self._frames[sensor])
+        self._frames[sensor] += 1
+        if timestamp_ns is not None:
+            self.rec.set_time("time", timestamp=np.datetime64(int(timestamp_ns), "ns"))
+
+    def write(self, sensor: int, res: Result) -> None:
+        """Log one frame's input, repair, masks and figures."""
+        rr, cap = self.rr, res.capture
+        self._time(sensor, cap.frame.timestamp_ns)
+        meter = 1.0 if cap.frame.depth.dtype == np.float32 else cap.scale
+        base = f"sensor{sensor}"
+        self.rec.log(f"{base}/input", rr.DepthImage(cap.frame.depth, meter=meter))
+        self.rec.log(f"{base}/repaired", rr.DepthImage(res.depth, meter=meter))
+        self.rec.log(f"{base}/repaired/mask", rr.SegmentationImage(res.mask.astype(np.uint8)))
+        if cap.mask is not None:
+            self.rec.log(f"{base}/input/true_mask", rr.SegmentationImage(cap.mask.astype(np.uint8)))
+        self._series(sensor, res.score, res.flagged, res.offset, float(res.mask.mean()), cap.interfered)
+
+    def _series(
+        self, sensor: int, score: float, flagged: bool, offset: int, share: float, truth: bool | None
+    ) -> None:
+        rr, s = self.rr, f"series/sensor{sensor}"
+        self.rec.log(f"{s}/score", rr.Scalars(score))
+        self.rec.log(f"{s}/flagged", rr.Scalars(float(flagged)))
+        self.rec.log(f"{s}/window_offset", rr.Scalars(float(offset)))
+        self.rec.log(f"{s}/repaired_share", rr.Scalars(share))
+        if truth is not None:
+            self.rec.log(f"{s}/interfered", rr.Scalars(float(truth)))
+
+    def close(self, ok: bool = True) -> None:
+        """Finish the recording; a file appears at its path only when the run ended well."""
+        self.rec.flush()
+        self.rec.disconnect()
+        if self._tmp is not None and self.path is not None:
+            if ok:
+                commit(self._tmp, self.path)
+            else:
+                discard(self._tmp)
+            self._tmp = None
+
+    def __enter__(self) -> RerunLog:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close(ok=kind is None)
+
+
+def view(run: Path, target: str | Path) -> int:
+    """Replay a finished ``d2sr run`` folder (repaired frames, predicted masks, log.csv) into Rerun;
+    returns the frames logged."""
+    log_path = Path(run) / "log.csv"
+    if not log_path.is_file():
+        raise InputError(f"{run}: not a finished d2sr run folder (no log.csv)")
+    try:
+        settings = json.loads((Path(run) / "settings.json").read_text())
+        rows = list(csv.DictReader(log_path.open()))
+    except (OSError, ValueError, csv.Error) as exc:
+        raise InputError(f"{run}: cannot read the run's log ({exc})") from None
+    scale = float(settings.get("depth_scale") or 4000.0)
+    sensors = 1 + max((int(r["sensor"]) for r in rows), default=0)
+    folders = [FrameFolder(sensor_dir(Path(run), i), RUN) for i in range(sensors)]
+    with RerunLog(target, sensors, f"d2sr run {Path(run).name}") as log:
+        for r in rows:
+            i, name = int(r["sensor"]), r["frame"]
+            stamp = None if r["time_s"] in ("", "n/a") else round(float(r["time_s"]) * 1e9)
+            log._time(i, stamp)
+            path = folders[i].path("depth", name)
+            depth = decode_png(path.read_bytes(), str(path))
+            mpath = folders[i].path("masks", name)
+            mask = decode_png(mpath.read_bytes(), str(mpath), np.uint8) > 0
+            log.rec.log(f"sensor{i}/repaired", log.rr.DepthImage(depth, meter=scale))
+            log.rec.log(f"sensor{i}/repaired/mask", log.rr.SegmentationImage(mask.astype(np.uint8)))
+            truth = None if r["interfered"] in ("", "n/a") else r["interfered"] == "1"
+            log._series(
+                i, float(r["score"]), r["flagged"] == "1", int(r["offset"]), float(r["repaired_share"]), truth
+            )
+    return len(rows)
