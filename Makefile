@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-fast edge-check lint sweep bench soak calibrate labels weights eval-models eval-paper clean
+.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights eval-models eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -35,6 +35,10 @@ lint: $(STAMP)
 # Long jobs: their results are committed under docs/results/.
 sweep: $(STAMP)
 	$(BIN)/d2sr desync sweep --out docs/results/desync --overwrite
+
+# The default controller against Algorithm 1 across deployment assumptions (about 10 min on 2 cores).
+desync-grid: $(STAMP)
+	$(BIN)/d2sr desync grid --out docs/results/desync_grid --overwrite
 
 bench: $(STAMP)
 	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json
@@ -70,7 +74,7 @@ weights: $(STAMP)
 	mkdir -p $(SHIP)
 	for m in detector paper-detector unet8 unet8-temporal unet16 unet32; do \
 	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
-	$(BIN)/d2sr export --overwrite
+	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
 # Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);
 # --card also writes them into the shipped models' cards.

@@ -3,6 +3,7 @@ import json
 import pytest
 
 from d2sr import __version__
+from d2sr.desync import DEFAULT_CONTROLLER
 from helpers import d2sr
 
 
@@ -82,16 +83,19 @@ def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
     out = tmp_path / "demo"
     res = d2sr("demo", "--out", str(out), "--seconds", "6", "--backend", "onnx")
     assert res.returncode == 0, res.stderr
-    for name in ("static", "d2sr", "damped"):
+    for name in ("static", "d2sr", DEFAULT_CONTROLLER):
         assert name in res.stdout
         assert (out / f"timeline_{name}.png").stat().st_size > 1000
         assert (out / "runs" / name / "log.csv").is_file()
     report = json.loads((out / "results.json").read_text())
     rows = report["controllers"]
-    assert rows["static"]["frames"] == rows["damped"]["frames"] == 3 * 6 * 6
-    assert rows["damped"]["interfered_ratio"] < rows["static"]["interfered_ratio"]
+    assert rows["static"]["frames"] == rows[DEFAULT_CONTROLLER]["frames"] == 3 * 6 * 6
+    assert rows[DEFAULT_CONTROLLER]["interfered_ratio"] < rows["static"]["interfered_ratio"]
     md = (out / "report.md").read_text()
-    assert "| static |" in md and "![timeline_damped.png](timeline_damped.png)" in md
+    assert (
+        "| static |" in md
+        and f"![timeline_{DEFAULT_CONTROLLER}.png](timeline_{DEFAULT_CONTROLLER}.png)" in md
+    )
     assert (out / "examples.png").is_file() and (out / "ratio_over_time.png").is_file()
     assert not list(tmp_path.glob(".*"))  # no temporary or partial leftovers
 
@@ -106,12 +110,12 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
     rows = json.loads((tmp_path / "sweep.json").read_text())
     # 2 scenarios x 2 fps x 2 N x 4 controllers, plus the harsh profile for d2sr and the default
     assert len(rows) == 2 * 2 * 2 * 4 + 2 * 2 * 2 * 2
-    assert {r["controller"] for r in rows} == {"static", "d2sr", "damped", "oracle"}
+    assert {r["controller"] for r in rows} == {"static", "d2sr", DEFAULT_CONTROLLER, "oracle"}
     assert all(0.0 <= r["whole"] <= 1.0 for r in rows)
     one = [r for r in rows if r["sensors"] == 1]
     assert all(r["whole"] == 0.0 for r in one)
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["bars"] and "damped" in summary["headline_reduction_N2_15fps"]
+    assert summary["bars"] and DEFAULT_CONTROLLER in summary["headline_reduction_N2_15fps"]
     assert (tmp_path / "sweep.csv").read_text().startswith("scenario,fps,sensors,controller")
     for png in ("fig9_default.png", "fig9_harsh.png", "paired_default.png", "convergence.png"):
         assert (tmp_path / png).stat().st_size > 1000

@@ -152,3 +152,33 @@ def test_damped_freezes_when_the_period_is_saturated():
     assert c.load > 0.75
     before = c.offset
     assert c.update(squeezed) == before  # saturated and squeezed: stays
+
+
+@given(st.lists(st.booleans(), min_size=10, max_size=10), st.integers(0, 29))
+def test_robust_is_algorithm_1_unless_its_window_is_covered(flags, offset):
+    paper = make_controller("d2sr", 30, 10, offset=offset)
+    robust = make_controller("robust", 30, 10, seed=1, offset=offset)
+    if sum(flags) < 9 or sum(flags[:5]) != sum(flags[5:]):
+        assert robust.update(flags) == paper.update(flags)
+
+
+def test_robust_escapes_a_lasting_stall_at_random_and_backs_off_in_a_crowd():
+    def stalled(seed: int) -> int:
+        c = make_controller("robust", 30, 10, seed=seed, offset=0)
+        assert c.update([True] * 10) == 0  # covered once: maybe a crowd passing, wait
+        return c.update([True] * 10)
+
+    moved = [stalled(s) != 0 for s in range(400)]
+    assert 0.4 < np.mean(moved) < 0.6  # covered twice: of two identical sensors, one usually leaves
+    jumps = {stalled(s) for s in range(400)} - {0}
+    assert min(jumps) >= 10 and max(jumps) <= 20  # at least a window, at most the period minus one
+    # covered wherever it goes (a saturated period): each failed escape halves the chance of the next
+    tries = []
+    for s in range(300):
+        c = make_controller("robust", 30, 10, seed=s, offset=0)
+        escapes = 0
+        for _ in range(40):
+            before = c.offset
+            escapes += c.update([True] * 10) != before
+        tries.append(escapes)
+    assert np.mean(tries) < 5  # about log2 of the periods; without backoff, 10 of 40

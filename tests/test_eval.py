@@ -2,6 +2,7 @@ import math
 
 import numpy as np
 
+from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.desync import Cell, check_bars, convergence_periods, has_slack, run_cell
 
 
@@ -30,7 +31,7 @@ def test_bars_flag_a_failure():
     good = run_cell(Cell("stationary", 6, 2, "oracle", replicas=3, duration_s=10))
     from dataclasses import replace
 
-    bad_default = replace(good, controller="damped", steady=0.3, whole=0.4)
+    bad_default = replace(good, controller=DEFAULT_CONTROLLER, steady=0.3, whole=0.4)
     d2sr = replace(good, controller="d2sr", whole=0.2)
     checks = check_bars([good, bad_default, d2sr])
     failed = {c["bar"] for c in checks if not c["ok"]}

@@ -154,3 +154,13 @@ def test_bad_run_arguments():
         simulate(g, "nope", duration_s=2)
     with pytest.raises(ConfigError, match="phases"):
         simulate(g, "static", duration_s=2, phases=np.zeros(3))
+
+
+def test_disjoint_keeps_presence_schedules_longer_than_the_live_ones():
+    present = np.ones((2, 30), bool)
+    present[1, :10] = False  # sensor 1 joins after 10 s
+    g = OverlapGraph.complete(2)
+    one = OverlapGraph(2, g.src, g.dst, present=present)
+    both = OverlapGraph.disjoint([one, OverlapGraph.complete(3)])
+    assert both.present is not None and both.present.shape == (5, 30)
+    assert not both.present[1, :10].any() and both.present[2:].all()

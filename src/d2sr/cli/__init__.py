@@ -35,7 +35,12 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "export": train.export,
     "bench": bench.bench,
 }
-DESYNC: dict[str, Callable[..., None]] = {"run": desync.run, "sweep": desync.sweep, "report": desync.report}
+DESYNC: dict[str, Callable[..., None]] = {
+    "run": desync.run,
+    "sweep": desync.sweep,
+    "report": desync.report,
+    "grid": desync.grid,
+}
 EVAL: dict[str, Callable[..., None]] = {
     "detector": evaluate.detector,
     "recovery": evaluate.recovery,

@@ -29,7 +29,10 @@ def bench(
 ) -> None:
     """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
     runtime pipeline at 640x480 and 320x240; the timing world at warehouse scale; writing simulated
-    640x480 recordings."""
+    640x480 recordings.
+
+    Example: d2sr bench --what models,pipeline --json out/bench.json
+    """
     from d2sr.bench import bench_models, bench_pipeline, bench_simulate, bench_timing, write_result
 
     names = split_list(what, "what", WHAT)

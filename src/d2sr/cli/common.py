@@ -29,6 +29,7 @@ __all__ = [
     "Topic",
     "Weights",
     "checked",
+    "checked_counts",
     "checked_frames",
     "int_list",
     "open_input",
@@ -184,6 +185,14 @@ def checked(reader: Iterable[Frame], scale: float) -> Iterator[Frame]:
             f"{len(empty)} of {count} frames have no valid depth (e.g. {empty[0]}); "
             "they pass through as they are"
         )
+
+
+def checked_counts(reader: Iterable[Frame], scale: float, what: str) -> Iterator[Frame]:
+    """``checked`` frames that must be 16-bit counts (commands that write or label 16-bit PNGs)."""
+    for f in checked(reader, scale):
+        if f.depth.dtype != np.uint16:
+            raise InputError(f"{what} {f.name} is {f.depth.dtype}; this command needs 16-bit depth")
+        yield f
 
 
 def checked_frames(reader: Iterable[Frame], scale: float) -> Iterator[tuple[Frame, np.ndarray]]:

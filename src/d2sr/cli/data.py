@@ -12,9 +12,9 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.cli.common import Overwrite, Topic, checked, open_input, renamed, resolution_of
+from d2sr.cli.common import Overwrite, Topic, checked_counts, open_input, renamed, resolution_of
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, Reader
+from d2sr.frames.base import Reader
 from d2sr.ui import NA, console, progress_bar
 
 __all__ = ["calibrate", "gallery", "label", "simulate"]
@@ -49,7 +49,10 @@ def simulate(
     overwrite: Overwrite = False,
 ) -> None:
     """Write recordings of a simulated multi-sensor room: per sensor depth/, clean/ and masks/ PNG folders
-    with meta.json (timestamps, interfered frames), and scene.json."""
+    with meta.json (timestamps, interfered frames), and scene.json.
+
+    Example: d2sr simulate --sensors 3 --seconds 10 --active-frames 15 --out out/room
+    """
     from d2sr.desync import CONTROLLERS
     from d2sr.sim.record import record, to_ros2
     from d2sr.sim.scene import L515
@@ -84,15 +87,7 @@ def simulate(
 
 
 def _counts(reader: Reader, what: str, scale: float) -> Iterator[np.ndarray]:
-    """The recording's uint16 depth, checked (values, and the scale on the first frame)."""
-    return (f.depth for f in _checked(reader, what, scale))
-
-
-def _checked(reader: Reader, what: str, scale: float) -> Iterator[Frame]:
-    for f in checked(reader, scale):
-        if f.depth.dtype != np.uint16:
-            raise InputError(f"{f.name}: {what} frame is {f.depth.dtype}; d2sr label needs 16-bit depth")
-        yield f
+    return (f.depth for f in checked_counts(reader, scale, f"{what} frame"))
 
 
 def label(
@@ -110,7 +105,10 @@ def label(
     memory_mb: Annotated[float, typer.Option(help="Memory for the clean sequence's statistics.")] = 64.0,
     overwrite: Overwrite = False,
 ) -> None:
-    """Ground truth from recordings: interference masks and depth for each interfered frame."""
+    """Ground truth from recordings: interference masks and depth for each interfered frame.
+
+    Example: d2sr label --clean clean/ --interfered interfered/ --depth-scale 4000 --out labels/
+    """
     from d2sr.frames.layout import LABELS, FrameFolder
     from d2sr.labels import Labeller, clean_stats, label_frames
 
@@ -139,7 +137,7 @@ def label(
             while True:
                 yield from _counts(creader, "clean", scale)
 
-        frames = ((f.name, f.depth) for f in _checked(ireader, "interfered", scale))
+        frames = ((f.name, f.depth) for f in checked_counts(ireader, scale, "interfered frame"))
         rows = []
         task2 = bar.add_task("labelling", total=len(ireader))
         with atomic_dir(out) as tmp:
@@ -179,7 +177,10 @@ def calibrate(
     frames: Annotated[int, typer.Option(help="Frames per simulated room.")] = 24,
     overwrite: Overwrite = False,
 ) -> None:
-    """Fit the sensor model to real captures; plot real vs simulated statistics (bar: within 20%)."""
+    """Fit the sensor model to real captures; plot real vs simulated statistics (bar: within 20%).
+
+    Example: d2sr calibrate --real captures/dev0 --real captures/dev1 --out out/calibration
+    """
     from d2sr.eval.plots import calibration as plot
     from d2sr.eval.plots import save
     from d2sr.sim.calibrate import STATS, combine, sequence_stats, simulated_stats, verdict
@@ -230,11 +231,14 @@ def calibrate(
 
 
 def gallery(
-    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("docs/results/sim/gallery.png"),
+    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("out/gallery.png"),
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     overwrite: Overwrite = False,
 ) -> None:
-    """A gallery of simulated frames: each interference kind, clean / interfered / true mask."""
+    """A gallery of simulated frames: each interference kind, clean / interfered / true mask.
+
+    Example: d2sr gallery --out out/gallery.png
+    """
     from d2sr.eval.plots import save
     from d2sr.eval.sim_gallery import gallery_figure
 

@@ -48,7 +48,10 @@ def detector(
     overwrite: Overwrite = False,
 ) -> None:
     """Detector precision/recall on the generated test set and on real L515 frames with simulated
-    interference; PR curves."""
+    interference; PR curves.
+
+    Example: d2sr eval detector --real ../shared/data/l515 --out out/eval/detector
+    """
     from d2sr.eval.learned import detector_cards, evaluate_detectors, write_detectors
 
     check_probability(threshold, "--threshold")
@@ -85,7 +88,10 @@ def recovery(
     card: Card = False,
     overwrite: Overwrite = False,
 ) -> None:
-    """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery."""
+    """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery.
+
+    Example: d2sr eval recovery --real ../shared/data/l515 --limit 60 --out out/eval/recovery
+    """
     from d2sr.eval.learned import evaluate_recovery, recovery_cards
 
     if limit < 0:
@@ -111,7 +117,10 @@ def paper(
     overwrite: Overwrite = False,
 ) -> None:
     """The paper's evaluation in one report: Fig. 3, Fig. 9, detector P/R/F1, Tables I-II, Fig. 10, Table
-    III (latency here), side by side with the paper's numbers."""
+    III (latency here), side by side with the paper's numbers.
+
+    Example: d2sr eval paper --real ../shared/data/l515 --out out/eval/paper
+    """
     from d2sr.eval.paper import report
 
     if rooms < 2 or limit < 1:
@@ -139,7 +148,10 @@ def labels(
     overwrite: Overwrite = False,
 ) -> None:
     """Mask F1 of the labelling methods on simulated static sequences and on real captures with simulated
-    interference (per threshold for the paper's method)."""
+    interference (per threshold for the paper's method).
+
+    Example: d2sr eval labels --real ../shared/data/l515 --out out/eval/labels
+    """
     from d2sr.eval.labels import run_all
     from d2sr.eval.plots import label_f1, save
 

@@ -70,7 +70,10 @@ def run(
     """Detect every frame, de-synchronize (closed loop where a trigger exists), repair, write it all.
 
     A recording is replayed open loop (no trigger: the controller's offsets are logged); a killed run
-    resumes where it stopped. A simulated room always starts clean."""
+    resumes where it stopped. A simulated room always starts clean.
+
+    Example: d2sr run sim --sensors 3 --seconds 20 --out out/run --rerun out/run.rrd
+    """
     from d2sr.inference import open_backend
     from d2sr.runtime import session
     from d2sr.runtime.viewer import LIVE, RerunLog
@@ -193,7 +196,10 @@ def demo(
     overwrite: Overwrite = False,
 ) -> None:
     """The closed loop: 3 simulated L515s in one room under static, d2sr and the default controller, with
-    the shipped models; a table, and a report with plots."""
+    the shipped models; a table, and a report with plots.
+
+    Example: d2sr demo --out out/demo
+    """
     from d2sr.eval.demo import DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
     from d2sr.inference import open_backend
 
@@ -228,7 +234,7 @@ def view(
     overwrite: Overwrite = False,
 ) -> None:
     """Open a finished run in Rerun: every sensor's repaired frames and predicted masks, and the detector
-    score, flag and window over time. Example: d2sr view out/demo/runs/damped"""
+    score, flag and window over time. Example: d2sr view out/demo/runs/robust"""
     from d2sr.runtime.viewer import LIVE
     from d2sr.runtime.viewer import view as replay
 

@@ -10,7 +10,6 @@ from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write, check_out
@@ -23,7 +22,7 @@ from d2sr.cli.common import (
     Scale,
     Topic,
     Weights,
-    checked,
+    checked_counts,
     checked_frames,
     open_input,
     prefetch,
@@ -53,7 +52,10 @@ def detect(
     max_range: MaxRange = PLAUSIBLE_M[1],
     overwrite: Overwrite = False,
 ) -> None:
-    """Stage 1: score every frame (probability that it is interfered)."""
+    """Stage 1: score every frame (probability that it is interfered).
+
+    Example: d2sr detect recording/ --depth-scale 4000 --out flags.csv
+    """
     from d2sr.contract import padded
     from d2sr.inference import open_backend
 
@@ -96,7 +98,10 @@ def recover(
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
-    Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed."""
+    Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed.
+
+    Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
+    """
     from d2sr.desync import make_controller
     from d2sr.inference import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
@@ -123,9 +128,7 @@ def recover(
         folder = FrameFolder(tmp, REPAIRED)
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
         pending: deque[Future[None]] = deque()
-        for f in prefetch(checked(reader, scale)):
-            if f.depth.dtype != np.uint16:
-                raise InputError(f"frame {f.name}: recover writes 16-bit PNGs and needs uint16 depth input")
+        for f in prefetch(checked_counts(reader, scale, "frame")):
             res = loop.process(Capture(f, scale))
             if view is not None:
                 view.write(0, res)

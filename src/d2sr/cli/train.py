@@ -29,7 +29,10 @@ def train(
     minutes: Annotated[float | None, typer.Option(help="Stop after this many minutes (0: none).")] = None,
     overwrite: Overwrite = False,
 ) -> None:
-    """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes)."""
+    """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes).
+
+    Example: d2sr train recovery --config configs/unet8.toml --out runs/unet8
+    """
     from d2sr.config import read_toml
     from d2sr.train.config import TrainConfig
     from d2sr.train.loop import train as run
@@ -64,7 +67,11 @@ def export(
         typer.Argument(help="Weights files (default: every shipped model).", metavar="WEIGHTS..."),
     ] = None,
     out: Annotated[
-        Path | None, typer.Option(help="Folder for the .onnx files (default: next to the weights).")
+        Path | None,
+        typer.Option(
+            help="Folder for the .onnx files (default: next to each weights file you name; out/onnx "
+            "for the shipped models)."
+        ),
     ] = None,
     int8: Annotated[
         bool,
@@ -72,13 +79,18 @@ def export(
     ] = False,
     overwrite: Overwrite = False,
 ) -> None:
-    """Export models to ONNX (dynamic batch, height, width) after a parity check against torch."""
+    """Export models to ONNX (dynamic batch, height, width) after a parity check against torch.
+
+    Example: d2sr export runs/unet8/unet8.safetensors --out out/onnx
+    """
     from d2sr.export import export as run
     from d2sr.quantize import quantize
 
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
         raise ConfigError("no weights to export")
+    if out is None and not weights:
+        out = Path("out/onnx")  # the shipped folder changes only when asked: --out src/d2sr/models/weights
     targets = [(out or w.parent) / (w.stem + ".onnx") for w in files]
     for t in targets:
         check_out(t, is_dir=False, overwrite=overwrite, inputs=files)

@@ -16,6 +16,7 @@ from d2sr.desync.base import TOTAL_FRAMES, Controller, check_window
 from d2sr.desync.damped import DampedController
 from d2sr.desync.oracle import OracleController
 from d2sr.desync.paper import PaperController
+from d2sr.desync.robust import RobustController
 from d2sr.desync.static import StaticController
 from d2sr.errors import ConfigError
 
@@ -23,11 +24,13 @@ __all__ = ["CONTROLLERS", "DEFAULT_CONTROLLER", "TOTAL_FRAMES", "Controller", "m
 
 #: Every controller by name. "oracle" needs the timing world (global knowledge); the rest are decentralized.
 CONTROLLERS: dict[str, type[Controller]] = {
-    c.name: c for c in (StaticController, PaperController, DampedController, OracleController)
+    c.name: c
+    for c in (StaticController, PaperController, RobustController, DampedController, OracleController)
 }
 
-#: The project's best decentralized controller.
-DEFAULT_CONTROLLER = DampedController.name
+#: The project's best decentralized controller: at or below the paper's Algorithm 1 across deployment
+#: assumptions (d2sr desync grid), better where Algorithm 1 stalls.
+DEFAULT_CONTROLLER = RobustController.name
 
 
 def make_controller(

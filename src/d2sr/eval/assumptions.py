@@ -22,7 +22,17 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.desync import Cell, run_cell
 from d2sr.sim.timing import TimingConfig
 
-__all__ = ["AXES", "ROOMS", "GridResult", "oversubscribed", "run_grid", "settings", "summary"]
+__all__ = [
+    "AXES",
+    "ROOMS",
+    "GridResult",
+    "heatmap",
+    "markdown",
+    "oversubscribed",
+    "run_grid",
+    "settings",
+    "summary",
+]
 
 #: Each assumption and the values the grid takes.
 AXES: dict[str, tuple[float, ...]] = {
@@ -166,3 +176,76 @@ def summary(
         "oversubscribed_worst_vs_oracle": max((c["vs_oracle"] for c in over), default=float("nan")),
         "results": [asdict(r) for r in results],
     }
+
+
+def heatmap(summ: dict[str, Any]) -> Any:
+    """The default's interfered frames minus the reference's (points) in every (room, setting) cell; red
+    where the default loses, blue where it wins; cells over the 0.3-point tolerance are outlined."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cells = summ["cells"]
+    rooms = sorted({(c["sensors"], c["fps"]) for c in cells})
+    ks = sorted({c["setting"] for c in cells})
+    grid = np.full((len(rooms), len(ks)), np.nan)
+    for c in cells:
+        grid[rooms.index((c["sensors"], c["fps"])), ks.index(c["setting"])] = c["diff_points"]
+    lim = max(1.0, float(np.nanmax(np.abs(grid))))
+    fig, ax = plt.subplots(figsize=(1.6 + 0.55 * len(ks), 1.2 + 0.32 * len(rooms)))
+    im = ax.imshow(grid, cmap="RdBu_r", vmin=-lim, vmax=lim, aspect="auto")
+    for (i, j), v in np.ndenumerate(grid):
+        if np.isfinite(v):
+            ax.text(j, i, f"{v:+.1f}", ha="center", va="center", fontsize=6)
+            if v > 0.3:
+                ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="k", lw=1.5))
+    ax.set_xticks(range(len(ks)), [str(k) for k in ks])
+    ax.set_yticks(range(len(rooms)), [f"N={n}, {f} fps" for n, f in rooms])
+    ax.set_xlabel("setting (docs/results/desync_grid/README.md lists each)")
+    fig.colorbar(im, ax=ax, label=f"{summ['default']} - {summ['reference']} (points of interfered frames)")
+    ax.set_title(
+        f"{summ['default']} vs {summ['reference']} (paper Alg. 1): "
+        f"worst {summ['worst']['diff_points']:+.2f} points, mean {summ['mean_diff_points']:+.2f}"
+    )
+    fig.tight_layout()
+    return fig
+
+
+def markdown(summ: dict[str, Any], command: str) -> str:
+    """The grid's report: settings, bars, the worst cells and the oversubscribed ones against the oracle."""
+    d, ref = summ["default"], summ["reference"]
+    lines = [
+        f"# {d} against the paper's Algorithm 1 across deployment assumptions",
+        "",
+        f"Command: `{command}`. Heat map: [grid.png](grid.png); every number: `grid.json`.",
+        "",
+        "## Bars",
+        "",
+        f"- cells where {d} loses to {ref} by more than 0.3 points: **{summ['cells_losing_over_0.3']}** of "
+        f"{len(summ['cells'])} (worst {summ['worst']['diff_points']:+.2f} at N={summ['worst']['sensors']}, "
+        f"{summ['worst']['fps']} fps, setting {summ['worst']['setting']})",
+        f"- mean difference: {summ['mean_diff_points']:+.2f} points",
+        "- oversubscribed cells, worst ratio to the oracle: "
+        f"{summ['oversubscribed_worst_vs_oracle']:.2f} (bar 1.5)",
+        "",
+        "## Settings",
+        "",
+        "| setting | " + " | ".join(AXES) + " |",
+        "|---|" + "---|" * len(AXES),
+    ]
+    for k, s in enumerate(summ["settings"]):
+        lines.append(f"| {k} | " + " | ".join(f"{s[a]:g}" for a in AXES) + " |")
+    lines += [
+        "",
+        "## The ten cells where it does worst",
+        "",
+        f"| N | fps | setting | {d} | {ref} | points |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in sorted(summ["cells"], key=lambda c: -c["diff_points"])[:10]:
+        lines.append(
+            f"| {c['sensors']} | {c['fps']} | {c['setting']} | {c[d]:.1%} | {c[ref]:.1%} "
+            f"| {c['diff_points']:+.2f} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -145,7 +145,7 @@ class OverlapGraph:
         """Several graphs side by side in one world, sharing nothing (sensor indices shifted)."""
         if not graphs:
             raise ConfigError("disjoint() needs at least one graph")
-        steps = max(g.live.shape[1] if g.live is not None else 1 for g in graphs)
+        steps = max(a.shape[1] for g in graphs for a in (g.live, g.present, np.ones((1, 1))) if a is not None)
         shifts = np.cumsum([0] + [g.n for g in graphs[:-1]])
         any_live = any(g.live is not None for g in graphs)
         any_present = any(g.present is not None for g in graphs)
