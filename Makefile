@@ -46,6 +46,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/models.py --json docs/results/bench_models.json
 	$(BIN)/python bench/pipeline.py --json docs/results/bench_pipeline.json
 	$(BIN)/python bench/quantize.py --json docs/results/quantize.json
+	$(BIN)/python bench/rerun_overhead.py --json docs/results/bench_rerun.json
 
 # 100,000 closed-loop frames, resident memory sampled (about 5 min).
 soak: $(STAMP)

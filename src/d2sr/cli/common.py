@@ -71,7 +71,8 @@ RerunOpt = Annotated[
     str | None,
     typer.Option(
         "--rerun",
-        help="Also log the run to Rerun: a FILE.rrd to save, or 'live' to spawn (or reach) a viewer.",
+        help="Also log the run to Rerun: a FILE.rrd to save, or 'live' to spawn (or reach) a viewer. Images "
+        "at half resolution (the output folder keeps every pixel).",
         metavar="FILE.rrd|live",
     ),
 ]

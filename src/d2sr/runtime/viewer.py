@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import csv
 import json
+import queue
+import threading
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -40,8 +42,11 @@ def _rerun() -> Any:
 class RerunLog:
     """One Rerun recording of a run (see the module docstring)."""
 
-    def __init__(self, target: str | Path, sensors: int, name: str = "d2sr run") -> None:
+    def __init__(self, target: str | Path, sensors: int, name: str = "d2sr run", stride: int = 2) -> None:
         rr = self.rr = _rerun()
+        # Images are logged at every ``stride``-th pixel: a view, not the record (the run folder keeps
+        # every pixel); 2 keeps logging under 10% of a 2-core loop's time (bench/rerun_overhead.py).
+        self.stride = max(1, int(stride))
         self.rec = rr.RecordingStream("d2sr", recording_id=None)
         self.rec.send_recording_name(name)
         self.path: Path | None = None
@@ -54,6 +59,20 @@ class RerunLog:
             self.rec.save(str(self._tmp))
         self.rec.send_blueprint(self._blueprint(sensors))
         self._frames = [0] * sensors
+        # Logging happens on a thread of its own, a few frames behind: the loop hands results over and
+        # goes on (the arrays are not touched again), so the viewer costs the loop little.
+        self._queue: queue.Queue[tuple[int, Result] | None] = queue.Queue(maxsize=8)
+        self._error: BaseException | None = None
+        self._worker = threading.Thread(target=self._drain, daemon=True)
+        self._worker.start()
+
+    def _drain(self) -> None:
+        while (item := self._queue.get()) is not None:
+            if self._error is None:
+                try:
+                    self._log(*item)
+                except BaseException as exc:  # re-raised in the loop's thread at the next write / close
+                    self._error = exc
 
     def _blueprint(self, sensors: int) -> Any:
         rrb = self.rr.blueprint
@@ -74,16 +93,21 @@ class RerunLog:
             self.rec.set_time("time", timestamp=np.datetime64(int(timestamp_ns), "ns"))
 
     def write(self, sensor: int, res: Result) -> None:
-        """Log one frame's input, repair, masks and figures."""
+        """Log one frame's input, repair, masks and figures (on the logging thread)."""
+        if self._error is not None:
+            raise self._error
+        self._queue.put((sensor, res))
+
+    def _log(self, sensor: int, res: Result) -> None:
         rr, cap = self.rr, res.capture
         self._time(sensor, cap.frame.timestamp_ns)
         meter = 1.0 if cap.frame.depth.dtype == np.float32 else cap.scale
-        base = f"sensor{sensor}"
-        self.rec.log(f"{base}/input", rr.DepthImage(cap.frame.depth, meter=meter))
-        self.rec.log(f"{base}/repaired", rr.DepthImage(res.depth, meter=meter))
-        self.rec.log(f"{base}/repaired/mask", rr.SegmentationImage(res.mask.astype(np.uint8)))
+        base, s = f"sensor{sensor}", self.stride
+        self.rec.log(f"{base}/input", rr.DepthImage(cap.frame.depth[::s, ::s], meter=meter))
+        self.rec.log(f"{base}/repaired", rr.DepthImage(res.depth[::s, ::s], meter=meter))
+        self.rec.log(f"{base}/repaired/mask", rr.SegmentationImage(res.mask[::s, ::s].astype(np.uint8)))
         if cap.mask is not None:
-            self.rec.log(f"{base}/input/true_mask", rr.SegmentationImage(cap.mask.astype(np.uint8)))
+            self.rec.log(f"{base}/input/true_mask", rr.SegmentationImage(cap.mask[::s, ::s].astype(np.uint8)))
         self._series(sensor, res.score, res.flagged, res.offset, float(res.mask.mean()), cap.interfered)
 
     def _series(
@@ -99,14 +123,20 @@ class RerunLog:
 
     def close(self, ok: bool = True) -> None:
         """Finish the recording; a file appears at its path only when the run ended well."""
+        if self._worker.is_alive():
+            self._queue.put(None)
+            self._worker.join()
+        failed, self._error = self._error, None
         self.rec.flush()
         self.rec.disconnect()
         if self._tmp is not None and self.path is not None:
-            if ok:
+            if ok and failed is None:
                 commit(self._tmp, self.path)
             else:
                 discard(self._tmp)
             self._tmp = None
+        if ok and failed is not None:  # the run went well but its log did not
+            raise failed
 
     def __enter__(self) -> RerunLog:
         return self
