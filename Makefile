@@ -38,7 +38,7 @@ sweep: $(STAMP)
 
 # The default controller against Algorithm 1 across deployment assumptions (about 10 min on 2 cores).
 desync-grid: $(STAMP)
-	$(BIN)/d2sr desync grid --out docs/results/desync_grid --overwrite
+	$(BIN)/d2sr desync grid --out docs/results/desync/grid --overwrite
 
 bench: $(STAMP)
 	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json

@@ -17,3 +17,24 @@ def d2sr(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
         cwd=cwd,
         timeout=300,
     )
+
+
+def d2sr_inprocess(*args: str) -> tuple[int, str, str]:
+    """The console entry point in this process (fast, for many runs): (exit code, stdout with rich's line
+    wrapping undone, stderr)."""
+    import io
+    from contextlib import redirect_stderr, redirect_stdout
+
+    from d2sr.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    argv, sys.argv = sys.argv, ["d2sr", *args]
+    try:
+        with redirect_stderr(err), redirect_stdout(out):
+            main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = argv
+    return code, " ".join(out.getvalue().split()), err.getvalue()

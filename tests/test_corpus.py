@@ -6,19 +6,16 @@ covers the subprocess path."""
 
 from __future__ import annotations
 
-import io
 import re
-import sys
 from collections.abc import Callable
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
-from d2sr.cli import main
 from d2sr.frames.png import encode_png
+from helpers import d2sr_inprocess
 
 
 def _good(root: Path, n: int = 4, shape: tuple[int, int] = (96, 128), scale: float = 1000) -> Path:
@@ -105,18 +102,8 @@ def _commands(src: Path, out: Path, weights: Path) -> dict[str, list[str]]:
 
 
 def _run(args: list[str]) -> tuple[int, str]:
-    err = io.StringIO()
-    argv = sys.argv
-    sys.argv = ["d2sr", *args]
-    try:
-        with redirect_stderr(err), redirect_stdout(io.StringIO()):
-            main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = argv
-    return code, err.getvalue()
+    code, _, err = d2sr_inprocess(*args)
+    return code, err
 
 
 @pytest.mark.parametrize("command", ["detect", "recover", "run", "label", "calibrate", "train"])

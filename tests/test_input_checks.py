@@ -6,33 +6,20 @@ that says which scale it used and writes "n/a" where a figure does not apply."""
 from __future__ import annotations
 
 import csv
-import io
-import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from d2sr.cli import main
 from d2sr.errors import InputError
 from d2sr.frames import Frame
 from d2sr.frames.base import looks_like_intensity, probe
 from d2sr.frames.png import encode_png
+from helpers import d2sr_inprocess
 
 
 def _run(args: list[str]) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    argv, sys.argv = sys.argv, ["d2sr", *args]
-    try:
-        with redirect_stderr(err), redirect_stdout(out):
-            main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = argv
-    return code, " ".join(out.getvalue().split()), err.getvalue()  # rich wraps at its console width
+    return d2sr_inprocess(*args)
 
 
 def _room(rng: np.random.Generator, metres: float, shape: tuple[int, int] = (96, 128)) -> np.ndarray:

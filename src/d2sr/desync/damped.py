@@ -28,8 +28,7 @@ from both sides add up.
 
 from __future__ import annotations
 
-from d2sr.desync.base import TOTAL_FRAMES, Controller
-from d2sr.errors import ConfigError
+from d2sr.desync.base import TOTAL_FRAMES, Controller, check_probability_option
 
 __all__ = ["DampedController"]
 
@@ -51,9 +50,7 @@ class DampedController(Controller):
         damp: bool = True,
     ) -> None:
         super().__init__(total_frames, active_frames, seed, offset)
-        if not 0.0 <= escape <= 1.0:
-            raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
-        self.escape = escape
+        self.escape = check_probability_option(escape, "escape")
         self.freeze = freeze
         self.reject, self.damp = reject, damp
         self.load = 0.0  # running fraction of our frames flagged: how crowded the period is
@@ -64,7 +61,7 @@ class DampedController(Controller):
         return self.last
 
     def _decide(self, flags: list[bool]) -> int:
-        n, t = self.active_frames, self.total_frames
+        n = self.active_frames
         hits = sum(flags)
         self.load += 0.2 * (hits / n - self.load)
         if hits == 0 or (self.reject and hits == 1 and not (flags[0] or flags[-1])):
@@ -74,8 +71,7 @@ class DampedController(Controller):
         if head == tail:
             if hits < n - 1 or self.rng.random() >= self.escape:
                 return 0
-            lo = min(n, t // 2)
-            return int(self.rng.integers(lo, max(lo, t - n) + 1))
+            return self._escape_jump()
         if head and tail and self.load > self.freeze:
             return 0
         delta = head - tail

@@ -13,13 +13,12 @@ failed in a row: in a saturated period, jumping only reshuffles the overlap.
 Why nothing else: the previous default (``damped``) added noise rejection, damping of reversals and a
 congestion freeze. They win on average, but each loses to Algorithm 1 where the detector's signal is
 sparse (low recall or hit probability) and the period is oversubscribed, as measured across deployment
-assumptions with ``d2sr desync grid`` (docs/desync.md, docs/results/desync_grid/).
+assumptions with ``d2sr desync grid`` (docs/desync.md, docs/results/desync/grid/).
 """
 
 from __future__ import annotations
 
-from d2sr.desync.base import TOTAL_FRAMES, Controller
-from d2sr.errors import ConfigError
+from d2sr.desync.base import TOTAL_FRAMES, Controller, check_probability_option
 
 __all__ = ["RobustController"]
 
@@ -39,16 +38,14 @@ class RobustController(Controller):
         patience: int = 2,
     ) -> None:
         super().__init__(total_frames, active_frames, seed, offset)
-        if not 0.0 <= escape <= 1.0:
-            raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
-        self.escape = escape
+        self.escape = check_probability_option(escape, "escape")
         self.patience = int(patience)  # covered periods in a row before an escape is tried
         self.stalled = 0
         self.failed = 0  # escapes in a row that landed in another covered place
         self._escaped = False
 
     def _shift(self, flags: list[bool]) -> int:
-        n, t = self.active_frames, self.total_frames
+        n = self.active_frames
         hits = sum(flags)
         covered = hits >= n - 1
         if self._escaped:  # did the last escape find a freer place?
@@ -64,5 +61,4 @@ class RobustController(Controller):
             return 0
         self._escaped = True
         self.stalled = 0
-        lo = min(n, t // 2)
-        return int(self.rng.integers(lo, max(lo, t - n) + 1))
+        return self._escape_jump()

@@ -202,7 +202,7 @@ def heatmap(summ: dict[str, Any]) -> Any:
                 ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="k", lw=1.5))
     ax.set_xticks(range(len(ks)), [str(k) for k in ks])
     ax.set_yticks(range(len(rooms)), [f"N={n}, {f} fps" for n, f in rooms])
-    ax.set_xlabel("setting (docs/results/desync_grid/README.md lists each)")
+    ax.set_xlabel("setting (docs/results/desync/grid/README.md lists each)")
     fig.colorbar(im, ax=ax, label=f"{summ['default']} - {summ['reference']} (points of interfered frames)")
     ax.set_title(
         f"{summ['default']} vs {summ['reference']} (paper Alg. 1): "
