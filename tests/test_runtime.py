@@ -153,6 +153,7 @@ def net():
     return open_backend("unet8", "onnx", threads=1)
 
 
+@pytest.mark.slow  # a long simulation: not in make test-fast
 def test_closed_loop_in_a_room_desynchronizes_and_repairs(net):
     static = run_sim(net, None, "static", sensors=3, seconds=8, seed=0)
     ours = run_sim(net, None, "damped", sensors=3, seconds=8, seed=0)

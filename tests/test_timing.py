@@ -102,6 +102,7 @@ def test_absent_sensor_captures_nothing_and_harms_nobody():
     assert run.captured[1].sum() == 0 and run.interfered.sum() == 0 and run.captured[0].sum() == 300
 
 
+@pytest.mark.slow  # a long simulation: not in make test-fast
 def test_drift_moves_windows_apart_over_time():
     """Two static sensors 400 ppm apart slide 0.4 ms per period against each other: 0.24 s in 600 s."""
     cfg = TimingConfig.make(active_frames=3, setup=0, **EXACT)
