@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import queue
+import socket
+import sys
 import threading
 from pathlib import Path
 from types import TracebackType
@@ -29,6 +32,7 @@ from d2sr.runtime.loop import Result
 __all__ = ["LIVE", "RerunLog", "view"]
 
 LIVE = "live"
+VIEWER_PORT = 9876  # where a Rerun viewer listens by default
 
 
 def _rerun() -> Any:
@@ -52,7 +56,7 @@ class RerunLog:
         self.path: Path | None = None
         self._tmp: Path | None = None
         if str(target) == LIVE:
-            self.rec.spawn()
+            self._spawn()
         else:
             self.path = Path(target)
             self._tmp = temp_for(self.path, is_dir=False)
@@ -73,6 +77,35 @@ class RerunLog:
                     self._log(*item)
                 except BaseException as exc:  # re-raised in the loop's thread at the next write / close
                     self._error = exc
+
+    def _spawn(self) -> None:
+        """Reach the viewer running on this machine, or start one, and stream to it. The viewer binary
+        comes with rerun-sdk next to this Python; a shell that did not activate the environment lacks it
+        in PATH. Without a screen (no DISPLAY or Wayland) no viewer can start: a one-line error."""
+        with socket.socket() as s:
+            s.settimeout(0.2)
+            running = s.connect_ex(("127.0.0.1", VIEWER_PORT)) == 0
+        if running:
+            self.rec.connect_grpc()
+            return
+        if sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        ):
+            raise InputError(
+                "--rerun live: no viewer is running and there is no screen to start one; start `rerun` "
+                "where you can see it, or save with --rerun FILE.rrd"
+            )
+        here = str(Path(sys.executable).parent)
+        path = os.environ.get("PATH", "")
+        if here not in path.split(os.pathsep):
+            os.environ["PATH"] = here + os.pathsep + path
+        try:
+            self.rec.spawn()
+        except (RuntimeError, OSError) as exc:
+            reason = str(exc).strip().splitlines()[0]
+            raise InputError(
+                f"--rerun live: cannot start a Rerun viewer ({reason}); save with --rerun FILE.rrd"
+            ) from None
 
     def _blueprint(self, sensors: int) -> Any:
         rrb = self.rr.blueprint
@@ -127,7 +160,7 @@ class RerunLog:
             self._queue.put(None)
             self._worker.join()
         failed, self._error = self._error, None
-        self.rec.flush()
+        self.rec.flush(timeout_sec=10.0)  # a viewer that went away must not hold the run
         self.rec.disconnect()
         if self._tmp is not None and self.path is not None:
             if ok and failed is None:
