@@ -36,13 +36,15 @@ def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
         "desync run": ["desync", "run", "--out", out],
         "desync sweep": ["desync", "sweep", "--out", out],
         "desync report": ["desync", "report", out],
+        "desync grid": ["desync", "grid", "--out", out],
+        "view": ["view", s, "--save", out],
         "bench": ["bench", "--json", out],
         "demo": ["demo", "--out", out],
         "export": ["export", str(weights / "unet8.safetensors"), "--out", out],
     }
 
 
-READS_INPUT = ("detect", "recover", "run", "label", "calibrate")
+READS_INPUT = ("detect", "recover", "run", "label", "calibrate", "view")
 COMMANDS = list(_args(Path("x"), "o", Path("w")))
 
 

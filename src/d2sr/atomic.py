@@ -54,17 +54,18 @@ def check_out(
     overwrite: bool = False,
     inputs: Iterable[Path | None] = (),
     resume: bool = False,
+    option: str = "--out",
 ) -> Path:
     """Refuse an output path that would destroy something d2sr did not make; the absolute path otherwise.
 
     ``resume``: an existing folder d2sr made is taken as it is (a run folder a command resumes)."""
     if not os.fspath(out).strip():
-        raise OutputError("--out is empty; name a new file or folder")
+        raise OutputError(f"{option} is empty; name a new file or folder")
     path = _abs(out)
     real, cwd = _real(path), _real(Path.cwd())
     if real == Path(real.anchor) or real == cwd or real in cwd.parents or real == _real(Path.home()):
         raise OutputError(
-            f"--out {out} is the current folder, one of its parents or your home; name a new one"
+            f"{option} {out} is the current folder, one of its parents or your home; name a new one"
         )
     for src in inputs:
         if src is None:
@@ -72,14 +73,14 @@ def check_out(
         s = _real(Path(src))
         if real == s or s in real.parents or real in s.parents:
             how = "is" if real == s else "is inside" if s in real.parents else "contains"
-            raise OutputError(f"--out {out} {how} the input ({src}); d2sr never writes over its input")
+            raise OutputError(f"{option} {out} {how} the input ({src}); d2sr never writes over its input")
     if path.parent.exists() and not path.parent.is_dir():
-        raise OutputError(f"--out {out}: {path.parent} is a file, not a folder")
+        raise OutputError(f"{option} {out}: {path.parent} is a file, not a folder")
     if not (path.exists() or path.is_symlink()):
         return path
     if is_dir:
         if not path.is_dir() or path.is_symlink():
-            raise OutputError(f"--out {out} exists and is not a folder; name a new folder")
+            raise OutputError(f"{option} {out} exists and is not a folder; name a new folder")
         if not any(path.iterdir()):
             return path
         mine = (path / MANIFEST).is_file()
@@ -87,16 +88,18 @@ def check_out(
             return path
         if not overwrite:
             raise OutputError(
-                f"--out {out} exists and is not empty; pass --overwrite to replace what d2sr wrote there "
+                f"{option} {out} exists and is not empty; pass --overwrite to replace what d2sr wrote there "
                 "(other files are kept), or name a new folder"
             )
         if not mine:
-            raise OutputError(f"--out {out} holds files d2sr did not make (no {MANIFEST}); name a new folder")
+            raise OutputError(
+                f"{option} {out} holds files d2sr did not make (no {MANIFEST}); name a new folder"
+            )
         return path
     if path.is_dir() or path.is_symlink():
-        raise OutputError(f"--out {out} is a folder or a link; name a file")
+        raise OutputError(f"{option} {out} is a folder or a link; name a file")
     if not overwrite:
-        raise OutputError(f"--out {out} exists; pass --overwrite to replace it")
+        raise OutputError(f"{option} {out} exists; pass --overwrite to replace it")
     return path
 
 

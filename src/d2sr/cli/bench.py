@@ -39,7 +39,7 @@ def bench(
     if sensors < 1 or seconds <= 0 or repeats < 1:
         raise ConfigError("need sensors >= 1, seconds > 0 and repeats >= 1")
     if json_out is not None:
-        check_out(json_out, is_dir=False, overwrite=overwrite)
+        check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
     results = {}
     with progress_bar() as bar:
         if "timing" in names:

@@ -74,7 +74,7 @@ def run(
     timing = TimingConfig.make(**values)
     check_out(out, is_dir=True, overwrite=overwrite)
     if json_out:
-        check_out(json_out, is_dir=False, overwrite=overwrite)
+        check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
     where = "a robot among fixed sensors" if scenario == "moving" else "one room"
     with out_dir(out, overwrite) as tmp, progress_bar() as bar:
         task = bar.add_task("simulating", total=len(names))
@@ -162,7 +162,7 @@ def report(
     """
     from d2sr.eval import desync as ev
 
-    check_out(folder, is_dir=True, overwrite=True)
+    check_out(folder, is_dir=True, overwrite=True, option="FOLDER")
     path = folder / "sweep.json"
     if not path.is_file():
         raise ConfigError(f"{path}: no such file (run d2sr desync sweep --out {folder} first)")

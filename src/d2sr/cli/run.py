@@ -96,9 +96,8 @@ def run(
         raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[Path(source)] if is_recording else [])
     if rerun is not None and rerun != LIVE:
-        check_out(
-            Path(rerun), is_dir=False, overwrite=overwrite, inputs=[Path(source)] if is_recording else []
-        )
+        inputs = [Path(source)] if is_recording else []
+        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=inputs, option="--rerun")
     net = open_backend(
         model if repair != "none" else None,
         backend,
@@ -239,6 +238,6 @@ def view(
     from d2sr.runtime.viewer import view as replay
 
     if save is not None:
-        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run])
+        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], option="--save")
     n = replay(run, save if save is not None else LIVE)
     console.print(f"{n} frames of {run} -> {save or 'the Rerun viewer'}")

@@ -112,7 +112,7 @@ def recover(
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
     if rerun is not None and rerun != LIVE:
-        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out])
+        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
     net = open_backend(model, backend, weights, mask_logit=mask_logit)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
