@@ -21,6 +21,7 @@ from d2sr.ui import console, warn
 __all__ = [
     "BackendOpt",
     "Cache",
+    "Input",
     "MaxRange",
     "Overwrite",
     "Real",
@@ -44,6 +45,7 @@ Scale = Annotated[
     float | None,
     typer.Option(help="Units per metre (default: what the recording says, else 1000; raw L515 is 4000)."),
 ]
+Input = Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")]
 Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]

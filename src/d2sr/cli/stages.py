@@ -15,6 +15,7 @@ import typer
 from d2sr.atomic import atomic_dir, atomic_write, check_out
 from d2sr.cli.common import (
     BackendOpt,
+    Input,
     MaskLogit,
     MaxRange,
     Overwrite,
@@ -38,9 +39,7 @@ __all__ = ["detect", "recover"]
 
 
 def detect(
-    input: Annotated[
-        Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")
-    ],
+    input: Input,
     out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
     depth_scale: Scale = None,
     threshold: Annotated[
@@ -79,9 +78,7 @@ def detect(
 
 
 def recover(
-    input: Annotated[
-        Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")
-    ],
+    input: Input,
     out: Annotated[Path, typer.Option(help="Output folder: <name>.png repaired, masks/<name>.png.")],
     depth_scale: Scale = None,
     every: Annotated[

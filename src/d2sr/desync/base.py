@@ -16,16 +16,9 @@ import numpy as np
 
 from d2sr.errors import ConfigError
 
-__all__ = ["TOTAL_FRAMES", "Controller", "check_flags", "check_probability_option", "check_window"]
+__all__ = ["TOTAL_FRAMES", "Controller", "EscapingController", "check_flags", "check_window"]
 
 TOTAL_FRAMES = 30  # slots of one 1 s observation period: a 30 fps sensor's frames
-
-
-def check_probability_option(value: float, name: str) -> float:
-    """A controller option that is a probability in [0, 1]."""
-    if not 0.0 <= value <= 1.0:
-        raise ConfigError(f"{name} must be a probability in [0, 1], got {value}")
-    return value
 
 
 def check_window(total_frames: int, active_frames: int) -> None:
@@ -91,16 +84,33 @@ class Controller(ABC):
         self._offset = (self._offset + int(shift)) % self.total_frames
         return self._offset
 
-    def _escape_jump(self) -> int:
-        """A random move out of a covered window: at least a window, at most the period minus a window
-        (used by the controllers that escape a symmetric stall)."""
-        n, t = self.active_frames, self.total_frames
-        lo = min(n, t // 2)
-        return int(self.rng.integers(lo, max(lo, t - n) + 1))
-
     @abstractmethod
     def _shift(self, flags: list[bool]) -> int:
         """Slots to move the window: positive = later in the period, negative = earlier."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(n={self.active_frames}/{self.total_frames}, offset={self._offset})"
+
+
+class EscapingController(Controller):
+    """A controller that, besides its own rule, can escape a window another one covers: ``escape`` is
+    the probability of trying, ``_escape_jump`` the random move (shared by ``robust`` and ``damped``)."""
+
+    def __init__(
+        self,
+        total_frames: int = TOTAL_FRAMES,
+        active_frames: int = 15,
+        seed: int | None = 0,
+        offset: int | None = None,
+        escape: float = 0.5,
+    ) -> None:
+        super().__init__(total_frames, active_frames, seed, offset)
+        if not 0.0 <= escape <= 1.0:
+            raise ConfigError(f"escape must be a probability in [0, 1], got {escape}")
+        self.escape = escape
+
+    def _escape_jump(self) -> int:
+        """A random move out of a covered window: at least a window, at most the period minus one."""
+        n, t = self.active_frames, self.total_frames
+        lo = min(n, t // 2)
+        return int(self.rng.integers(lo, max(lo, t - n) + 1))

@@ -28,12 +28,12 @@ from both sides add up.
 
 from __future__ import annotations
 
-from d2sr.desync.base import TOTAL_FRAMES, Controller, check_probability_option
+from d2sr.desync.base import TOTAL_FRAMES, EscapingController
 
 __all__ = ["DampedController"]
 
 
-class DampedController(Controller):
+class DampedController(EscapingController):
     """Algorithm 1's push with noise rejection, randomized escape and damping (see module docstring)."""
 
     name = "damped"
@@ -46,13 +46,9 @@ class DampedController(Controller):
         offset: int | None = None,
         escape: float = 0.5,
         freeze: float = 0.75,
-        reject: bool = True,
-        damp: bool = True,
     ) -> None:
-        super().__init__(total_frames, active_frames, seed, offset)
-        self.escape = check_probability_option(escape, "escape")
+        super().__init__(total_frames, active_frames, seed, offset, escape)
         self.freeze = freeze
-        self.reject, self.damp = reject, damp
         self.load = 0.0  # running fraction of our frames flagged: how crowded the period is
         self.last = 0  # the previous move, to spot a reversal
 
@@ -64,7 +60,7 @@ class DampedController(Controller):
         n = self.active_frames
         hits = sum(flags)
         self.load += 0.2 * (hits / n - self.load)
-        if hits == 0 or (self.reject and hits == 1 and not (flags[0] or flags[-1])):
+        if hits == 0 or (hits == 1 and not (flags[0] or flags[-1])):
             return 0
         half = n // 2
         head, tail = sum(flags[:half]), sum(flags[n - half :])
@@ -75,6 +71,6 @@ class DampedController(Controller):
         if head and tail and self.load > self.freeze:
             return 0
         delta = head - tail
-        if self.damp and self.last and (delta > 0) != (self.last > 0):
+        if self.last and (delta > 0) != (self.last > 0):
             delta = int(delta / 2) or (1 if delta > 0 else -1)
         return delta

@@ -18,12 +18,12 @@ assumptions with ``d2sr desync grid`` (docs/desync.md, docs/results/desync/grid/
 
 from __future__ import annotations
 
-from d2sr.desync.base import TOTAL_FRAMES, Controller, check_probability_option
+from d2sr.desync.base import TOTAL_FRAMES, EscapingController
 
 __all__ = ["RobustController"]
 
 
-class RobustController(Controller):
+class RobustController(EscapingController):
     """Algorithm 1's push, and a randomized escape with backoff from a covered window."""
 
     name = "robust"
@@ -37,8 +37,7 @@ class RobustController(Controller):
         escape: float = 0.5,
         patience: int = 2,
     ) -> None:
-        super().__init__(total_frames, active_frames, seed, offset)
-        self.escape = check_probability_option(escape, "escape")
+        super().__init__(total_frames, active_frames, seed, offset, escape)
         self.patience = int(patience)  # covered periods in a row before an escape is tried
         self.stalled = 0
         self.failed = 0  # escapes in a row that landed in another covered place

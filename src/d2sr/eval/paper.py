@@ -232,11 +232,12 @@ def report(
     """The whole paper report into ``folder``: report.md, results.json, the figures, and the detector and
     recovery evaluations in detector/ and recovery/."""
     from d2sr.bench import bench_models
+    from d2sr.contract import DETECTOR_NAMES, THRESHOLD
     from d2sr.eval.learned import evaluate_detectors, evaluate_recovery, write_detectors
 
     res = run_all(folder, steps, rooms)
     detector = steps(
-        "detector", lambda: evaluate_detectors(["detector", "paper-detector"], weights, real, cache, 0.5)
+        "detector", lambda: evaluate_detectors(list(DETECTOR_NAMES), weights, real, cache, THRESHOLD)
     )
     (folder / "detector").mkdir()
     write_detectors(detector, folder / "detector")

@@ -34,9 +34,10 @@ class FrameFolder:
     """Named frames of several streams under ``root``; each file lands under a temporary name and is
     renamed, so a reader (or a resumed run) never sees half a PNG."""
 
-    def __init__(self, root: Path, streams: dict[str, str]) -> None:
+    def __init__(self, root: Path, streams: dict[str, str], create: bool = True) -> None:
+        """``create=False``: a folder only read (nothing is made on disk)."""
         self.root, self.streams = Path(root), streams
-        for sub in streams.values():
+        for sub in streams.values() if create else ():
             (self.root / sub).mkdir(parents=True, exist_ok=True)
 
     def path(self, stream: str, name: str) -> Path:

@@ -53,6 +53,7 @@ class RunFolder:
         self.settings = json.loads(json.dumps(settings, default=str))
         self.done: dict[tuple[int, str], dict[str, Any]] = {}
         self.resumed = False
+        self._folders: dict[int, FrameFolder] = {}
         prior = self._read_settings()
         if prior is not None and prior == self.settings and resumable:
             self.done = self._read_log()
@@ -69,7 +70,6 @@ class RunFolder:
             self._log.flush()
         self._pool = ThreadPoolExecutor(1)  # PNG encoding overlaps the next frame's inference
         self._pending: deque[Future[None]] = deque()
-        self._folders: dict[int, FrameFolder] = {}
 
     def __enter__(self) -> RunFolder:
         return self
@@ -102,12 +102,21 @@ class RunFolder:
             if len(row) != len(LOG_COLUMNS):
                 break
             rec = dict(zip(LOG_COLUMNS, row, strict=True))
-            if not FrameFolder(sensor_dir(self.partial, int(rec["sensor"])), RUN).has(rec["frame"]):
+            if not self._folder(int(rec["sensor"]), create=False).has(rec["frame"]):
                 break
             done[(int(rec["sensor"]), rec["frame"])] = rec
             keep.append(line)
         path.write_text("".join(keep))
         return done
+
+    def _folder(self, sensor: int, create: bool = True) -> FrameFolder:
+        """Sensor ``sensor``'s frames in the partial run (made on first write)."""
+        if sensor not in self._folders:
+            folder = FrameFolder(sensor_dir(self.partial, sensor), RUN, create)
+            if not create:
+                return folder
+            self._folders[sensor] = folder
+        return self._folders[sensor]
 
     def sink(self, sensor: int) -> SensorSink:
         """This folder as one sensor's ``Sink`` (what ``SensorLoop(sink=...)`` takes)."""
@@ -121,9 +130,7 @@ class RunFolder:
 
     def _write(self, sensor: int, res: Result) -> None:
         name = res.capture.name
-        if sensor not in self._folders:
-            self._folders[sensor] = FrameFolder(sensor_dir(self.partial, sensor), RUN)
-        self._folders[sensor].write(name, depth=res.depth, masks=res.mask)
+        self._folder(sensor).write(name, depth=res.depth, masks=res.mask)
         cap = res.capture
         truth = cap.interfered
         self._csv.writerow(

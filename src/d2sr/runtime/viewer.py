@@ -193,7 +193,7 @@ def view(run: Path, target: str | Path) -> int:
         raise InputError(f"{run}: cannot read the run's log ({exc})") from None
     scale = float(settings.get("depth_scale") or 4000.0)
     sensors = 1 + max((int(r["sensor"]) for r in rows), default=0)
-    folders = [FrameFolder(sensor_dir(Path(run), i), RUN) for i in range(sensors)]
+    folders = [FrameFolder(sensor_dir(Path(run), i), RUN, create=False) for i in range(sensors)]
     with RerunLog(target, sensors, f"d2sr run {Path(run).name}") as log:
         for r in rows:
             i, name = int(r["sensor"]), r["frame"]
