@@ -41,16 +41,16 @@ desync-grid: $(STAMP)
 	$(BIN)/d2sr desync grid --out docs/results/desync/grid --overwrite
 
 bench: $(STAMP)
-	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json
-	$(BIN)/python bench/simulate.py --json docs/results/bench_simulate.json
-	$(BIN)/python bench/models.py --json docs/results/bench_models.json
-	$(BIN)/python bench/pipeline.py --json docs/results/bench_pipeline.json
-	$(BIN)/python bench/quantize.py --json docs/results/quantize.json
-	$(BIN)/python bench/rerun_overhead.py --json docs/results/bench_rerun.json
+	$(BIN)/python bench/timing_world.py --json docs/results/bench_timing.json --overwrite
+	$(BIN)/python bench/simulate.py --json docs/results/bench_simulate.json --overwrite
+	$(BIN)/python bench/models.py --json docs/results/bench_models.json --overwrite
+	$(BIN)/python bench/pipeline.py --json docs/results/bench_pipeline.json --overwrite
+	$(BIN)/python bench/quantize.py --json docs/results/quantize.json --overwrite
+	$(BIN)/python bench/rerun_overhead.py --json docs/results/bench_rerun.json --overwrite
 
 # 100,000 closed-loop frames, resident memory sampled (about 5 min).
 soak: $(STAMP)
-	$(BIN)/python bench/soak.py --json docs/results/soak.json
+	$(BIN)/python bench/soak.py --json docs/results/soak.json --overwrite
 
 # These read ../shared/data (real captures that must never be copied into the repository).
 REAL ?= ../shared/data/l515

@@ -8,17 +8,17 @@ Run:  .venv/bin/python bench/models.py --json docs/results/bench_models.json
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from d2sr.bench import bench_models, write_result
+from d2sr.bench import bench_models, check_output, output_args, write_result
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     result = bench_models(repeats=args.repeats, threads=args.threads, progress=print)
     print(write_result(result, args.json))
 

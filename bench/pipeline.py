@@ -8,17 +8,17 @@ Run:  .venv/bin/python bench/pipeline.py --json docs/results/bench_pipeline.json
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from d2sr.bench import bench_pipeline, write_result
+from d2sr.bench import bench_pipeline, check_output, output_args, write_result
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", type=int, default=None)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     print(write_result(bench_pipeline(repeats=args.repeats, threads=args.threads, progress=print), args.json))
 
 

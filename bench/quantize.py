@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, to_depth_units
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
 from d2sr.inference import open_backend
@@ -37,8 +37,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=200, help="generated test frames for the detector")
     ap.add_argument("--limit", type=int, default=40, help="interfered frames for recovery")
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     ts = generated_set(Path("out/data"))
     ts.frames, ts.clean, ts.hard = ts.frames[: args.frames], ts.clean[: args.frames], ts.hard[: args.frames]
     ts.__dict__.pop("labels", None)

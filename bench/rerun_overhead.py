@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from d2sr.bench import write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.inference import open_backend
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
@@ -48,8 +48,9 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--sensors", type=int, default=3)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     net = open_backend("unet8", "onnx")
     plain, logged, frames, size = [], [], 0, 0
     with tempfile.TemporaryDirectory() as tmp:

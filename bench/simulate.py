@@ -6,9 +6,8 @@ Run:  .venv/bin/python bench/simulate.py --json docs/results/bench_simulate.json
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from d2sr.bench import bench_simulate, write_result
+from d2sr.bench import bench_simulate, check_output, output_args, write_result
 
 
 def main() -> None:
@@ -16,8 +15,9 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=1000)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     result = bench_simulate(args.frames, args.repeats, args.workers)
     print(write_result(result, args.json))
 

@@ -15,9 +15,8 @@ from __future__ import annotations
 import argparse
 import resource
 import time
-from pathlib import Path
 
-from d2sr.bench import write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.frames import Frame
 from d2sr.inference import open_backend
@@ -38,8 +37,9 @@ def rss_mb() -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=100_000)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     pool = {
         flag: [
             synth_frame(TEST_SEED + 70_000 + 2 * i + flag, bool(flag))[0][::2, ::2].copy() for i in range(6)

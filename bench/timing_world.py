@@ -7,11 +7,10 @@ Same as `d2sr bench`; kept here so every benchmark lives under bench/.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from rich.progress import Progress, TimeElapsedColumn
 
-from d2sr.bench import bench_timing, write_result
+from d2sr.bench import bench_timing, check_output, output_args, write_result
 
 
 def main() -> None:
@@ -19,8 +18,9 @@ def main() -> None:
     ap.add_argument("--sensors", type=int, default=1000)
     ap.add_argument("--seconds", type=float, default=600.0)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--json", type=Path, default=None)
+    output_args(ap)
     args = ap.parse_args()
+    check_output(ap, args)
     with Progress(*Progress.get_default_columns(), TimeElapsedColumn()) as bar:
         task = bar.add_task("warehouse", total=1.0)
         result = bench_timing(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import functools
 import json
 import platform
@@ -16,7 +17,33 @@ from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
-__all__ = ["bench_models", "bench_pipeline", "bench_simulate", "bench_timing", "write_result"]
+__all__ = [
+    "bench_models",
+    "bench_pipeline",
+    "bench_simulate",
+    "bench_timing",
+    "check_output",
+    "output_args",
+    "write_result",
+]
+
+
+def output_args(ap: argparse.ArgumentParser) -> None:
+    """The benchmark scripts' --json FILE and --overwrite (the output policy of every d2sr command)."""
+    ap.add_argument("--json", type=Path, default=None, help="write the result to this JSON file")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
+
+
+def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, before the benchmark runs, a --json that would replace a file without --overwrite."""
+    from d2sr.atomic import check_out
+    from d2sr.errors import D2SRError
+
+    if args.json is not None:
+        try:
+            check_out(args.json, is_dir=False, overwrite=args.overwrite, option="--json")
+        except D2SRError as exc:
+            ap.error(str(exc))
 
 
 def write_result(result: dict, path: Path | None) -> str:
