@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights eval-models eval-paper clean
+.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights lofo eval-models eval-generalization eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -53,7 +53,8 @@ soak: $(STAMP)
 	$(BIN)/python bench/soak.py --json docs/results/soak.json --overwrite
 
 # These read ../shared/data (real captures that must never be copied into the repository).
-REAL ?= ../shared/data/l515
+DATA ?= ../shared/data
+REAL ?= $(DATA)/l515
 calibrate: $(STAMP)
 	$(BIN)/d2sr calibrate --real $(REAL)/dev0 --real $(REAL)/dev1 --out docs/results/sim --overwrite
 	$(BIN)/d2sr gallery --out docs/results/sim/gallery.png --overwrite
@@ -67,7 +68,9 @@ SHIP := src/d2sr/models/weights
 weights: $(STAMP)
 	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
 	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
-	$(BIN)/d2sr train recovery --config configs/unet8-direct.toml --out runs/unet8-direct
+	mkdir -p runs/unet8-0.2.0
+	test -f runs/unet8-0.2.0/unet8.safetensors || \
+	  git show a496b2f:src/d2sr/models/weights/unet8.safetensors > runs/unet8-0.2.0/unet8.safetensors
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
@@ -82,6 +85,16 @@ weights: $(STAMP)
 eval-models: $(STAMP)
 	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector --overwrite --card
 	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60 --overwrite --card
+
+# Leave-one-family-out: a detector trained without each interference family (runs/lofo/no-<family>),
+# then false alarms on every real clean frame in ../shared/data and each family on real L515 frames.
+FAMILIES := band streak bar blob speckle region physical
+lofo: $(STAMP)
+	for f in $(FAMILIES); do \
+	  $(BIN)/d2sr train detector --config configs/detector-lofo.toml --leave-out $$f --out runs/lofo/no-$$f || exit 1; done
+
+eval-generalization: $(STAMP)
+	$(BIN)/d2sr eval generalization --data $(DATA) --lofo runs/lofo --out docs/results/generalization --overwrite
 
 # The paper's evaluation side by side with its numbers, one report (docs/results/paper/report.md).
 eval-paper: $(STAMP)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import WEIGHTS, to_depth_units
+from d2sr.contract import WEIGHTS, repair_frame
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
 from d2sr.inference import open_backend
 from d2sr.quantize import int8_path, quantize
@@ -63,10 +63,10 @@ def main() -> None:
             det = detector_metrics(scores, ts)
             result["models"]["detector"][key] = {k: round(det[k], 4) for k in ("precision", "recall", "f1")}
 
-            def repair(x: np.ndarray, prev: np.ndarray | None, net=net) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+            def repair(x: np.ndarray, prev: np.ndarray | None, scale: float, net=net):  # noqa: ANN001, ANN202
                 pred, mask = net.recover(x[None])
-                units = to_depth_units(np.rint(x * 4000).astype(np.uint16), pred[0], mask[0], 4000.0)
-                return units.astype(np.float32) / np.float32(4000), mask[0]
+                units, kept = repair_frame(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
+                return units.astype(np.float32) / np.float32(scale), kept
 
             rows, _ = recovery_metrics(ts, {"unet8": repair}, None, args.limit)
             r = rows["unet8"]

@@ -16,7 +16,7 @@ import argparse
 import resource
 import time
 
-from d2sr.bench import check_output, output_args, write_result
+from d2sr.bench import check_output, frame_4000, output_args, write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.frames import Frame
 from d2sr.inference import open_backend
@@ -26,7 +26,7 @@ from d2sr.runtime.stats import RunStats
 from d2sr.sim.room import SimRoom
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import make_rig
-from d2sr.train.synth import TEST_SEED, synth_frame
+from d2sr.train.synth import TEST_SEED
 
 
 def rss_mb() -> float:
@@ -41,9 +41,7 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     pool = {
-        flag: [
-            synth_frame(TEST_SEED + 70_000 + 2 * i + flag, bool(flag))[0][::2, ::2].copy() for i in range(6)
-        ]
+        flag: [frame_4000(TEST_SEED + 70_000 + 2 * i + flag, bool(flag))[::2, ::2].copy() for i in range(6)]
         for flag in (0, 1)
     }
     sensors = 3

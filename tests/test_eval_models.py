@@ -21,11 +21,11 @@ def _set() -> em.TestSet:
 
 def _raw(x: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """Confident on the band (logit 5), unsure of a stripe of clean pixels (logit 0), sure elsewhere;
-    depth: 2 m on the band, 1 cm off the input elsewhere."""
+    depth: 2 m on the band, 50 cm off the input elsewhere (beyond the do-no-harm tolerance)."""
     logit = np.full(x.shape, -5.0, np.float32)
     logit[8:16] = 5
     logit[20:24] = 0
-    return logit, np.where(logit > 4, 2.0, x + 0.02).astype(np.float32)
+    return logit, np.where(logit > 4, 2.0, x + 0.5).astype(np.float32)
 
 
 def test_operating_curve_walks_from_identity_to_all_repaired():
@@ -35,7 +35,8 @@ def test_operating_curve_walks_from_identity_to_all_repaired():
     # the band repaired, nothing else touched
     assert c["rmse_vs_identity"][1] < -0.3 and c["clean_changed"][1] == 0
     n_clean = 32 * 48 - 8 * 48
-    assert np.isclose(c["clean_changed"][2], 4 * 48 / n_clean, atol=1e-4)  # the unsure stripe
+    # the unsure stripe (a few pixels whose clamp to the neighbours' range lands within 1 cm stay)
+    assert 0.9 * 4 * 48 / n_clean <= c["clean_changed"][2] <= 4 * 48 / n_clean + 1e-4
     assert np.isclose(c["clean_changed"][3], 1.0)
     assert c["rmse_vs_identity"][3] > c["rmse_vs_identity"][1]  # repairing clean pixels costs RMSE
 
@@ -43,7 +44,7 @@ def test_operating_curve_walks_from_identity_to_all_repaired():
 def test_recovery_metrics_identity_and_true_mask_ceiling():
     ts = _set()
 
-    def model(x: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def model(x: np.ndarray, prev: np.ndarray | None, scale: float) -> tuple[np.ndarray, np.ndarray]:
         logit, pred = _raw(x, prev)
         return np.where(logit > 1, pred, x), logit > 1
 

@@ -86,14 +86,14 @@ sys.meta_path.insert(0, Block())
 import numpy as np
 from pathlib import Path
 from d2sr.inference import open_backend
-from d2sr.contract import to_depth_units
+from d2sr.contract import repair_frame
 from d2sr.baselines import BASELINES
 net = open_backend('unet8', 'auto', Path({str(tmp_path)!r}))
 assert net.name == 'onnxruntime'
 x = np.random.default_rng(0).uniform(0.5, 4, (1, 96, 128)).astype(np.float32)
 s = net.scores(x)
 pred, mask = net.recover(x)
-u = to_depth_units((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
+u, _ = repair_frame((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
 assert s.shape == (1,) and u.dtype == np.uint16 and 'torch' not in sys.modules
 # the closed loop in a simulated room, on the edge backend
 from d2sr.runtime.session import run_sim

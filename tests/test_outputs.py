@@ -32,6 +32,8 @@ def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
         "eval detector": ["eval", "detector", "--out", out, *w],
         "eval recovery": ["eval", "recovery", "--out", out, *w],
         "eval paper": ["eval", "paper", "--out", out, *w],
+        "eval generalization": ["eval", "generalization", "--data", s, "--out", out, *w],
+        "adapt": ["adapt", "--clean", s, "--depth-scale", "1000", "--out", out],
         "gallery": ["gallery", "--out", out],
         "desync run": ["desync", "run", "--out", out],
         "desync sweep": ["desync", "sweep", "--out", out],
@@ -44,7 +46,7 @@ def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
     }
 
 
-READS_INPUT = ("detect", "recover", "run", "label", "calibrate", "view")
+READS_INPUT = ("detect", "recover", "run", "label", "calibrate", "view", "adapt")
 COMMANDS = list(_args(Path("x"), "o", Path("w")))
 
 

@@ -53,11 +53,11 @@ def test_config_rejects_what_cannot_work(tmp_path):
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_synthetic_frames_are_a_function_of_their_seed():
-    a, ac = synth_frame(11, interfered=True)
-    b, bc = synth_frame(11, interfered=True)
-    assert np.array_equal(a, b) and np.array_equal(ac, bc)
+    a, ac, sa = synth_frame(11, interfered=True)
+    b, bc, sb = synth_frame(11, interfered=True)
+    assert np.array_equal(a, b) and np.array_equal(ac, bc) and sa == sb
     assert (a != ac).any()
-    c, cc = synth_frame(12, interfered=False)
+    c, cc, _ = synth_frame(12, interfered=False)
     assert np.array_equal(c, cc) and c.dtype == np.uint16 and c.shape == (480, 640)
 
 

@@ -28,6 +28,14 @@ __all__ = [
 ]
 
 
+def frame_4000(seed: int, interfered: bool) -> np.ndarray:
+    """A generated frame in the L515's units (4000 per metre), whatever sensor kind drew it."""
+    from d2sr.train.synth import synth_frame
+
+    frame, _, scale = synth_frame(seed, interfered)
+    return np.clip(np.rint(frame.astype(np.float64) * (4000 / scale)), 0, 65535).astype(np.uint16)
+
+
 def output_args(ap: argparse.ArgumentParser) -> None:
     """The benchmark scripts' --json FILE and --overwrite (the output policy of every d2sr command)."""
     ap.add_argument("--json", type=Path, default=None, help="write the result to this JSON file")
@@ -167,13 +175,12 @@ def bench_models(
 
     import torch
 
-    from d2sr.contract import WEIGHTS, to_depth_units
+    from d2sr.contract import WEIGHTS, repair_frame
     from d2sr.models.inference import TorchBackend
     from d2sr.runtime.backends import Backend, OnnxBackend
-    from d2sr.train.synth import synth_frame
 
     torch.set_num_threads(threads)
-    frame, _ = synth_frame(1_000_001, interfered=True)
+    frame = frame_4000(1_000_001, interfered=True)
     metres = (frame.astype(np.float32) / np.float32(4000))[None]
     out: dict = {"resolution": "640x480", "batch": 1, "threads": threads, "repeats": repeats, "fps": {}}
     with tempfile.TemporaryDirectory() as tmp:
@@ -204,7 +211,7 @@ def bench_models(
                 def both(net: Backend = net) -> None:
                     net.scores(metres)
                     pred, mask = net.recover(metres)
-                    to_depth_units(frame, pred[0], mask[0], 4000.0)
+                    repair_frame(frame, pred[0], mask[0], 4000.0)
 
                 fps[m] = fps_of(functools.partial(net.recover, metres))
                 fps[f"detect+{m}"] = fps_of(both)
@@ -270,13 +277,13 @@ def bench_pipeline(
     from d2sr.frames import Frame
     from d2sr.inference import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
-    from d2sr.train.synth import TEST_SEED, synth_frame
+    from d2sr.train.synth import TEST_SEED
 
     say = progress or (lambda s: None)
     net = open_backend("unet8", "onnx", threads=threads)
     say("generating frames")
-    clean = [synth_frame(TEST_SEED + 50_000 + i, interfered=False)[0] for i in range(8)]
-    bad = [synth_frame(TEST_SEED + 60_000 + i, interfered=True)[0] for i in range(8)]
+    clean = [frame_4000(TEST_SEED + 50_000 + i, interfered=False) for i in range(8)]
+    bad = [frame_4000(TEST_SEED + 60_000 + i, interfered=True) for i in range(8)]
     rows = []
     worst_640 = None
     for h, w in ((480, 640), (240, 320)):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from d2sr.errors import ConfigError, InputError
@@ -29,9 +30,11 @@ __all__ = [
     "WEIGHTS",
     "check_probability",
     "check_size",
+    "guard",
     "model_input",
     "padded",
-    "to_depth_units",
+    "repair_frame",
+    "scale_at",
 ]
 
 WEIGHTS = Path(__file__).resolve().parent / "models" / "weights"  # the shipped weights, ONNX and cards
@@ -52,6 +55,11 @@ DEFAULT_RECOVERY = "unet8"
 SHIPPED_RECOVERY = ("unet8", "unet16", "unet8-temporal")  # unet32: `make weights` trains it locally
 THRESHOLD = 0.5  # detector probability at or above which a frame counts as interfered
 PAD = 32  # the largest stride of the shipped models
+# Do no harm (``guard``): a repair moves a returning pixel only by more than this, and stays within the
+# range of its trusted neighbours (this many pixels around), widened by the same tolerance.
+KEEP_M = 0.03
+KEEP_REL = 0.02
+GUARD_PX = 12
 
 
 MODEL_HELP = f"Recovery model: {', '.join(RECOVERY_NAMES)} (shipped: {', '.join(SHIPPED_RECOVERY)})."
@@ -93,7 +101,41 @@ def model_input(metres: np.ndarray, previous: np.ndarray | None, frames: int) ->
     return np.concatenate([x, previous[:, None].astype(np.float32, copy=False)], axis=1)
 
 
-def to_depth_units(frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float) -> np.ndarray:
-    """Predicted depth inside the mask (rounded to the input's units), the input itself outside it."""
-    units = np.clip(np.rint(np.maximum(pred, 0) * np.float32(scale)), 0, 65535).astype(np.uint16)
-    return np.where(mask, units, frames)
+def scale_at(scale: float | np.ndarray, i: int) -> float:
+    """Frame ``i``'s depth units per metre, for sets that hold one scale or one per frame."""
+    return float(scale) if isinstance(scale, (int, float)) else float(np.asarray(scale)[i])
+
+
+def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Do no harm: (pred, mask) limited to changes that matter and agree with the frame's trusted pixels.
+
+    - A returning pixel whose prediction is within ``KEEP_M`` + ``KEEP_REL`` x depth of its own value is
+      left alone: the repair would only move it within the sensor's noise.
+    - A prediction is clamped to the range of the trusted returns (not masked) within ``GUARD_PX`` pixels,
+      widened by the same tolerance, so a repair never invents a surface nearer or farther than all of its
+      neighbours. Where no trusted return is that close (a large hit region), the prediction stands.
+
+    Works on one frame (H, W) or a batch (N, H, W), in metres."""
+    if metres.ndim == 3:
+        pairs = [guard(x, p, m) for x, p, m in zip(metres, pred, mask, strict=True)]
+        return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs])
+    x = metres.astype(np.float32, copy=False)
+    tol = np.float32(KEEP_M) + np.float32(KEEP_REL) * x
+    trusted = (x > 0) & ~mask
+    k = np.ones((2 * GUARD_PX + 1, 2 * GUARD_PX + 1), np.uint8)
+    lo = cv2.erode(np.where(trusted, x, np.float32(np.inf)), k)
+    hi = cv2.dilate(np.where(trusted, x, np.float32(0)), k)
+    near = hi > 0
+    p = np.where(near, np.clip(pred, lo - tol, hi + tol), pred).astype(np.float32)
+    keep = mask & ~((x > 0) & (np.abs(p - x) <= tol))
+    return p, keep
+
+
+def repair_frame(
+    frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
+    the mask (``guard``), rounded to the input's units; the input itself everywhere else, bit for bit."""
+    p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
+    units = np.clip(np.rint(np.maximum(p, 0) * np.float32(scale)), 0, 65535).astype(np.uint16)
+    return np.where(m, units, frames), m

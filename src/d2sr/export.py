@@ -14,7 +14,7 @@ from d2sr.atomic import atomic_file
 from d2sr.contract import DETECTOR_NAMES
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
-from d2sr.models.store import load_model, mask_logit
+from d2sr.models.store import load_model, mask_logit, threshold
 
 __all__ = ["export", "parity"]
 
@@ -57,6 +57,7 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
             "height": str(getattr(model, "height", "") or ""),
             "frames": str(getattr(model, "frames", 1)),
             "mask_logit": repr(mask_logit(weights)),
+            "threshold": repr(threshold(weights)),
         }
         for k, v in meta.items():
             entry = proto.metadata_props.add()

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.contract import to_depth_units
+from d2sr.contract import repair_frame
 
 __all__ = ["CHANGED_M", "RepairSums", "threshold_curve"]
 
@@ -58,19 +58,19 @@ class RepairSums:
 
 
 def threshold_curve(
-    samples: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    samples: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]],
     logits: Sequence[float],
-    scale: float,
 ) -> tuple[RepairSums, list[RepairSums]]:
     """(identity, one ``RepairSums`` per mask threshold) over ``samples`` of (input metres, clean metres,
-    true mask, mask logits, predicted depth), each repair rounded to the input's depth units as the
-    runtime writes it."""
+    true mask, mask logits, predicted depth, depth scale), each repair rounded to the input's depth units
+    as the runtime writes it."""
     t = np.asarray(logits, np.float32)
     ident, sums = RepairSums(), [RepairSums() for _ in t]
-    s = np.float32(scale)
-    for x, y, true, logit, pred in samples:
+    for x, y, true, logit, pred, scale in samples:
+        s = np.float32(scale)
         ident.add(x, np.zeros_like(true), x, y, true)
         units = np.rint(x * s).astype(np.uint16)
         for acc, m in zip(sums, logit[None] > t[:, None, None], strict=True):
-            acc.add(to_depth_units(units, pred, m, scale).astype(np.float32) / s, m, x, y, true)
+            out, kept = repair_frame(units, pred, m, scale)
+            acc.add(out.astype(np.float32) / s, kept, x, y, true)
     return ident, sums

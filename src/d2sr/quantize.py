@@ -22,13 +22,12 @@ def int8_path(onnx: Path) -> Path:
 
 def _calibration(frames: int, channels: int) -> Iterator[dict[str, np.ndarray]]:
     """Generated validation frames; a temporal model (2 channels) also gets each one's last clean frame."""
-    from d2sr.sim.scene import L515
     from d2sr.train.synth import synth_sequence_frame
 
     for i in range(frames):
-        depth, _, prev = synth_sequence_frame(CALIBRATION_SEED + i, bool(i % 2), previous=channels > 1)
-        x = np.stack([depth] + ([prev] if prev is not None else [])).astype(np.float32)
-        yield {"depth": (x / np.float32(L515.depth_scale))[None]}
+        s = synth_sequence_frame(CALIBRATION_SEED + i, bool(i % 2), previous=channels > 1)
+        x = np.stack([s.frame] + ([s.previous] if s.previous is not None else [])).astype(np.float32)
+        yield {"depth": (x / np.float32(s.scale))[None]}
 
 
 def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:

@@ -33,6 +33,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "gallery": data.gallery,
     "train": train.train,
     "export": train.export,
+    "adapt": train.adapt,
     "bench": bench.bench,
 }
 DESYNC: dict[str, Callable[..., None]] = {
@@ -46,6 +47,7 @@ EVAL: dict[str, Callable[..., None]] = {
     "recovery": evaluate.recovery,
     "paper": evaluate.paper,
     "labels": evaluate.labels,
+    "generalization": evaluate.generalization,
 }
 for group, commands in ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL)):
     for name, fn in commands.items():

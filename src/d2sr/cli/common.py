@@ -49,6 +49,11 @@ Input = Annotated[Path, typer.Argument(help="PNG folder of depth frames or any r
 Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 Weights = Annotated[Path, typer.Option(help="Folder with the models (safetensors and/or ONNX).")]
+# detect, recover and run: --models is the name d2sr adapt's folders are used by
+ModelDir = Annotated[
+    Path,
+    typer.Option("--models", "--weights", help="Folder of models (safetensors, ONNX; d2sr adapt makes one)."),
+]
 Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]
 MaskLogit = Annotated[
     float | None,
@@ -80,6 +85,10 @@ RerunOpt = Annotated[
 ]
 T = TypeVar("T")
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
+Threshold = Annotated[
+    float | None,
+    typer.Option(help="Detector score that flags a frame (default: the detector's own; 0.5 when shipped)."),
+]
 
 
 @contextlib.contextmanager

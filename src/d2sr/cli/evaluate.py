@@ -12,15 +12,17 @@ from rich.progress import Progress
 from rich.table import Table
 
 from d2sr.atomic import check_out
-from d2sr.cli.common import Cache, Overwrite, Real, Weights, out_dir, split_list
-from d2sr.contract import THRESHOLD, WEIGHTS, check_probability
+from d2sr.cli.common import BackendOpt, Cache, Overwrite, Real, Weights, out_dir, split_list
+from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, THRESHOLD, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
+from d2sr.sim.families import FAMILIES
 from d2sr.ui import console, progress_bar
 
-__all__ = ["detector", "labels", "paper", "recovery"]
+__all__ = ["detector", "generalization", "labels", "paper", "recovery"]
 
 T = TypeVar("T")
-REAL = Path("../shared/data/l515")
+DATA = Path("../shared/data")
+REAL = DATA / "l515"
 CACHE = Path("out/data")
 Card = Annotated[
     bool, typer.Option("--card", metavar="", help="Also write the metrics into the models' cards.")
@@ -174,3 +176,54 @@ def labels(
         (tmp / "labels.json").write_text(json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
         save(label_f1(results), tmp / "labels.png")
     console.print(f"Wrote {out}/labels.json and labels.png")
+
+
+def generalization(
+    out: Annotated[Path, typer.Option(help="Folder for generalization.json, README.md and the plot.")] = Path(
+        "out/eval/generalization"
+    ),
+    data: Annotated[Path, typer.Option(help="The shared real data folder (l515/, d435/, ...).")] = DATA,
+    model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
+    weights: Weights = WEIGHTS,
+    backend: BackendOpt = "auto",
+    lofo: Annotated[
+        Path | None,
+        typer.Option(help="Folder of detectors trained without one family each: no-<family>/detector.*"),
+    ] = None,
+    overwrite: Overwrite = False,
+) -> None:
+    """False alarms on every real clean frame of every sensor, and each interference family alone on real
+    L515 frames (with --lofo: by a detector trained without it). Worst cells beside the means.
+
+    Example: d2sr eval generalization --data ../shared/data --lofo runs/lofo --out out/eval/generalization
+    """
+    from d2sr.eval import generalization as g
+    from d2sr.eval.model_plots import generalization as plot
+    from d2sr.eval.plots import save
+    from d2sr.inference import open_backend
+
+    if not data.is_dir():
+        raise InputError(f"{data}: not a folder")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[data])
+    net = open_backend(model, backend, weights)
+    left = {}
+    for fam in FAMILIES if lofo else ():
+        assert lofo is not None
+        if (lofo / f"no-{fam}").is_dir():
+            left[fam] = open_backend(None, backend, lofo / f"no-{fam}")
+    sets = g.real_clean_sets(data)
+    l515 = sum(len(s.frames) for s in sets if s.name.startswith("L515"))
+    with progress_bar() as bar:
+        task = bar.add_task("real clean frames", total=sum(len(s.frames) for s in sets))
+        real = g.real_rows(net, sets, lambda: bar.advance(task))
+        task = bar.add_task("interference families", total=l515 * len(FAMILIES))
+        fams = g.family_rows(net, sets, left, tick=lambda: bar.advance(task))
+    worst = g.summary(real, fams)
+    md = g.table(real, fams, worst)
+    cmd = f"d2sr eval generalization --data {data} --model {model}" + (f" --lofo {lofo}" if lofo else "")
+    result = {"command": cmd, "model": model, "real": real, "families": fams, "worst": worst}
+    with out_dir(out, overwrite, [data]) as tmp:
+        (tmp / "generalization.json").write_text(json.dumps(result, indent=1) + "\n")
+        (tmp / "README.md").write_text(f"# Generalization\n\n`{cmd}`\n\n{md}")
+        save(plot(real, fams), tmp / "generalization.png")
+    console.print(md)

@@ -16,15 +16,16 @@ from d2sr.cli.common import (
     BackendOpt,
     MaskLogit,
     MaxRange,
+    ModelDir,
     Overwrite,
     RerunOpt,
     Scale,
+    Threshold,
     Topic,
-    Weights,
     checked,
     open_input,
 )
-from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
+from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Reader
@@ -52,12 +53,12 @@ def run(
     moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
-    threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
+    threshold: Threshold = None,
     mask_logit: MaskLogit = None,
     depth_scale: Scale = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: Weights = WEIGHTS,
+    weights: ModelDir = WEIGHTS,
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
     int8: Annotated[
         bool, typer.Option("--int8", metavar="", help="int8 models (d2sr export --int8).")
@@ -86,7 +87,8 @@ def run(
         raise ConfigError(f"--repair must be one of {', '.join(REPAIR)}, got {repair!r}")
     if model not in RECOVERY_NAMES:
         raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
-    check_probability(threshold, "--threshold")
+    if threshold is not None:
+        check_probability(threshold, "--threshold")
     if not 1 <= active_frames <= TOTAL_FRAMES:
         raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
     if not seconds > 0:

@@ -18,17 +18,18 @@ from d2sr.cli.common import (
     Input,
     MaskLogit,
     MaxRange,
+    ModelDir,
     Overwrite,
     RerunOpt,
     Scale,
+    Threshold,
     Topic,
-    Weights,
     checked_counts,
     checked_frames,
     open_input,
     prefetch,
 )
-from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, THRESHOLD, WEIGHTS, check_probability
+from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import InputError
 from d2sr.frames.base import PLAUSIBLE_M
@@ -42,12 +43,10 @@ def detect(
     input: Input,
     out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
     depth_scale: Scale = None,
-    threshold: Annotated[
-        float, typer.Option(help="Score at or above which a frame counts as interfered.")
-    ] = THRESHOLD,
+    threshold: Threshold = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: Weights = WEIGHTS,
+    weights: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     overwrite: Overwrite = False,
 ) -> None:
@@ -58,9 +57,11 @@ def detect(
     from d2sr.contract import padded
     from d2sr.inference import open_backend
 
-    check_probability(threshold, "--threshold")
+    if threshold is not None:
+        check_probability(threshold, "--threshold")
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
     net = open_backend(None, backend, weights)
+    cut = threshold if threshold is not None else net.threshold
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -70,8 +71,8 @@ def detect(
         task = bar.add_task(f"detecting ({net.name})", total=len(reader))
         for f, metres in prefetch(checked_frames(reader, scale)):
             s = float(net.scores(padded(metres[None]))[0])
-            flagged += s >= threshold
-            w.writerow([f.name, f"{s:.6f}", int(s >= threshold)])
+            flagged += s >= cut
+            w.writerow([f.name, f"{s:.6f}", int(s >= cut)])
             bar.advance(task)
     atomic_write(out, buf.getvalue())
     typer.echo(f"{flagged} of {len(reader)} frames interfered -> {out}")
@@ -85,11 +86,11 @@ def recover(
         bool, typer.Option("--all", metavar="", help="Repair every frame, not only those the detector flags.")
     ] = False,
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
-    threshold: Annotated[float, typer.Option(help="Detector score that flags a frame.")] = THRESHOLD,
+    threshold: Threshold = None,
     mask_logit: MaskLogit = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: Weights = WEIGHTS,
+    weights: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     overwrite: Overwrite = False,
@@ -106,7 +107,8 @@ def recover(
 
     if model not in RECOVERY_NAMES:
         raise InputError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
-    check_probability(threshold, "--threshold")
+    if threshold is not None:
+        check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
     if rerun is not None and rerun != LIVE:
         check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")

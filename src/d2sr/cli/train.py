@@ -2,20 +2,23 @@
 
 from __future__ import annotations
 
+import json
 import shlex
 import sys
+import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.progress import TaskID
 
 from d2sr.atomic import check_out
-from d2sr.cli.common import Overwrite
-from d2sr.contract import WEIGHTS
-from d2sr.errors import ConfigError
+from d2sr.cli.common import Overwrite, Scale, Topic, split_list
+from d2sr.contract import WEIGHTS, check_probability
+from d2sr.errors import ConfigError, InputError
 from d2sr.ui import console
 
-__all__ = ["export", "train"]
+__all__ = ["adapt", "export", "train"]
 
 
 def train(
@@ -27,6 +30,10 @@ def train(
     seed: Annotated[int | None, typer.Option(help="Seed (overrides the config).")] = None,
     synthetic: Annotated[int | None, typer.Option(help="Generated frames (overrides the config).")] = None,
     minutes: Annotated[float | None, typer.Option(help="Stop after this many minutes (0: none).")] = None,
+    leave_out: Annotated[
+        str | None,
+        typer.Option(help="Interference families left out of training (comma-separated; generalization)."),
+    ] = None,
     overwrite: Overwrite = False,
 ) -> None:
     """Train the detector or a recovery UNet (resumes from OUT/checkpoint.pt; torchrun: several processes).
@@ -51,6 +58,8 @@ def train(
     ):
         if v is not None:
             values[key] = v
+    if leave_out is not None:
+        values["leave_out"] = tuple(split_list(leave_out, "leave-out"))
     cfg = TrainConfig.make(**values)
     inputs = [p for f in cfg.folders for p in (f.input, f.target)]
     check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs, resume=True)
@@ -101,3 +110,79 @@ def export(
         console.print(f"{w.name} -> {target} (max |onnx - torch| = {r['max_abs_diff']:.1e})")
         if int8:
             console.print(f"  int8 -> {quantize(target)}")
+
+
+def adapt(
+    clean: Annotated[
+        list[Path], typer.Option(help="Clean recording of your sensor and room (repeat for several).")
+    ],
+    out: Annotated[Path, typer.Option(help="Model folder to write (use it with --models).")],
+    depth_scale: Scale = None,
+    minutes: Annotated[float, typer.Option(help="Training budget in minutes.")] = 8.0,
+    false_alarm: Annotated[
+        float, typer.Option(help="Target share of clean held-out frames flagged (sets the threshold).")
+    ] = 0.01,
+    labelled: Annotated[
+        list[Path] | None,
+        typer.Option(help="Folders written by d2sr label (real interference with its masks; repeatable)."),
+    ] = None,
+    topic: Topic = None,
+    weights: Annotated[Path, typer.Option(help="Models to start from (default: shipped).")] = WEIGHTS,
+    overwrite: Overwrite = False,
+) -> None:
+    """Fit the detector and the default recovery model to your sensor and room from a clean recording
+    (self-supervised: the interference generator corrupts your frames). Resumes an interrupted run in OUT.
+
+    Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
+    """
+    from d2sr.cli.common import checked_counts, open_input
+    from d2sr.frames import open_frames
+    from d2sr.train.adapt import adapt as run
+    from d2sr.train.adapt import prepare
+    from d2sr.ui import progress_bar
+
+    t0 = time.perf_counter()
+    if not minutes > 0:
+        raise ConfigError(f"--minutes must be > 0, got {minutes}")
+    check_probability(false_alarm, "--false-alarm")
+    inputs = [*clean, *(labelled or []), weights]
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs, resume=True)
+    recordings, scale = [], None
+    for path in clean:
+        reader, s = open_input(path, topic, depth_scale if scale is None else scale, "clean", 1000.0)
+        scale = s
+        recordings.append([f.depth for f in checked_counts(reader, s, "clean frame")])
+    assert scale is not None
+    pairs = []
+    for folder in labelled or []:
+        info = folder / "label.json"
+        if not info.is_file():
+            raise InputError(f"{folder}: not a d2sr label output (no label.json)")
+        src = Path(json.loads(info.read_text())["interfered"])
+        frames = [f.depth for f in open_frames(src)]
+        gts = [f.depth for f in open_frames(folder / "depth")]
+        masks = [f.depth > 0 for f in open_frames(folder / "masks")]
+        if not len(frames) == len(gts) == len(masks):
+            raise InputError(f"{folder}: {len(frames)} interfered frames for {len(masks)} masks")
+        pairs += list(zip(frames, gts, masks, strict=True))
+    with progress_bar() as bar:
+        task = bar.add_task("corrupting the clean frames", total=None)
+        data = prepare(recordings, scale, pairs)
+        tasks: dict[str, TaskID] = {}
+
+        def tick(name: str, share: float) -> None:
+            if name not in tasks:
+                bar.update(task, visible=False)
+                tasks[name] = bar.add_task(f"adapting the {name}", total=1.0)
+            bar.update(tasks[name], completed=share)
+
+        command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+        card = run(data, out, minutes, false_alarm, command, weights, tick)
+    d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
+    console.print(
+        f"held out ({card['data']['held_out']} clean frames, x{card['data']['corrupted_copies']['held_out']} "
+        f"corrupted): false alarms {d['shipped']['false_alarms']:.1%} -> {d['adapted']['false_alarms']:.1%}, "
+        f"recall {d['shipped']['recall']:.1%} -> {d['adapted']['recall']:.1%}, "
+        f"mask F1 {r['shipped']['mask_f1']:.2f} -> {r['adapted']['mask_f1']:.2f}"
+    )
+    console.print(f"{out} in {(time.perf_counter() - t0) / 60:.1f} min; use it with --models {out}")

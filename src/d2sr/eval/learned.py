@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import to_depth_units
+from d2sr.contract import repair_frame
 from d2sr.errors import ConfigError
 from d2sr.eval.model_plots import error_cdf, gallery, operating_curves, pr_curves
 from d2sr.eval.models import (
@@ -93,11 +93,11 @@ def detector_cards(results: dict[str, dict], weights: Path) -> None:
         )
 
 
-def _repair_fn(net: TorchBackend, scale: float) -> Callable:
-    def fn(x: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def _repair_fn(net: TorchBackend) -> Callable:
+    def fn(x: np.ndarray, prev: np.ndarray | None, scale: float) -> tuple[np.ndarray, np.ndarray]:
         pred, mask = net.recover(x[None], None if prev is None else prev[None])
-        units = to_depth_units(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
-        return units.astype(np.float32) / np.float32(scale), mask[0]
+        units, kept = repair_frame(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
+        return units.astype(np.float32) / np.float32(scale), kept
 
     return fn
 
@@ -132,7 +132,7 @@ def evaluate_recovery(
     tables: dict[str, dict] = {}
     curves: dict[str, dict] = {}
     for ts in sets:
-        fns = {k: _repair_fn(v, ts.scale) for k, v in nets.items()}
+        fns = {k: _repair_fn(v) for k, v in nets.items()}
         n = int(ts.labels.sum()) if not limit else min(limit, int(ts.labels.sum()))
         rows, errors = recovery_metrics(ts, fns, first, n, progress(f"recovery on {ts.name}", n))
         tables[ts.name] = rows
@@ -158,8 +158,8 @@ def _gallery_rows(ts: TestSet, fn: Callable) -> list[tuple]:
     rows = []
     for i in idx:
         x = ts.metres(i)
-        y = ts.clean[i].astype(np.float32) / np.float32(ts.scale)
-        o, m = fn(x, ts.previous(i))
+        y = ts.metres(i, clean=True)
+        o, m = fn(x, ts.previous(i), ts.scale_at(i))
         rows.append((f"{ts.name} #{i}", x, ts.frames[i] != ts.clean[i], m, o, y))
     return rows
 

@@ -87,3 +87,30 @@ def gallery(rows: list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray
         axes[r, 0].set_ylabel(title, fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def generalization(real: list[dict], families: list[dict]) -> Figure:
+    """Left: false alarms on real clean frames of every sensor. Right: each interference family on real
+    L515 frames (recall, recall of a detector trained without it, mask F1)."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 4.2))
+    names = [r["set"] for r in real]
+    x = np.arange(len(names))
+    a.bar(x - 0.2, [100 * r["flagged"] for r in real], 0.4, label="frames flagged (%)")
+    a.bar(x + 0.2, [100 * r["moved_recover_all"] for r in real], 0.4, label="valid px moved >5 cm, --all (%)")
+    a.set_xticks(x, names, rotation=35, ha="right", fontsize=8)
+    a.set_title("Real clean frames (every mark is a false alarm)")
+    a.legend(fontsize=8)
+    fams = [r["family"] for r in families]
+    x = np.arange(len(fams))
+    keys = [("recall", "recall"), ("recall_left_out", "recall, trained without it"), ("mask_f1", "mask F1")]
+    keys = [(k, lab) for k, lab in keys if any(k in r for r in families)]
+    wid = 0.8 / len(keys)
+    for j, (k, lab) in enumerate(keys):
+        b.bar(x + (j - (len(keys) - 1) / 2) * wid, [r.get(k, 0) for r in families], wid, label=lab)
+    b.set_xticks(x, fams, rotation=35, ha="right", fontsize=8)
+    b.set_ylim(0, 1.05)
+    b.axhline(0.9, color="grey", lw=0.8, ls=":")
+    b.set_title("Each interference family alone on real L515 frames")
+    b.legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    return fig

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.baselines import BASELINES, last_clean
+from d2sr.contract import scale_at
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
@@ -45,7 +46,7 @@ class TestSet:
     name: str
     frames: list[np.ndarray]  # uint16
     clean: list[np.ndarray]
-    scale: float
+    scale: float | np.ndarray  # depth units per metre: one for the set, or one per frame
     hard: np.ndarray  # bool per frame: a clean frame that is a known hard negative (people moving)
     last_clean: np.ndarray | None = None  # per frame, the index of its sequence's last clean frame (-1: none)
 
@@ -53,8 +54,11 @@ class TestSet:
     def labels(self) -> np.ndarray:
         return np.array([(f != c).any() for f, c in zip(self.frames, self.clean, strict=True)])
 
-    def metres(self, i: int) -> np.ndarray:
-        return self.frames[i].astype(np.float32) / np.float32(self.scale)
+    def scale_at(self, i: int) -> float:
+        return scale_at(self.scale, i)
+
+    def metres(self, i: int, clean: bool = False) -> np.ndarray:
+        return (self.clean if clean else self.frames)[i].astype(np.float32) / np.float32(self.scale_at(i))
 
     def previous(self, i: int) -> np.ndarray | None:
         """The last truly clean frame before frame ``i`` in its sequence (what a temporal model sees, with
@@ -136,7 +140,7 @@ def generated_set(cache: Path, count: int = 600) -> TestSet:
     from d2sr.train.synth import TEST_SEED
 
     ss = synth_set(cache, count, TEST_SEED)
-    return TestSet("generated", list(ss.frames), list(ss.clean), ss.depth_scale, np.zeros(count, bool))
+    return TestSet("generated", list(ss.frames), list(ss.clean), ss.scales, np.zeros(count, bool))
 
 
 def _prf(pred: np.ndarray, true: np.ndarray) -> dict[str, float]:
@@ -162,22 +166,22 @@ def detector_metrics(scores: np.ndarray, ts: TestSet, threshold: float = 0.5) ->
     return out
 
 
-# (metres, last clean frame or None) -> (repaired metres, mask)
-Repair = Callable[[np.ndarray, np.ndarray | None], tuple[np.ndarray, np.ndarray]]
+# (metres, last clean frame or None, depth scale) -> (repaired metres, mask)
+Repair = Callable[[np.ndarray, np.ndarray | None, float], tuple[np.ndarray, np.ndarray]]
 
 
 def _interfered(
     ts: TestSet, limit: int | None
-) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]]:
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, float]]:
     """The interfered frames (``limit``: that many, evenly spread over the set): (metres, ground truth,
-    true mask, last clean frame or None)."""
+    true mask, last clean frame or None, depth scale)."""
     idx = np.flatnonzero(ts.labels)
     if limit is not None and limit < len(idx):
         idx = idx[np.linspace(0, len(idx) - 1, limit).round().astype(int)]
-    s = np.float32(ts.scale)
     for i in idx:
         f, c = ts.frames[i], ts.clean[i]
-        yield f.astype(np.float32) / s, c.astype(np.float32) / s, f != c, ts.previous(int(i))
+        j = int(i)
+        yield ts.metres(j), ts.metres(j, clean=True), f != c, ts.previous(j), ts.scale_at(j)
 
 
 def recovery_metrics(
@@ -200,11 +204,11 @@ def recovery_metrics(
         if baseline_mask_from:
             accs[f"{b} (predicted mask)"] = RepairSums(errors=[])
         accs[f"{b} (true mask)"] = RepairSums()
-    for x, y, true, prev in _interfered(ts, limit):
+    for x, y, true, prev, scale in _interfered(ts, limit):
         accs["identity"].add(x, np.zeros_like(true), x, y, true)
         masks = {}
         for name, fn in models.items():
-            out, mask = fn(x, prev)
+            out, mask = fn(x, prev, scale)
             masks[name] = mask
             accs[name].add(out, mask, x, y, true)
         fills = dict(BASELINES)
@@ -235,8 +239,8 @@ def operating_curve(
     """One model's trade-off over mask thresholds (``raw``: metres, previous -> mask logits, depth): RMSE
     change against identity and share of clean pixels changed by > 1 cm, per threshold (what
     ``--mask-logit`` chooses along)."""
-    samples = ((x, y, true, *raw(x, prev)) for x, y, true, prev in _interfered(ts, limit))
-    ident, accs = threshold_curve(samples, logits, ts.scale)
+    samples = ((x, y, true, *raw(x, prev), s) for x, y, true, prev, s in _interfered(ts, limit))
+    ident, accs = threshold_curve(samples, logits)
     base = max(ident.result()["rmse_cm"], 1e-12)
     rows = [a.result() for a in accs]
     return {

@@ -28,7 +28,7 @@ class FastDetector(nn.Module):
 
     stride = 32
 
-    def __init__(self, width: int = 16) -> None:
+    def __init__(self, width: int = 24) -> None:
         super().__init__()
         w = width
         act = nn.LeakyReLU(0.1)

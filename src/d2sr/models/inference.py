@@ -7,11 +7,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from d2sr.contract import model_input
+from d2sr.contract import THRESHOLD, model_input
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
 from d2sr.models.store import load_model, torch_device
 from d2sr.models.store import mask_logit as read_mask_logit
+from d2sr.models.store import threshold as read_threshold
 
 __all__ = ["TorchBackend"]
 
@@ -29,6 +30,7 @@ class TorchBackend:
         if mask_logit is None:  # the model's own, chosen on validation frames
             mask_logit = read_mask_logit(recovery) if recovery is not None else 0.0
         self.mask_logit = mask_logit
+        self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
     def _tensor(self, metres: np.ndarray) -> torch.Tensor:
         return torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)

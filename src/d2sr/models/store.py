@@ -11,6 +11,7 @@ from safetensors.torch import load_file, save_file
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write
+from d2sr.contract import THRESHOLD
 from d2sr.errors import InputError
 from d2sr.models.registry import build
 
@@ -19,26 +20,45 @@ __all__ = [
     "mask_logit",
     "read_card",
     "save_model",
+    "threshold",
     "torch_device",
     "warm_start",
     "write_card",
 ]
 
 
-def save_model(model: nn.Module, name: str, path: Path, mask_logit: float | None = None) -> None:
-    """``mask_logit``: a recovery model's calibrated mask threshold (logit; 0 when absent)."""
+def save_model(
+    model: nn.Module,
+    name: str,
+    path: Path,
+    mask_logit: float | None = None,
+    threshold: float | None = None,
+) -> None:
+    """``mask_logit``: a recovery model's calibrated mask threshold (logit; 0 when absent); ``threshold``:
+    a detector's own probability threshold (``contract.THRESHOLD`` when absent; ``d2sr adapt`` sets it)."""
     state = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
     meta = {"model": name, "format": "d2sr-1"}
     if mask_logit is not None:
         meta["mask_logit"] = repr(float(mask_logit))
+    if threshold is not None:
+        meta["threshold"] = repr(float(threshold))
     with atomic_file(path) as tmp:
         save_file(state, str(tmp), metadata=meta)
 
 
 def mask_logit(path: Path) -> float:
     """The mask threshold (logit) stored with a recovery model's weights; 0 (probability 0.5) if none."""
+    return _number(path, "mask_logit", 0.0)
+
+
+def threshold(path: Path) -> float:
+    """The probability threshold stored with a detector's weights; ``contract.THRESHOLD`` if none."""
+    return _number(path, "threshold", THRESHOLD)
+
+
+def _number(path: Path, key: str, default: float) -> float:
     try:
-        return float(_meta(Path(path)).get("mask_logit", 0.0))
+        return float(_meta(Path(path)).get(key, default))
     except (SafetensorError, OSError, ValueError) as exc:
         raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
 

@@ -11,7 +11,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from d2sr.contract import check_size, model_input
+from d2sr.contract import THRESHOLD, check_size, model_input
 from d2sr.errors import InputError
 
 __all__ = ["Backend", "OnnxBackend"]
@@ -19,6 +19,7 @@ __all__ = ["Backend", "OnnxBackend"]
 
 class Backend(Protocol):
     name: str
+    threshold: float  # the detector's own probability threshold (stored with it; contract.THRESHOLD)
 
     def scores(self, metres: np.ndarray) -> np.ndarray:
         """(N, H, W) float32 metres -> (N,) probability that each frame is interfered."""
@@ -45,6 +46,7 @@ class _Props:
     height: int | None
     frames: int
     mask_logit: float
+    threshold: float
 
 
 class OnnxBackend:
@@ -86,6 +88,7 @@ class OnnxBackend:
         }
         if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
             self._meta["recovery"].mask_logit = mask_logit
+        self.threshold = self._meta["detector"].threshold
 
     @staticmethod
     def _props(s: Any) -> _Props:
@@ -95,6 +98,7 @@ class OnnxBackend:
             height=int(meta["height"]) if meta.get("height") else None,
             frames=int(meta.get("frames", 1)),
             mask_logit=float(meta.get("mask_logit", 0.0)),
+            threshold=float(meta.get("threshold", THRESHOLD)),
         )
 
     @property

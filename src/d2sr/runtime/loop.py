@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from d2sr.contract import THRESHOLD, padded, to_depth_units
+from d2sr.contract import THRESHOLD, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
@@ -81,13 +81,14 @@ class SensorLoop:
     controller: Controller
     trigger: Trigger | None = None
     sink: Sink | None = None
-    threshold: float = THRESHOLD
+    threshold: float | None = None  # None: the detector's own (backend.threshold)
     repair: str = "flagged"
     period: int = 0
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
     _last_clean: np.ndarray | None = None  # metres, padded: what a temporal recovery model also sees
+    _cut: float = THRESHOLD  # the threshold in use
 
     @property
     def offset(self) -> int:
@@ -98,6 +99,8 @@ class SensorLoop:
             raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {self.repair!r}")
         if self.trigger is not None:
             self.trigger.set_offset(0, self.controller.offset)
+        own = float(getattr(self.backend, "threshold", THRESHOLD))
+        self._cut = self.threshold if self.threshold is not None else own
 
     def step(self, item: Capture | PeriodEnd) -> Result | None:
         if isinstance(item, PeriodEnd):
@@ -114,14 +117,14 @@ class SensorLoop:
         h, w = raw.shape
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
         score = float(self.backend.scores(metres)[0])
-        flagged = score >= self.threshold
+        flagged = score >= self._cut
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):
             last = self._last_clean
             previous = last if last is not None and last.shape == metres.shape else None
             pred, m = self.backend.recover(metres, previous)
             pred, m = pred[0, :h, :w], m[0, :h, :w]
-            depth, mask = to_depth_units(raw, pred, m, cap.scale), m
+            depth, mask = repair_frame(raw, pred, m, cap.scale)
         if not flagged and getattr(self.backend, "frames", 1) > 1:
             self._last_clean = metres
         seconds = time.perf_counter() - t

@@ -66,7 +66,7 @@ def run_live(
     seconds: float,
     active_frames: int,
     repair: str,
-    threshold: float,
+    threshold: float | None,
     seed: int,
     trigger: Trigger | None = None,
     on_result: Callable[[int, Result], None] | None = None,

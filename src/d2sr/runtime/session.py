@@ -8,7 +8,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from d2sr.contract import THRESHOLD
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.frames.base import Frames
 from d2sr.runtime.backends import Backend
@@ -35,7 +34,7 @@ def run_sim(
     seed: int = 0,
     moving: bool = False,
     repair: str = "flagged",
-    threshold: float = THRESHOLD,
+    threshold: float | None = None,
     timing: TimingConfig | None = None,
     render: bool = True,
     progress: Progress | None = None,
@@ -56,7 +55,7 @@ def run_sim(
         "seed": seed,
         "moving": moving,
         "repair": repair,
-        "threshold": threshold,
+        "threshold": threshold if threshold is not None else backend.threshold,
         "backend": backend.name,
         "timing": cfg.model_dump(),
     }
@@ -100,7 +99,7 @@ def run_recording(
     source: str,
     active_frames: int = 6,
     repair: str = "flagged",
-    threshold: float = THRESHOLD,
+    threshold: float | None = None,
     seed: int = 0,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
@@ -115,7 +114,7 @@ def run_recording(
         "active_frames": active_frames,
         "seed": seed,
         "repair": repair,
-        "threshold": threshold,
+        "threshold": threshold if threshold is not None else backend.threshold,
         "backend": backend.name,
     }
     stats = RunStats()

@@ -39,6 +39,16 @@ class TrainConfig(Settings):
     validation: int = Field(
         100, ge=2, description="recovery: generated validation frames that choose the mask threshold"
     )
+    min_share: float = Field(
+        0.003,
+        ge=0,
+        lt=1,
+        description="detector: interfered frames with a smaller share of pixels changed are not trained on "
+        "(a handful of changed pixels is not something a frame-level label can teach)",
+    )
+    leave_out: tuple[str, ...] = Field(
+        (), description="interference families whose frames are left out of training (generalization tests)"
+    )
     cache: Path = Field(Path("out/data"), description="where generated data sets are kept")
     folders: tuple[Folders, ...] = ()
     checkpoint_every: int = Field(250, ge=1)
@@ -57,6 +67,10 @@ class TrainConfig(Settings):
             raise ValueError(f"task {self.task} takes one of {', '.join(want)}, not {self.model}")
         if self.synthetic == 0 and not self.folders:
             raise ValueError("no data: set synthetic > 0 or give folders")
+        from d2sr.sim.families import FAMILIES
+
+        if set(self.leave_out) - set(FAMILIES):
+            raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
         return self

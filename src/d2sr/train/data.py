@@ -9,14 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
+from d2sr.contract import scale_at
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe
 from d2sr.train.config import TrainConfig
-from d2sr.train.synth import SynthSet, generate
+from d2sr.train.synth import VERSION, SynthSet, generate
 from d2sr.ui import warn
 
-__all__ = ["Batch", "Pool", "synth_set"]
+__all__ = ["Batch", "Pool", "Source", "synth_set"]
 
 
 @dataclass
@@ -28,19 +29,20 @@ class Batch:
 
 
 @dataclass
-class _Source:
+class Source:
     frames: np.ndarray | list[np.ndarray]
     clean: np.ndarray | list[np.ndarray]
     masks: list[np.ndarray] | None
-    scale: float
+    scale: float | np.ndarray  # depth units per metre: one for the source, or one per frame
     labels: np.ndarray
     previous: np.ndarray | None = None  # each frame's last clean frame (temporal models)
+    skip: np.ndarray | None = None  # frames left out of training (a held-out interference family)
 
 
 def synth_set(cache: Path, count: int, seed: int, progress: bool = True, previous: bool = False) -> SynthSet:
     """The generated set for (seed, count), made on first use and kept under ``cache``; ``previous``: with
     each frame's last clean frame (a separate, slower set)."""
-    root = cache / f"synth-{seed}-{count}{'-seq' if previous else ''}"
+    root = cache / f"synth-v{VERSION}-{seed}-{count}{'-seq' if previous else ''}"
     if not (root / "meta.json").is_file():
         if progress:
             from d2sr.ui import progress_bar
@@ -53,7 +55,7 @@ def synth_set(cache: Path, count: int, seed: int, progress: bool = True, previou
     return SynthSet(root)
 
 
-def _folders(cfg: TrainConfig) -> list[_Source]:
+def _folders(cfg: TrainConfig) -> list[Source]:
     out = []
     for f in cfg.folders:
         src, tgt = open_frames(f.input, f.topic), open_frames(f.target, f.topic)
@@ -82,20 +84,25 @@ def _folders(cfg: TrainConfig) -> list[_Source]:
             if masks
             else [(a != b).any() for a, b in zip(frames, clean, strict=True)]
         )
-        out.append(_Source(frames, clean, masks, scale, labels))
+        out.append(Source(frames, clean, masks, scale, labels))
     return out
 
 
 class Pool:
     """All training frames of a run."""
 
-    def __init__(self, sources: list[_Source], frames: int = 1) -> None:
+    def __init__(self, sources: list[Source], frames: int = 1) -> None:
         if not sources:
             raise InputError("no training data")
         if frames > 1 and any(s.previous is None for s in sources):
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
         self.sources, self.frames = sources, frames
-        self.index = [(s, i) for s, src in enumerate(sources) for i in range(len(src.labels))]
+        self.index = [
+            (s, i)
+            for s, src in enumerate(sources)
+            for i in range(len(src.labels))
+            if src.skip is None or not src.skip[i]
+        ]
         self.labels = np.array([sources[s].labels[i] for s, i in self.index])
 
     @classmethod
@@ -103,7 +110,12 @@ class Pool:
         sources = []
         if cfg.synthetic:
             ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress, previous=frames > 1)
-            sources.append(_Source(ss.frames, ss.clean, None, ss.depth_scale, ss.labels, ss.previous))
+            out = set(cfg.leave_out)
+            skip = np.array([bool(out & set(f)) for f in ss.families])
+            if cfg.task == "detector":
+                shares = np.asarray(ss.meta["mask_share"])
+                skip |= ss.labels & (shares < cfg.min_share)
+            sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
         return cls(sources + _folders(cfg), frames)
 
     def _pick(self, rng: np.random.Generator, n: int, clean_share: float) -> np.ndarray:
@@ -131,7 +143,7 @@ class Pool:
                 a, b = int(rng.integers(0, h - ch + 1)), int(rng.integers(0, w - cw + 1))
                 ins = [v[a : a + ch, b : b + cw] for v in ins]
                 c, m = c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
-            gain = np.float32(rng.uniform(0.85, 1.15) / src.scale)
+            gain = np.float32(rng.uniform(0.85, 1.15) / scale_at(src.scale, i))
             x, y = np.stack([v.astype(np.float32) * gain for v in ins]), c.astype(np.float32) * gain
             if len(ins) > 1 and rng.random() < 0.1:
                 x[1] = 0  # no clean frame yet (start-up): the model must fall back on the fill

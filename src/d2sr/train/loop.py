@@ -17,14 +17,14 @@ import torch.nn.functional as F
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.metrics import threshold_curve
+from d2sr.metrics import RepairSums, threshold_curve
 from d2sr.models.registry import build, describe
 from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
 
-__all__ = ["choose_mask_logit", "loss_fn", "train"]
+__all__ = ["MASK_LOGITS", "MAX_CLEAN_CHANGED", "choose_mask_logit", "loss_fn", "pick_mask_logit", "train"]
 
 CHECKPOINT = "checkpoint.pt"
 MASK_LOGITS = tuple(float(t) for t in np.arange(3.0, -6.01, -0.25))  # candidate mask thresholds (logits)
@@ -217,6 +217,16 @@ def _same_run(saved: dict, cfg: TrainConfig) -> bool:
     return all(saved.get(k) == v for k, v in now.items() if k not in NOT_TRAINING)
 
 
+def pick_mask_logit(sums: list[RepairSums]) -> tuple[float, str]:
+    """Of ``MASK_LOGITS`` (one ``RepairSums`` each), the lowest RMSE among those that change at most
+    ``MAX_CLEAN_CHANGED`` of the clean pixels; (logit, the rule in words)."""
+    rmse = np.array([r.result()["rmse_cm"] for r in sums])
+    changed = np.array([r.result()["clean_changed"] for r in sums])
+    ok = np.flatnonzero(changed <= MAX_CLEAN_CHANGED)
+    k = int(ok[np.argmin(rmse[ok])]) if len(ok) else MASK_LOGITS.index(0.0)
+    return MASK_LOGITS[k], f"lowest RMSE with at most {MAX_CLEAN_CHANGED:.0%} of clean pixels changed"
+
+
 def choose_mask_logit(
     model: nn.Module, cache: Path, progress: bool = True, count: int = VALIDATION_FRAMES
 ) -> dict:
@@ -232,27 +242,26 @@ def choose_mask_logit(
     device = next(model.parameters()).device
     was = model.training
     model.eval()
-    s = np.float32(ss.depth_scale)
 
-    def samples() -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-        for i in np.flatnonzero(ss.labels):
+    def samples() -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]]:
+        for i in map(int, np.flatnonzero(ss.labels)):
+            s = ss.scales[i]
             ins = [ss.frames[i]] + ([ss.previous[i]] if frames > 1 and ss.previous is not None else [])
             x = np.stack(ins).astype(np.float32) / s
             with torch.inference_mode():
                 logit, pred = model(torch.from_numpy(x)[None].to(device))
-            y = ss.clean[i].astype(np.float32) / s
-            yield x[0], y, ss.frames[i] != ss.clean[i], logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy()
+            y = ss.metres(i, clean=True)
+            mask = ss.frames[i] != ss.clean[i]
+            yield x[0], y, mask, logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy(), float(s)
 
-    _, sums = threshold_curve(samples(), MASK_LOGITS, ss.depth_scale)  # the same sums as d2sr eval recovery
+    _, sums = threshold_curve(samples(), MASK_LOGITS)  # the same sums as d2sr eval recovery
     model.train(was)
+    logit, rule = pick_mask_logit(sums)
     rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
     changed = np.array([r.result()["clean_changed"] for r in sums])
-    ok = np.flatnonzero(changed <= MAX_CLEAN_CHANGED)
-    k = int(ok[np.argmin(rmse[ok])]) if len(ok) else MASK_LOGITS.index(0.0)
     return {
-        "mask_logit": MASK_LOGITS[k],
-        "rule": f"lowest RMSE with at most {MAX_CLEAN_CHANGED:.0%} of clean pixels changed, "
-        f"{count} generated validation frames (seeds {VALIDATION_SEED}+)",
+        "mask_logit": logit,
+        "rule": f"{rule}, {count} generated validation frames (seeds {VALIDATION_SEED}+)",
         "rmse_cm": {f"{t:g}": round(100 * float(r), 2) for t, r in zip(MASK_LOGITS, rmse, strict=True)},
         "clean_changed": {f"{t:g}": round(float(c), 5) for t, c in zip(MASK_LOGITS, changed, strict=True)},
     }
@@ -271,9 +280,10 @@ def _data_line(cfg: TrainConfig) -> str:
         parts.append(
             f"{cfg.synthetic} generated 640x480 frames (d2sr.train.synth, "
             f"seeds {cfg.seed}..{cfg.seed + cfg.synthetic - 1}; "
-            "simulated rooms, sensor noise drawn around the calibrated L515 fit, people; "
-            "interference on every other frame). "
-            "No real recordings."
+            "simulated rooms of any size, people; L515, stereo, time-of-flight and structured-light "
+            "sensor models; the wide interference generator (d2sr.sim.families) on every other frame"
+            + (f", frames with {', '.join(cfg.leave_out)} left out" if cfg.leave_out else "")
+            + "). No real recordings."
         )
     parts += [f"folder {f.input} -> {f.target}" for f in cfg.folders]
     return " ".join(parts)

@@ -1,0 +1,179 @@
+"""Benchmark: the shipped (or adapted) models from outside, on the public CLI, against interference written
+apart from the project's generator, on real frames of ../shared/data.
+
+The outside interference is not in ``d2sr.sim``: phase-wrapping rings (a time-of-flight camera's depth
+folds at its ambiguity range where another camera's modulated light adds in), and sawtooth stripes
+(depth scaled by a ramp that repeats across the image). The generator has neither wrapping nor ramps.
+
+* ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
+  ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
+* ``d435``: the 193 clean D435 frames at scale 1000: frames flagged by ``d2sr detect``, valid pixels
+  moved by more than 5 cm by ``d2sr recover``.
+* ``adapt`` (with --adapt): ``d2sr adapt`` on the first 100 D435 frames, then the other 93, every other one
+  corrupted, through ``--models``: precision, recall, recover --all mask F1; and the time adapt took.
+
+Run:  .venv/bin/python bench/held_out.py --data ../shared/data --adapt --json docs/results/held_out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.bench import check_output, output_args, write_result
+
+SEED = 5_000_000
+
+
+def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Corrupt a uint16 frame with one of the two outside models (chosen by the seed)."""
+    rng = np.random.default_rng([seed, 0x0E7])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    if rng.random() < 0.5:  # phase-wrapping rings
+        cx, cy = rng.uniform(-0.5, 1.5) * w, rng.uniform(-0.5, 1.5) * h
+        r = np.hypot(x - cx, (y - cy) * rng.uniform(0.6, 1.6))
+        period, duty = rng.uniform(20, 90), rng.uniform(0.1, 0.45)
+        where = ((r / period + rng.uniform(0, 1)) % 1) < duty
+        ambiguity = rng.uniform(0.8, 2.5)
+        new = np.mod(d + rng.uniform(0, ambiguity), ambiguity) + 0.2
+    else:  # sawtooth stripes
+        ang = rng.uniform(0, np.pi)
+        s = x * np.cos(ang) + y * np.sin(ang)
+        period = rng.uniform(30, 120)
+        ramp = (s / period) % 1
+        where = ramp < rng.uniform(0.15, 0.5)
+        new = d * (0.3 + 0.6 * ramp)
+    region = np.ones((h, w), bool)
+    if rng.random() < 0.5:  # only where the views overlap
+        region = x * np.cos(rng.uniform(0, 6.3)) + y * np.sin(rng.uniform(0, 6.3)) > rng.uniform(0, 0.6) * w
+    where &= region & (rng.random((h, w)) < rng.uniform(0.5, 1.0)) & (d > 0)
+    out = np.where(where, np.clip(np.rint(new * scale), 1, 65535), frame)
+    return out.astype(np.uint16)
+
+
+def _write(folder: Path, frames: list[np.ndarray]) -> None:
+    folder.mkdir(parents=True)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(folder / f"{i:05d}.png"), f)
+
+
+def _d2sr(*args: str) -> None:
+    r = subprocess.run([sys.executable, "-m", "d2sr", *args], capture_output=True, text=True, check=False)
+    if r.returncode:
+        raise SystemExit(f"d2sr {' '.join(args)} failed: {r.stderr.strip()}")
+
+
+def _flags(csv_path: Path) -> np.ndarray:
+    with csv_path.open() as f:
+        return np.array([row["interfered"] == "1" for row in csv.DictReader(f)])
+
+
+def _scored(tmp: Path, name: str, clean: list[np.ndarray], scale: float, models: list[str]) -> dict:
+    """Every other frame corrupted; detect and recover --all from outside; the figures."""
+    bad = [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
+    truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
+    _write(tmp / name, bad)
+    s = ["--depth-scale", f"{scale:g}", *models]
+    _d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
+    pred = _flags(tmp / f"{name}.csv")
+    _d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s)
+    tp = fp = fn = 0
+    err_in = err_out = valid = changed = clean_px = 0.0
+    for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
+        out = cv2.imread(str(tmp / f"{name}-fixed" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED)
+        mask = cv2.imread(str(tmp / f"{name}-fixed" / "masks" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED) > 0
+        true = b != c
+        ok = c > 0
+        if truth[i]:
+            err_in += float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+            err_out += float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+            valid += float(ok.sum())
+            tp += int((mask & true).sum())
+            fp += int((mask & ~true).sum())
+            fn += int((~mask & true).sum())
+            changed += float(((out != b) & ~true).sum())
+            clean_px += float((~true).sum())
+    p = tp / max(tp + fp, 1)
+    r = tp / max(tp + fn, 1)
+    dp = float((pred & truth).sum()) / max(float(pred.sum()), 1)
+    dr = float((pred & truth).sum()) / max(float(truth.sum()), 1)
+    return {
+        "frames": len(clean),
+        "detector_precision": round(dp, 4),
+        "detector_recall": round(dr, 4),
+        "rmse_cm_before": round(100 * np.sqrt(err_in / max(valid, 1)), 2),
+        "rmse_cm_after": round(100 * np.sqrt(err_out / max(valid, 1)), 2),
+        "rmse_change": round(float(np.sqrt(err_out / max(err_in, 1e-12)) - 1), 4),
+        "mask_f1": round(2 * p * r / max(p + r, 1e-12), 4),
+        "clean_changed": round(changed / max(clean_px, 1), 5),
+    }
+
+
+def _moved(tmp: Path, folder: Path, scale: float, models: list[str]) -> dict:
+    frames = sorted(folder.glob("*.png"))
+    s = ["--depth-scale", f"{scale:g}", *models]
+    _d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
+    _d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s)
+    moved = valid = 0.0
+    for f in frames:
+        a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        b = cv2.imread(str(tmp / "d435-fixed" / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        ok = a > 0
+        moved += float((ok & (np.abs(a - b) / scale > 0.05)).sum())
+        valid += float(ok.sum())
+    return {"frames": len(frames), "flagged": round(float(_flags(tmp / "d435.csv").mean()), 4),
+            "moved_5cm": round(moved / max(valid, 1), 5)}  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
+    ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
+    ap.add_argument("--minutes", type=float, default=8.0, help="d2sr adapt's training budget")
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    models = ["--models", str(args.models)] if args.models else []
+    result: dict = {"models": str(args.models or "shipped")}
+    with tempfile.TemporaryDirectory() as t:
+        tmp = Path(t)
+        l515 = []
+        for cap, skip in (("dev0", 60), ("dev1", 0)):
+            files = sorted((args.data / "l515" / cap).glob("*.png"))[skip : skip + 60]
+            l515 += [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
+        result["l515"] = _scored(tmp, "l515", l515, 4000.0, models)
+        print("l515", result["l515"], flush=True)
+        result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models)
+        print("d435", result["d435"], flush=True)
+        if args.adapt:
+            files = sorted((args.data / "d435").glob("*.png"))
+            first = tmp / "first100"
+            first.mkdir()
+            for f in files[:100]:
+                (first / f.name).symlink_to(f.resolve())
+            t0 = time.perf_counter()
+            minutes = ["--minutes", f"{args.minutes:g}"]
+            _d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(tmp / "m"), *minutes)
+            took = (time.perf_counter() - t0) / 60
+            rest = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files[100:]]
+            result["adapt"] = {"minutes": round(took, 2)} | _scored(
+                tmp, "d435-rest", rest, 1000.0, ["--models", str(tmp / "m")]
+            )
+            result["adapt_shipped"] = _scored(tmp, "d435-rest-shipped", rest, 1000.0, models)
+            print("adapt", result["adapt"], "shipped", result["adapt_shipped"], flush=True)
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,277 @@
+"""``d2sr adapt``: fit the shipped detector and default recovery model to one site's sensor and room.
+
+Self-supervised: the user's clean frames, corrupted by the wide interference generator (so the true masks
+are known), plus any real interfered frames labelled by ``d2sr label``. Starting from the shipped weights,
+both models are fine-tuned for a time budget. The last ``HOLDOUT`` of each recording (by time, not at
+random: neighbouring frames are near-copies) is held out; on it the detector's threshold is chosen for a
+target false-alarm rate and the mask threshold for at most ``MAX_CLEAN_CHANGED`` clean pixels changed.
+The result is a model folder (safetensors, ONNX, card) that ``--models`` takes; the shipped weights are
+never written. A checkpoint in the folder lets an interrupted run resume.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from d2sr.atomic import atomic_file, atomic_write, record_manifest
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, THRESHOLD, WEIGHTS
+from d2sr.errors import InputError
+from d2sr.metrics import threshold_curve
+from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
+from d2sr.sim.families import wide_interference
+from d2sr.train.data import Pool, Source
+from d2sr.train.loop import MASK_LOGITS, loss_fn, pick_mask_logit
+
+__all__ = ["MIN_FRAMES", "AdaptData", "adapt", "prepare"]
+
+MIN_FRAMES = 50  # fewer clean frames than this cannot both train and hold out
+HOLDOUT = 0.2
+VARIANTS = 4  # corrupted copies of each training frame (each a fresh draw of the generator)
+HELD_VARIANTS = 2
+SEED = 4_000_000  # interference seeds of adapt (apart from training, test and evaluation seeds)
+LR = 3e-4
+Arr = np.ndarray
+CHECKPOINT = "adapt-checkpoint.pt"
+
+
+@dataclass
+class AdaptData:
+    scale: float
+    train: list[np.ndarray]  # clean uint16 frames
+    held: list[np.ndarray]
+    bad: list[np.ndarray] = field(default_factory=list)  # corrupted training frames
+    bad_clean: list[np.ndarray] = field(default_factory=list)
+    held_bad: list[np.ndarray] = field(default_factory=list)
+    held_bad_clean: list[np.ndarray] = field(default_factory=list)
+    labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # frame, gt, mask
+
+    def pool(self) -> Pool:
+        n = len(self.train)
+        sources = [
+            Source(self.train, self.train, None, self.scale, np.zeros(n, bool)),
+            Source(self.bad, self.bad_clean, None, self.scale, np.ones(len(self.bad), bool)),
+        ]
+        if self.labelled:
+            f, c, m = (list(v) for v in zip(*self.labelled, strict=True))
+            sources.append(Source(f, c, m, self.scale, np.array([x.any() for x in m])))
+        return Pool(sources)
+
+
+def _corrupt(job: tuple[np.ndarray, float, int]) -> np.ndarray:
+    frame, scale, seed = job
+    return wide_interference(frame, scale, seed)[0]
+
+
+def prepare(
+    recordings: list[list[np.ndarray]],
+    scale: float,
+    labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+    workers: int = 2,
+) -> AdaptData:
+    """Split each recording by time (the last ``HOLDOUT`` held out), check the frames, and draw the
+    corrupted copies (in ``workers`` processes)."""
+    frames = [f for r in recordings for f in r]
+    if len(frames) < MIN_FRAMES:
+        raise InputError(f"adapt needs at least {MIN_FRAMES} clean frames, got {len(frames)}")
+    shapes = {f.shape for f in frames}
+    if len(shapes) > 1:
+        raise InputError(f"the clean frames mix sizes ({', '.join(f'{w}x{h}' for h, w in sorted(shapes))})")
+    empty = sum(not f.any() for f in frames)
+    if empty == len(frames):
+        raise InputError("the clean frames hold no valid depth")
+    train, held = [], []
+    for r in recordings:
+        cut = len(r) - max(1, round(HOLDOUT * len(r)))
+        train += [f for f in r[:cut] if f.any()]
+        held += [f for f in r[cut:] if f.any()]
+    data = AdaptData(scale, train, held, labelled=list(labelled or []))
+    jobs = [(f, scale, SEED + i) for i, f in enumerate(train * VARIANTS)]
+    held_jobs = [(f, scale, SEED + 500_000 + i) for i, f in enumerate(held * HELD_VARIANTS)]
+    with ProcessPoolExecutor(max_workers=max(workers, 1)) as ex:
+        data.bad = list(ex.map(_corrupt, jobs, chunksize=8))
+        data.held_bad = list(ex.map(_corrupt, held_jobs, chunksize=8))
+    data.bad_clean = [j[0] for j in jobs]
+    data.held_bad_clean = [j[0] for j in held_jobs]
+    return data
+
+
+def _metres(frames: list[np.ndarray], scale: float) -> list[np.ndarray]:
+    return [f.astype(np.float32)[None, None] / np.float32(scale) for f in frames]
+
+
+def _scores(model: torch.nn.Module, frames: list[np.ndarray], scale: float, device: torch.device) -> Arr:
+    model.eval()
+    out = []
+    with torch.inference_mode():
+        for x in _metres(frames, scale):
+            out.append(float(torch.sigmoid(model(torch.from_numpy(x).to(device)))[0]))
+    return np.array(out)
+
+
+def _detector_figures(clean: np.ndarray, bad: np.ndarray, threshold: float) -> dict:
+    return {
+        "threshold": round(threshold, 4),
+        "false_alarms": round(float((clean >= threshold).mean()), 4),
+        "recall": round(float((bad >= threshold).mean()), 4),
+    }
+
+
+def _mask_sums(model: torch.nn.Module, data: AdaptData, device: torch.device) -> list:
+    model.eval()
+    s = np.float32(data.scale)
+
+    def samples():  # noqa: ANN202 - a generator of threshold_curve's tuples
+        with torch.inference_mode():
+            for f, c in zip(data.held_bad, data.held_bad_clean, strict=True):
+                x = torch.from_numpy(f.astype(np.float32)[None, None] / s).to(device)
+                logit, pred = model(x)
+                y = c.astype(np.float32) / s
+                yield x[0, 0].cpu().numpy(), y, f != c, logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy(), s
+
+    _, sums = threshold_curve(samples(), MASK_LOGITS)
+    return sums
+
+
+@dataclass
+class _Phase:
+    name: str
+    model: torch.nn.Module
+    task: str
+    seconds: float
+    batch: int
+    crop: tuple[int, int] | None
+    clean_share: float
+
+
+def _fit(
+    phase: _Phase,
+    pool: Pool,
+    out: Path,
+    device: torch.device,
+    tick: Callable[[str, float], None] | None,
+) -> dict:
+    """Fine-tune for ``phase.seconds`` (over every resumed part), checkpointing as it goes."""
+    ckpt = out / f"{phase.name}-{CHECKPOINT}"
+    model = phase.model.to(device)
+    opt = torch.optim.AdamW(model.parameters(), lr=LR, weight_decay=1e-4)
+    rng = np.random.default_rng([SEED, len(phase.name)])
+    spent, steps, losses = 0.0, 0, []
+    if ckpt.is_file():
+        state = torch.load(ckpt, weights_only=False)
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["opt"])
+        rng.bit_generator.state = state["rng"]
+        spent, steps, losses = state["seconds"], state["steps"], state["losses"]
+    model.train()
+    t0, last = time.perf_counter(), time.perf_counter()
+    while spent + (time.perf_counter() - t0) < phase.seconds:
+        b = pool.batch(rng, phase.batch, phase.crop, phase.clean_share)
+        loss = loss_fn(model, phase.task, b, device)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        steps += 1
+        losses.append(float(loss.item()))
+        if tick:
+            tick(phase.name, min(1.0, (spent + time.perf_counter() - t0) / phase.seconds))
+        if time.perf_counter() - last > 30:  # a checkpoint every half minute
+            _save(ckpt, model, opt, rng, spent + time.perf_counter() - t0, steps, losses)
+            last = time.perf_counter()
+    total = spent + time.perf_counter() - t0
+    _save(ckpt, model, opt, rng, total, steps, losses)
+    return {"steps": steps, "seconds": round(total, 1), "final_loss": round(float(np.mean(losses[-50:])), 5)}
+
+
+def _save(path: Path, model: torch.nn.Module, opt: torch.optim.Optimizer, rng: np.random.Generator,
+          seconds: float, steps: int, losses: list[float]) -> None:  # fmt: skip
+    state = {"model": model.state_dict(), "opt": opt.state_dict(), "rng": rng.bit_generator.state,
+             "seconds": seconds, "steps": steps, "losses": losses}  # fmt: skip
+    with atomic_file(path) as tmp:
+        torch.save(state, tmp)
+
+
+def adapt(
+    data: AdaptData,
+    out: Path,
+    minutes: float,
+    false_alarm: float,
+    command: str,
+    weights: Path = WEIGHTS,
+    tick: Callable[[str, float], None] | None = None,
+) -> dict:
+    """Fine-tune, choose thresholds on the held-out frames, write ``out`` (weights, ONNX, card)."""
+    from d2sr.export import export
+
+    t_start = time.perf_counter()
+    device = torch_device()
+    out.mkdir(parents=True, exist_ok=True)
+    record_manifest(out, [f"detector-{CHECKPOINT}", f"recovery-{CHECKPOINT}"])
+    det, _ = load_model(weights / f"{DETECTOR}.safetensors")
+    rec, _ = load_model(weights / f"{DEFAULT_RECOVERY}.safetensors")
+    shipped_logit = mask_logit(weights / f"{DEFAULT_RECOVERY}.safetensors")
+    held_clean = data.held
+    clean_s = _scores(det, held_clean, data.scale, device)
+    before = _detector_figures(clean_s, _scores(det, data.held_bad, data.scale, device), THRESHOLD)
+    sums = _mask_sums(rec, data, device)
+    mask_before = sums[int(np.argmin([abs(t - shipped_logit) for t in MASK_LOGITS]))].result()
+    pool = data.pool()
+    budget = minutes * 60
+    phases = [
+        _Phase("detector", det, "detector", 0.3 * budget, 16, None, 0.5),
+        _Phase("recovery", rec, "recovery", 0.55 * budget, 8, (256, 320), 0.3),
+    ]
+    fits = {p.name: _fit(p, pool, out, device, tick) for p in phases}
+    clean_s = _scores(det, held_clean, data.scale, device)
+    bad_s = _scores(det, data.held_bad, data.scale, device)
+    q = float(np.quantile(clean_s, 1 - false_alarm)) if len(clean_s) else THRESHOLD
+    threshold = float(np.clip(q + 0.02, 0.2, 0.95))
+    after = _detector_figures(clean_s, bad_s, threshold)
+    sums = _mask_sums(rec, data, device)
+    logit, rule = pick_mask_logit(sums)
+    mask_after = sums[MASK_LOGITS.index(logit)].result()
+    save_model(det, DETECTOR, out / f"{DETECTOR}.safetensors", threshold=threshold)
+    save_model(rec, DEFAULT_RECOVERY, out / f"{DEFAULT_RECOVERY}.safetensors", mask_logit=logit)
+    for name in (DETECTOR, DEFAULT_RECOVERY):
+        export(out / f"{name}.safetensors", out / f"{name}.onnx")
+
+    def mask_row(r: dict) -> dict:
+        return {k: round(float(r[k]), 4) for k in ("rmse_cm", "mask_f1", "clean_changed")}
+
+    card = {
+        "data": {
+            "clean_frames": len(data.train) + len(data.held),
+            "trained_on": len(data.train),
+            "held_out": len(data.held),
+            "labelled_frames": len(data.labelled),
+            "depth_scale": data.scale,
+            "corrupted_copies": {"train": VARIANTS, "held_out": HELD_VARIANTS},
+        },
+        "command": command,
+        "started_from": str(weights),
+        "training": fits,
+        "held_out": {
+            "detector": {"shipped": before, "adapted": after, "target_false_alarms": false_alarm},
+            "recovery": {
+                "shipped": mask_row(mask_before) | {"mask_logit": shipped_logit},
+                "adapted": mask_row(mask_after) | {"mask_logit": logit, "rule": rule},
+            },
+        },
+        "minutes": round((time.perf_counter() - t_start) / 60, 2),
+        "date": dt.date.today().isoformat(),
+    }
+    for name in (DETECTOR, DEFAULT_RECOVERY):
+        write_card(out / f"{name}.safetensors", model=name, summary="adapted by d2sr adapt", adapt=card)
+    atomic_write(out / "adapt.json", json.dumps(card, indent=1) + "\n")
+    ext = (".safetensors", ".onnx", ".card.json", ".md")
+    files = [f"{n}{e}" for n in (DETECTOR, DEFAULT_RECOVERY) for e in ext]
+    record_manifest(out, [*files, "adapt.json"])
+    return card

@@ -1,0 +1,94 @@
+"""``d2sr adapt``: refusals, and a short end-to-end run whose model folder the other commands take."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from d2sr.contract import WEIGHTS
+from helpers import d2sr_inprocess
+
+
+def _room(folder: Path, n: int, shape: tuple[int, int] = (96, 128), seed: int = 0) -> Path:
+    """A static scene (a slanted floor and a box) in mm, with a little noise per frame."""
+    folder.mkdir(parents=True)
+    h, w = shape
+    y = np.linspace(1.0, 3.0, h, dtype=np.float32)[:, None] * np.ones((1, w), np.float32)
+    y[20:50, 40:80] = 1.2
+    rng = np.random.default_rng(seed)
+    for i in range(n):
+        d = y + rng.normal(0, 0.004, y.shape).astype(np.float32)
+        cv2.imwrite(str(folder / f"{i:05d}.png"), np.rint(d * 1000).astype(np.uint16))
+    return folder
+
+
+def test_adapt_refuses_short_empty_and_mixed_input(tmp_path):
+    short = _room(tmp_path / "short", 20)
+    code, _out, err = d2sr_inprocess(
+        "adapt", "--clean", str(short), "--depth-scale", "1000", "--out", str(tmp_path / "m")
+    )
+    assert code == 2 and "at least 50" in err and not (tmp_path / "m").exists()
+    a, b = _room(tmp_path / "a", 30), _room(tmp_path / "b", 30, (64, 96))
+    code, _, err = d2sr_inprocess(
+        "adapt", "--clean", str(a), "--clean", str(b), "--depth-scale", "1000", "--out", str(tmp_path / "m")
+    )
+    assert code == 2 and "mix sizes" in err and not (tmp_path / "m").exists()
+    zeros = tmp_path / "zeros"
+    zeros.mkdir()
+    for i in range(60):
+        cv2.imwrite(str(zeros / f"{i:05d}.png"), np.zeros((96, 128), np.uint16))
+    code, _, err = d2sr_inprocess(
+        "adapt", "--clean", str(zeros), "--depth-scale", "1000", "--out", str(tmp_path / "m")
+    )
+    assert code == 2 and "no valid depth" in err and not (tmp_path / "m").exists()
+    code, _, err = d2sr_inprocess(
+        "adapt", "--clean", str(a), "--depth-scale", "1000", "--out", str(WEIGHTS), "--overwrite"
+    )
+    assert code == 2 and err.count("\n") == 1  # never into (or over) the models it starts from
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
+    clean = _room(tmp_path / "clean", 60)
+    models = tmp_path / "models"
+    code, out, err = d2sr_inprocess(
+        "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "0.1"
+    )
+    assert code == 0, err
+    for f in ("detector.onnx", "unet8.onnx", "detector.safetensors", "unet8.safetensors", "adapt.json"):
+        assert (models / f).is_file(), f
+    assert "false alarms" in out and "--models" in out
+    code, out, err = d2sr_inprocess(
+        "detect",
+        str(clean),
+        "--depth-scale",
+        "1000",
+        "--models",
+        str(models),
+        "--out",
+        str(tmp_path / "f.csv"),
+    )
+    assert code == 0, err
+    code, out, err = d2sr_inprocess(
+        "recover",
+        str(clean),
+        "--depth-scale",
+        "1000",
+        "--models",
+        str(models),
+        "--all",
+        "--out",
+        str(tmp_path / "r"),
+    )
+    assert code == 0, err
+    # the shipped weights were not touched, and a second run on the same folder resumes, not refuses
+    assert (WEIGHTS / "detector.safetensors").stat().st_mtime < (
+        models / "detector.safetensors"
+    ).stat().st_mtime
+    code, _, err = d2sr_inprocess(
+        "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "0.1"
+    )
+    assert code == 0, err

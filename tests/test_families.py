@@ -1,0 +1,122 @@
+"""The wide interference generator, the sensor kinds and the do-no-harm guard."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from d2sr.contract import guard, repair_frame
+from d2sr.errors import InputError
+from d2sr.frames import Intrinsics
+from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
+from d2sr.sim.scene import Pose, Renderer, make_room
+from d2sr.sim.sensors import SENSOR_KINDS, observe
+
+SMALL = Intrinsics(160, 120, 114.0, 114.0, 80.0, 60.0)
+
+
+def _clean(scale: float = 1000.0) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    d = rng.uniform(1.0, 4.0, (120, 160))
+    d[rng.random(d.shape) < 0.2] = 0
+    return np.rint(d * scale).astype(np.uint16)
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_each_family_marks_exactly_the_changed_pixels(family):
+    clean = _clean()
+    frame, mask, drawn = wide_interference(clean, 1000.0, 5, WideConfig(families=(family,)))
+    assert drawn == [family]
+    assert np.array_equal(mask, frame != clean) and mask.any()
+    again, _, _ = wide_interference(clean, 1000.0, 5, WideConfig(families=(family,)))
+    assert np.array_equal(frame, again)  # a pure function of the seed
+
+
+def test_coverage_spans_faint_to_heavy():
+    clean = _clean()
+    shares = [wide_interference(clean, 1000.0, s)[1].mean() for s in range(40)]
+    assert min(shares) < 0.01 and max(shares) > 0.15
+
+
+def test_shapes_aim_at_their_coverage():
+    rng = np.random.default_rng(1)
+    for family in ("band", "bar", "blob", "region"):
+        got = np.mean([shape(family, (240, 320), 0.2, rng).mean() for _ in range(10)])
+        assert 0.05 < got < 0.5, (family, got)
+
+
+def test_bad_config_and_input_are_refused():
+    with pytest.raises(ValidationError, match="families"):
+        WideConfig(families=("rainbow",))
+    with pytest.raises(InputError, match="uint16"):
+        wide_interference(np.zeros((8, 8), np.float32), 1000.0, 0)
+
+
+@pytest.mark.parametrize("kind", SENSOR_KINDS)
+def test_sensor_kinds_deliver_uint16_at_their_scale(kind):
+    pose = Pose(0.5, 2.0, 1.2, 0.2, -0.1)
+    r = Renderer(make_room(3, cameras=[pose], people=0), SMALL, pose).render()
+    a, scale = observe(kind, r, np.random.default_rng(7))
+    b, _ = observe(kind, r, np.random.default_rng(7))
+    assert a.dtype == np.uint16 and a.shape == (120, 160) and np.array_equal(a, b)
+    assert scale in (1000.0, 4000.0, 5000.0)
+    ok = (a > 0) & (a < 65535) & (r.depth > 0)
+    err = np.abs(a[ok] / scale - r.depth[ok]) / r.depth[ok]
+    assert ok.mean() > 0.1 and np.median(err) < 0.03  # mostly the scene, with this sensor's artefacts
+
+
+def test_guard_leaves_noise_alone_and_clamps_to_the_neighbours():
+    x = np.full((64, 64), 2.0, np.float32)
+    mask = np.zeros(x.shape, bool)
+    mask[20:24, 20:24] = True
+    # within the sensor's noise: nothing moves
+    p, m = guard(x, x + 0.01, mask)
+    assert not m.any()
+    # an invented near surface is pulled back to the neighbours' range (2 m +- tolerance)
+    p, m = guard(x, np.full_like(x, 0.5), mask)
+    assert (p[20:24, 20:24] >= 1.929).all() and (np.abs(p - x)[m] <= 0.0701).all()
+    x[20:24, 20:24] = 0.7  # a too-short patch; neighbours at 2 m
+    p, m = guard(x, np.full_like(x, 2.0), mask)
+    assert m[20:24, 20:24].all() and np.allclose(p[20:24, 20:24], 2.0)
+
+
+def test_guard_keeps_predictions_where_no_trusted_pixel_is_near():
+    x = np.full((64, 64), 2.0, np.float32)
+    mask = np.ones(x.shape, bool)
+    x[:, :32] = 0.5
+    p, m = guard(x, np.full_like(x, 2.0), mask)
+    assert m[:, :32].all() and np.allclose(p[:, :32], 2.0)
+
+
+def test_repair_frame_is_bit_identical_outside_what_it_repaired():
+    f = _clean()
+    pred = np.full(f.shape, 3.0, np.float32)
+    mask = np.zeros(f.shape, bool)
+    mask[10:40, 10:40] = True
+    out, kept = repair_frame(f, pred, mask, 1000.0)
+    assert not (kept & ~mask).any()
+    assert np.array_equal(out[~kept], f[~kept])
+    assert (out[kept] != f[kept]).all()
+
+
+def test_generalization_reads_each_shared_set_at_its_true_scale(tmp_path):
+    import cv2
+
+    from d2sr.eval.generalization import _nyu, _sun, real_clean_sets
+
+    v = np.array([[0, 1000, 2500, 8000]], np.uint16)
+    raw = ((v.astype(np.uint32) << 3) | (v.astype(np.uint32) >> 13)) & 0xFFFF
+    assert np.array_equal(_sun(raw.astype(np.uint16)), v)  # SUN stores its millimetres bit-rotated
+    disp = np.array([[2047, 500]], np.uint16).byteswap()  # NYU: raw disparity, byte-swapped
+    assert _nyu(disp)[0, 0] == 0 and abs(int(_nyu(disp)[0, 1]) - 593) <= 1  # 351.3 / (1092.5 - 500) m
+    (tmp_path / "d435").mkdir()
+    (tmp_path / "open3d_rgbd").mkdir()
+    for i in range(3):
+        cv2.imwrite(str(tmp_path / "d435" / f"depth{i:05d}.png"), np.full((48, 64), 800, np.uint16))
+    cv2.imwrite(str(tmp_path / "open3d_rgbd" / "TUM_depth.png"), np.full((48, 64), 12000, np.uint16))
+    sets = {s.name: s for s in real_clean_sets(tmp_path)}
+    assert set(sets) == {"D435", "TUM"}
+    assert sets["D435"].scale == 1000 and len(sets["D435"].frames) == 3 and sets["TUM"].scale == 5000
+    with pytest.raises(InputError, match="none of the shared"):
+        real_clean_sets(tmp_path / "nothing")
