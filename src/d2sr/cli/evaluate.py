@@ -209,8 +209,9 @@ def generalization(
     left = {}
     for fam in FAMILIES if lofo else ():
         assert lofo is not None
-        if (lofo / f"no-{fam}").is_dir():
-            left[fam] = open_backend(None, backend, lofo / f"no-{fam}")
+        folder = lofo / f"no-{fam}"
+        if any((folder / f"detector{e}").is_file() for e in (".onnx", ".safetensors")):  # finished runs
+            left[fam] = open_backend(None, backend, folder)
     sets = g.real_clean_sets(data)
     l515 = sum(len(s.frames) for s in sets if s.name.startswith("L515"))
     with progress_bar() as bar:
