@@ -172,3 +172,18 @@ def test_temporal_model_started_from_unet8_equals_it_until_it_has_a_clean_frame(
     save_model(build("detector"), "detector", tmp_path / "d.safetensors")
     with pytest.raises(InputError, match="no tensor fits"):
         warm_start(temporal, tmp_path / "d.safetensors")
+
+
+def test_saved_weights_get_the_usual_permissions(tmp_path):
+    import os
+
+    import torch
+
+    from d2sr.models.store import save_model
+
+    old = os.umask(0o022)
+    try:
+        save_model(torch.nn.Linear(2, 2), "detector", tmp_path / "w.safetensors")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "w.safetensors").stat().st_mode & 0o777 == 0o644

@@ -43,7 +43,9 @@ def save_model(
     if threshold is not None:
         meta["threshold"] = repr(float(threshold))
     with atomic_file(path) as tmp:
+        mode = tmp.stat().st_mode & 0o777  # the usual permissions; safetensors recreates the file 0600
         save_file(state, str(tmp), metadata=meta)
+        tmp.chmod(mode)
 
 
 def mask_logit(path: Path) -> float:
