@@ -25,11 +25,11 @@ import torch
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, THRESHOLD, WEIGHTS
 from d2sr.errors import InputError
-from d2sr.metrics import threshold_curve
+from d2sr.metrics import RepairSums
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
-from d2sr.train.loop import MASK_LOGITS, loss_fn, pick_mask_logit
+from d2sr.train.loop import MASK_LOGITS, loss_fn, mask_sums, pick_mask_logit
 
 __all__ = ["MIN_FRAMES", "AdaptData", "adapt", "prepare"]
 
@@ -125,20 +125,9 @@ def _detector_figures(clean: np.ndarray, bad: np.ndarray, threshold: float) -> d
     }
 
 
-def _mask_sums(model: torch.nn.Module, data: AdaptData, device: torch.device) -> list:
-    model.eval()
-    s = np.float32(data.scale)
-
-    def samples():  # noqa: ANN202 - a generator of threshold_curve's tuples
-        with torch.inference_mode():
-            for f, c in zip(data.held_bad, data.held_bad_clean, strict=True):
-                x = torch.from_numpy(f.astype(np.float32)[None, None] / s).to(device)
-                logit, pred = model(x)
-                y = c.astype(np.float32) / s
-                yield x[0, 0].cpu().numpy(), y, f != c, logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy(), s
-
-    _, sums = threshold_curve(samples(), MASK_LOGITS)
-    return sums
+def _mask_sums(model: torch.nn.Module, data: AdaptData) -> list[RepairSums]:
+    pairs = zip(data.held_bad, data.held_bad_clean, strict=True)
+    return mask_sums(model, (([f], c, data.scale) for f, c in pairs))
 
 
 @dataclass
@@ -221,7 +210,8 @@ def adapt(
     held_clean = data.held
     clean_s = _scores(det, held_clean, data.scale, device)
     before = _detector_figures(clean_s, _scores(det, data.held_bad, data.scale, device), THRESHOLD)
-    sums = _mask_sums(rec, data, device)
+    rec = rec.to(device)
+    sums = _mask_sums(rec, data)
     mask_before = sums[int(np.argmin([abs(t - shipped_logit) for t in MASK_LOGITS]))].result()
     pool = data.pool()
     budget = minutes * 60
@@ -235,7 +225,7 @@ def adapt(
     q = float(np.quantile(clean_s, 1 - false_alarm)) if len(clean_s) else THRESHOLD
     threshold = float(np.clip(q + 0.02, 0.2, 0.95))
     after = _detector_figures(clean_s, bad_s, threshold)
-    sums = _mask_sums(rec, data, device)
+    sums = _mask_sums(rec, data)
     logit, rule = pick_mask_logit(sums)
     mask_after = sums[MASK_LOGITS.index(logit)].result()
     save_model(det, DETECTOR, out / f"{DETECTOR}.safetensors", threshold=threshold)

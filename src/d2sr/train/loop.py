@@ -7,7 +7,7 @@ import datetime as dt
 import json
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,15 @@ from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
 
-__all__ = ["MASK_LOGITS", "MAX_CLEAN_CHANGED", "choose_mask_logit", "loss_fn", "pick_mask_logit", "train"]
+__all__ = [
+    "MASK_LOGITS",
+    "MAX_CLEAN_CHANGED",
+    "choose_mask_logit",
+    "loss_fn",
+    "mask_sums",
+    "pick_mask_logit",
+    "train",
+]
 
 CHECKPOINT = "checkpoint.pt"
 MASK_LOGITS = tuple(float(t) for t in np.arange(3.0, -6.01, -0.25))  # candidate mask thresholds (logits)
@@ -217,6 +225,29 @@ def _same_run(saved: dict, cfg: TrainConfig) -> bool:
     return all(saved.get(k) == v for k, v in now.items() if k not in NOT_TRAINING)
 
 
+def mask_sums(
+    model: nn.Module, items: Iterable[tuple[list[np.ndarray], np.ndarray, float]]
+) -> list[RepairSums]:
+    """``threshold_curve``'s sums (one per ``MASK_LOGITS``) of a recovery model over ``items`` of (inputs:
+    the frame, and its last clean frame for a temporal model; the clean frame; depth scale), all uint16:
+    the same sums as ``d2sr eval recovery``."""
+    device = next(model.parameters()).device
+    was = model.training
+    model.eval()
+
+    def samples() -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]]:
+        for ins, clean, s in items:
+            x = np.stack(ins).astype(np.float32) / np.float32(s)
+            with torch.inference_mode():
+                logit, pred = model(torch.from_numpy(x)[None].to(device))
+            y = clean.astype(np.float32) / np.float32(s)
+            yield x[0], y, ins[0] != clean, logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy(), s
+
+    _, sums = threshold_curve(samples(), MASK_LOGITS)
+    model.train(was)
+    return sums
+
+
 def pick_mask_logit(sums: list[RepairSums]) -> tuple[float, str]:
     """Of ``MASK_LOGITS`` (one ``RepairSums`` each), the lowest RMSE among those that change at most
     ``MAX_CLEAN_CHANGED`` of the clean pixels; (logit, the rule in words)."""
@@ -239,23 +270,12 @@ def choose_mask_logit(
 
     frames = int(getattr(model, "frames", 1))
     ss = synth_set(cache, count, VALIDATION_SEED, progress, previous=frames > 1)
-    device = next(model.parameters()).device
-    was = model.training
-    model.eval()
-
-    def samples() -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]]:
-        for i in map(int, np.flatnonzero(ss.labels)):
-            s = ss.scales[i]
-            ins = [ss.frames[i]] + ([ss.previous[i]] if frames > 1 and ss.previous is not None else [])
-            x = np.stack(ins).astype(np.float32) / s
-            with torch.inference_mode():
-                logit, pred = model(torch.from_numpy(x)[None].to(device))
-            y = ss.metres(i, clean=True)
-            mask = ss.frames[i] != ss.clean[i]
-            yield x[0], y, mask, logit[0, 0].cpu().numpy(), pred[0, 0].cpu().numpy(), float(s)
-
-    _, sums = threshold_curve(samples(), MASK_LOGITS)  # the same sums as d2sr eval recovery
-    model.train(was)
+    prev = ss.previous if frames > 1 else None
+    items = (
+        ([ss.frames[i]] + ([prev[i]] if prev is not None else []), ss.clean[i], float(ss.scales[i]))
+        for i in map(int, np.flatnonzero(ss.labels))
+    )
+    sums = mask_sums(model, items)
     logit, rule = pick_mask_logit(sums)
     rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
     changed = np.array([r.result()["clean_changed"] for r in sums])
