@@ -92,3 +92,20 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
         "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "0.1"
     )
     assert code == 0, err
+
+
+def test_threshold_takes_the_widest_margin_and_else_the_false_alarm_target():
+    from d2sr.contract import THRESHOLD
+    from d2sr.train.adapt import choose_threshold
+
+    clean = np.linspace(0.0, 0.3, 100)
+    bad = np.linspace(0.9, 1.0, 50)
+    seen = np.ones(50, bool)
+    t = choose_threshold(clean, bad, seen, 0.01)
+    assert 0.4 < t < 0.85  # well clear of both: later frames drift
+    # Overlap: the false-alarm target wins (just above the clean frames' 99th percentile).
+    assert abs(choose_threshold(np.linspace(0, 0.8, 101), bad * 0.6, seen, 0.01) - 0.812) < 0.005
+    # Frames too lightly hit to see do not drag the threshold down.
+    faint = np.r_[bad, np.full(50, 0.01)]
+    assert choose_threshold(clean, faint, np.r_[seen, np.zeros(50, bool)], 0.01) == t
+    assert choose_threshold(np.array([]), bad, seen, 0.01) == THRESHOLD

@@ -32,8 +32,10 @@ class FakeNet:
         self.recovered = 0
         self.frames = frames
         self.previous: list[np.ndarray | None] = []
+        self.before: list[np.ndarray | None] = []  # what the detector was given as the previous frame
 
-    def scores(self, metres: np.ndarray) -> np.ndarray:
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        self.before.append(previous)
         return (metres[:, 0, 0] * 4000 == 1).astype(np.float32)
 
     def recover(
@@ -281,3 +283,16 @@ def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
     assert res.depth.shape == (96, 128) and 0 <= res.score <= 1
     with pytest.raises(InputError, match="onnxruntime"):
         open_backend("unet8", "torch", tmp_path, int8=True)
+
+
+def test_detector_gets_the_previous_frame_whatever_its_flag():
+    net = FakeNet()
+    loop = SensorLoop(net, make_controller("static", 30, 3), repair="none")
+    first = _cap("0", bad=True)
+    first.frame.depth[3, 3] = 4000
+    loop.process(first)
+    loop.process(_cap("1", bad=False))
+    loop.process(Capture(Frame("2", np.full((8, 8), 8000, np.uint16)), 4000.0))
+    assert net.before[0] is None  # a stream's first frame has none: the detector's single-frame case
+    assert net.before[1] is not None and net.before[1][0, 3, 3] == 1.0  # the flagged frame, as delivered
+    assert net.before[2] is None  # a frame of another size is not a previous frame

@@ -72,6 +72,31 @@ def test_batches_are_balanced_cropped_and_consistent(tmp_path):
     assert 0 < b.label.sum() < 8
 
 
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_temporal_detector_sees_the_previous_frame_as_delivered(tmp_path):
+    cfg = _cfg(tmp_path, task="detector", model="detector-temporal", synthetic=6, cache=tmp_path)
+    ss = synth_set(tmp_path, 6, 0, progress=False, previous=True)
+    pool = Pool.from_config(cfg, progress=False, frames=2)
+    rng = np.random.default_rng(0)
+    seen = {"itself": 0, "last clean": 0, "hit": 0}
+    for _ in range(60):
+        i = int(rng.integers(0, 6))
+        f, last = np.asarray(ss.frames[i]), np.asarray(ss.previous[i])
+        p = pool._previous(rng, f, last)
+        assert p.shape == f.shape and p.dtype == np.uint16
+        if p is f:
+            seen["itself"] += 1
+        elif np.array_equal(p, last):
+            seen["last clean"] += 1
+        else:  # another frame's pattern on the last clean frame: only where that frame was changed
+            j = [k for k in range(6) if ss.labels[k] and ((p != last) <= (ss.frames[k] != ss.clean[k])).all()]
+            assert j
+            seen["hit"] += 1
+    assert all(n > 0 for n in seen.values()), seen
+    b = pool.batch(rng, 4, None)
+    assert b.x.shape == (4, 2, 480, 640) and (b.x[:, 1] > 0).any()
+
+
 class _Fixed(torch.nn.Module):
     """A "model" whose outputs are its parameters, to read the loss's gradient per pixel."""
 

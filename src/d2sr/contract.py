@@ -30,6 +30,7 @@ __all__ = [
     "WEIGHTS",
     "check_probability",
     "check_size",
+    "detector_input",
     "guard",
     "model_input",
     "padded",
@@ -39,7 +40,7 @@ __all__ = [
 
 WEIGHTS = Path(__file__).resolve().parent / "models" / "weights"  # the shipped weights, ONNX and cards
 DETECTOR = "detector"
-DETECTOR_NAMES = ("detector", "paper-detector")
+DETECTOR_NAMES = ("detector", "detector-temporal", "paper-detector")
 # Ours first; unet8-direct is the ablation unet8 starts from; paper-* are the paper's layouts.
 RECOVERY_NAMES = (
     "unet8",
@@ -97,8 +98,15 @@ def model_input(metres: np.ndarray, previous: np.ndarray | None, frames: int) ->
     if previous is None:
         previous = np.zeros_like(metres)
     elif previous.shape != metres.shape:
-        raise InputError(f"the last clean frame is {previous.shape}, the frame {metres.shape}")
+        raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
     return np.concatenate([x, previous[:, None].astype(np.float32, copy=False)], axis=1)
+
+
+def detector_input(metres: np.ndarray, previous: np.ndarray | None, frames: int) -> np.ndarray:
+    """(N, H, W) metres -> the detector's (N, frames, H, W) input. A temporal detector also takes the
+    sensor's previous frame; with none (a single image, a stream's first frame) the frame stands in for it,
+    the single-frame case it was trained on."""
+    return model_input(metres, metres if previous is None else previous, frames)
 
 
 def scale_at(scale: float | np.ndarray, i: int) -> float:

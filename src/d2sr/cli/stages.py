@@ -10,6 +10,7 @@ from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from d2sr.atomic import atomic_dir, atomic_write, check_out
@@ -69,8 +70,11 @@ def detect(
     flagged = 0
     with progress_bar() as bar:
         task = bar.add_task(f"detecting ({net.name})", total=len(reader))
+        last: tuple[tuple[int, ...], np.ndarray] | None = None  # the previous frame, for a temporal detector
         for f, metres in prefetch(checked_frames(reader, scale)):
-            s = float(net.scores(padded(metres[None]))[0])
+            x = padded(metres[None])
+            s = float(net.scores(x, last[1] if last is not None and last[0] == metres.shape else None)[0])
+            last = (metres.shape, x)
             flagged += s >= cut
             w.writerow([f.name, f"{s:.6f}", int(s >= cut)])
             bar.advance(task)

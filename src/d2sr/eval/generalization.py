@@ -40,6 +40,7 @@ class RealSet:
     sensor: str
     frames: list[np.ndarray]  # uint16
     scale: float
+    sequence: bool = False  # frames in time order: a temporal detector sees each one's predecessor
 
 
 def _sun(raw: np.ndarray) -> np.ndarray:
@@ -68,10 +69,10 @@ def real_clean_sets(root: Path) -> list[RealSet]:
         if (root / "l515" / cap).is_dir():
             r = open_frames(root / "l515" / cap)
             frames = [f.depth for f in r][::L515_STRIDE]
-            out.append(RealSet(f"L515 {cap}", "L515 (lidar)", frames, r.depth_scale or 4000.0))
+            out.append(RealSet(f"L515 {cap}", "L515 (lidar)", frames, r.depth_scale or 4000.0, True))
     if (root / "d435").is_dir():
         frames = [f.depth for f in open_frames(root / "d435")]
-        out.append(RealSet("D435", "D435 (active stereo)", frames, 1000.0))
+        out.append(RealSet("D435", "D435 (active stereo)", frames, 1000.0, True))
     azure = "Azure Kinect (ToF)"
     singles = [
         ("Azure Kinect 640x576", azure, "azure_kinect/depth_640x576_mm.png", 1000.0, None),
@@ -89,11 +90,18 @@ def real_clean_sets(root: Path) -> list[RealSet]:
     return out
 
 
-def _run(net: Backend, frame: np.ndarray, scale: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """(score, repaired frame as ``recover --all`` writes it, mask of pixels repaired) for one frame."""
+def _metres(frame: np.ndarray, scale: float) -> np.ndarray:
+    return padded(frame.astype(np.float32)[None] / np.float32(scale))
+
+
+def _run(
+    net: Backend, frame: np.ndarray, scale: float, before: np.ndarray | None = None
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """(score, repaired frame as ``recover --all`` writes it, mask of pixels repaired) for one frame;
+    ``before``: the frame delivered before it (uint16), for a temporal detector."""
     h, w = frame.shape
-    x = padded(frame.astype(np.float32)[None] / np.float32(scale))
-    score = float(net.scores(x)[0])
+    x = _metres(frame, scale)
+    score = float(net.scores(x, None if before is None else _metres(before, scale))[0])
     pred, mask = net.recover(x)
     out, kept = repair_frame(frame, pred[0, :h, :w], mask[0, :h, :w], scale)
     return score, out, kept
@@ -105,8 +113,8 @@ def real_rows(net: Backend, sets: list[RealSet], tick: Callable[[], None] | None
     for s in sets:
         flagged = moved_all = moved_flagged = valid = 0.0
         worst = 0.0
-        for f in s.frames:
-            score, out, _ = _run(net, f, s.scale)
+        for k, f in enumerate(s.frames):
+            score, out, _ = _run(net, f, s.scale, s.frames[k - 1] if s.sequence and k else None)
             ok = f > 0
             moved = ok & (np.abs(out.astype(np.float32) - f) / s.scale > MOVED_M)
             n = float(moved.sum())
@@ -168,8 +176,7 @@ def family_rows(
             labels.append(interfered)
             shares.append(float((bad != clean).sum()) / max(float((clean > 0).sum()), 1))
             if lofo and fam in lofo:
-                x = padded(bad.astype(np.float32)[None] / np.float32(scale))
-                left_out.append(float(lofo[fam].scores(x)[0]))
+                left_out.append(float(lofo[fam].scores(_metres(bad, scale))[0]))
             if interfered:
                 s = np.float32(scale)
                 x, y = bad.astype(np.float32) / s, clean.astype(np.float32) / s

@@ -67,7 +67,8 @@ def evaluate_detectors(
             step = progress(f"{name} on {ts.name}", len(ts.frames))
             scores = []
             for i in range(len(ts.frames)):
-                scores.append(float(net.scores(ts.metres(i)[None])[0]))
+                b = ts.before(i)  # a temporal detector's previous frame (others ignore it)
+                scores.append(float(net.scores(ts.metres(i)[None], None if b is None else b[None])[0]))
                 step()
             results[f"{name}/{ts.name}"] = detector_metrics(np.array(scores), ts, threshold)
     return results

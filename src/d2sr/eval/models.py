@@ -49,6 +49,7 @@ class TestSet:
     scale: float | np.ndarray  # depth units per metre: one for the set, or one per frame
     hard: np.ndarray  # bool per frame: a clean frame that is a known hard negative (people moving)
     last_clean: np.ndarray | None = None  # per frame, the index of its sequence's last clean frame (-1: none)
+    starts: tuple[int, ...] | None = None  # first frame of each sequence (None: independent frames)
 
     @cached_property
     def labels(self) -> np.ndarray:
@@ -65,6 +66,11 @@ class TestSet:
         a perfect detector), in metres; None when there is none."""
         j = -1 if self.last_clean is None else int(self.last_clean[i])
         return None if j < 0 else self.metres(j)
+
+    def before(self, i: int) -> np.ndarray | None:
+        """The frame delivered just before frame ``i`` in its sequence (what a temporal detector sees), in
+        metres; None for independent frames and a sequence's first."""
+        return None if self.starts is None or i in self.starts else self.metres(i - 1)
 
 
 def _last_clean(labels: np.ndarray, starts: list[int]) -> np.ndarray:
@@ -107,7 +113,7 @@ def l515_set(root: Path, seed: int = 7) -> TestSet:
         frames += out
         clean += seq
         hard += [t < skip for t in range(len(seq))]
-    ts = TestSet("l515", frames, clean, scale, np.array(hard))
+    ts = TestSet("l515", frames, clean, scale, np.array(hard), starts=tuple(starts))
     ts.last_clean = _last_clean(ts.labels, starts)
     return ts
 
@@ -130,7 +136,7 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
         if f is not None and ev.sensor == robot and f.slot % every == 0:
             frames.append(f.depth)
             clean.append(f.clean)
-    ts = TestSet("moving", frames, clean, room.model.depth_scale, np.zeros(len(frames), bool))
+    ts = TestSet("moving", frames, clean, room.model.depth_scale, np.zeros(len(frames), bool), starts=(0,))
     ts.last_clean = _last_clean(ts.labels, [0])
     return ts
 

@@ -19,21 +19,29 @@ __all__ = ["FastDetector", "PaperDetector", "Scored"]
 
 
 def features(depth: torch.Tensor) -> torch.Tensor:
-    """Depth in metres -> (scaled depth, return indicator): a zero is information, not a short range."""
-    return torch.cat([depth * 0.25, (depth > 0).to(depth.dtype)], dim=1)
+    """Depth in metres (N, C, H, W) -> each channel's (scaled depth, return indicator): a zero is
+    information, not a short range."""
+    parts = [[d * 0.25, (d > 0).to(d.dtype)] for d in depth.split(1, dim=1)]
+    return torch.cat([t for p in parts for t in p], dim=1)
 
 
 class FastDetector(nn.Module):
-    """Our detector. ``forward`` returns logits, shape (N,); ``Scored`` (export) adds the sigmoid."""
+    """Our detector. ``forward`` returns logits, shape (N,); ``Scored`` (export) adds the sigmoid.
+
+    ``frames=2`` (the temporal detector) also takes the sensor's previous frame as a second channel:
+    interference flickers from frame to frame while a sensor's own artefacts stay. With no previous frame
+    (a single image, the first frame of a stream) the frame itself is given as its own previous one; the
+    model is trained on that case too."""
 
     stride = 32
 
-    def __init__(self, width: int = 24) -> None:
+    def __init__(self, width: int = 24, frames: int = 1) -> None:
         super().__init__()
         w = width
+        self.frames = frames
         act = nn.LeakyReLU(0.1)
         self.body = nn.Sequential(
-            nn.Conv2d(2, w, 4, stride=4),
+            nn.Conv2d(2 * frames, w, 4, stride=4),
             act,
             nn.Conv2d(w, 2 * w, 3, stride=2, padding=1),
             act,

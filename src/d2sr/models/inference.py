@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from d2sr.contract import THRESHOLD, model_input
+from d2sr.contract import THRESHOLD, detector_input, model_input
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
 from d2sr.models.store import load_model, torch_device
@@ -32,15 +32,13 @@ class TorchBackend:
         self.mask_logit = mask_logit
         self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
-    def _tensor(self, metres: np.ndarray) -> torch.Tensor:
-        return torch.from_numpy(np.ascontiguousarray(metres[:, None], np.float32)).to(self.device)
-
-    def scores(self, metres: np.ndarray) -> np.ndarray:
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
         if self.det is None:
             raise InputError("no detector loaded")
         check_input_size(self.det, *metres.shape[1:])
+        x = detector_input(metres, previous, int(getattr(self.det, "frames", 1)))
         with torch.inference_mode():
-            return torch.sigmoid(self.det(self._tensor(metres))).cpu().numpy()
+            return torch.sigmoid(self.det(torch.from_numpy(x).to(self.device))).cpu().numpy()
 
     def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(mask logits, predicted depth), before any threshold."""

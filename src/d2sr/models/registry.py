@@ -15,6 +15,7 @@ __all__ = ["MODELS", "build", "check_input_size", "describe"]
 
 MODELS: dict[str, Callable[[], nn.Module]] = {
     "detector": FastDetector,
+    "detector-temporal": lambda: FastDetector(frames=2),
     "paper-detector": PaperDetector,
     # Ours: space-to-depth stem and a depth head that corrects a fill (see unet.py). The paper's layout is
     # kept as the paper-* reference variants.

@@ -11,7 +11,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from d2sr.contract import THRESHOLD, check_size, model_input
+from d2sr.contract import THRESHOLD, check_size, detector_input, model_input
 from d2sr.errors import InputError
 
 __all__ = ["Backend", "OnnxBackend"]
@@ -21,8 +21,9 @@ class Backend(Protocol):
     name: str
     threshold: float  # the detector's own probability threshold (stored with it; contract.THRESHOLD)
 
-    def scores(self, metres: np.ndarray) -> np.ndarray:
-        """(N, H, W) float32 metres -> (N,) probability that each frame is interfered."""
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        """(N, H, W) float32 metres -> (N,) probability that each frame is interfered. ``previous``: the
+        sensor's frame before each (N, H, W), which a temporal detector also weighs (others ignore it)."""
         ...
 
     @property
@@ -105,11 +106,11 @@ class OnnxBackend:
     def frames(self) -> int:
         return self._meta["recovery"].frames if "recovery" in self._meta else 1
 
-    def scores(self, metres: np.ndarray) -> np.ndarray:
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
         h, w = metres.shape[1:]
         p = self._meta["detector"]
         check_size(h, w, p.stride, p.height, "the detector")
-        scores: np.ndarray = self.det.run(None, {"depth": metres[:, None].astype(np.float32, copy=False)})[0]
+        scores: np.ndarray = self.det.run(None, {"depth": detector_input(metres, previous, p.frames)})[0]
         return scores
 
     def recover(

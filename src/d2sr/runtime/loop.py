@@ -88,6 +88,7 @@ class SensorLoop:
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
     _last_clean: np.ndarray | None = None  # metres, padded: what a temporal recovery model also sees
+    _last: tuple[tuple[int, ...], np.ndarray] | None = None  # the previous frame's size and metres (padded)
     _cut: float = THRESHOLD  # the threshold in use
 
     @property
@@ -116,7 +117,10 @@ class SensorLoop:
         t = time.perf_counter()
         h, w = raw.shape
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
-        score = float(self.backend.scores(metres)[0])
+        # A temporal detector also weighs the previous frame as delivered, flagged or not.
+        before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
+        score = float(self.backend.scores(metres, before)[0])
+        self._last = (raw.shape, metres)
         flagged = score >= self._cut
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):

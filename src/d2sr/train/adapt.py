@@ -2,7 +2,9 @@
 
 Self-supervised: the user's clean frames, corrupted by the wide interference generator (so the true masks
 are known), plus any real interfered frames labelled by ``d2sr label``. Starting from the shipped weights,
-both models are fine-tuned for a time budget. The last ``HOLDOUT`` of each recording (by time, not at
+both models are fine-tuned for a time budget, with generated frames of every sensor kind mixed in
+(rehearsal: a model fitted to a few dozen frames of one room forgets what else is clean, and flags the
+room's next corner). The last ``HOLDOUT`` of each recording (by time, not at
 random: neighbouring frames are near-copies) is held out; on it the detector's threshold is chosen for a
 target false-alarm rate and the mask threshold for at most ``MAX_CLEAN_CHANGED`` clean pixels changed.
 The result is a model folder (safetensors, ONNX, card) that ``--models`` takes; the shipped weights are
@@ -30,14 +32,18 @@ from d2sr.models.store import load_model, mask_logit, save_model, torch_device, 
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
 from d2sr.train.loop import MASK_LOGITS, loss_fn, mask_sums, pick_mask_logit
+from d2sr.train.synth import Synth, synth_sequence_frame
 
-__all__ = ["MIN_FRAMES", "AdaptData", "adapt", "prepare"]
+__all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
 
 MIN_FRAMES = 50  # fewer clean frames than this cannot both train and hold out
 HOLDOUT = 0.2
 VARIANTS = 4  # corrupted copies of each training frame (each a fresh draw of the generator)
 HELD_VARIANTS = 2
 SEED = 4_000_000  # interference seeds of adapt (apart from training, test and evaluation seeds)
+REHEARSAL = 240  # generated frames mixed in (at most twice the user's training frames)
+REHEARSAL_SEED = 500_000  # their seeds: training-side (below TEST_SEED), apart from the shipped models' sets
+VISIBLE = 0.01  # the threshold keeps recall on held-out frames with at least this share of pixels hit
 LR = 3e-4
 Arr = np.ndarray
 CHECKPOINT = "adapt-checkpoint.pt"
@@ -53,6 +59,7 @@ class AdaptData:
     held_bad: list[np.ndarray] = field(default_factory=list)
     held_bad_clean: list[np.ndarray] = field(default_factory=list)
     labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # frame, gt, mask
+    rehearsal: list[Synth] = field(default_factory=list)  # generated frames (their own scales)
 
     def pool(self) -> Pool:
         n = len(self.train)
@@ -60,6 +67,11 @@ class AdaptData:
             Source(self.train, self.train, None, self.scale, np.zeros(n, bool)),
             Source(self.bad, self.bad_clean, None, self.scale, np.ones(len(self.bad), bool)),
         ]
+        if self.rehearsal:
+            g = self.rehearsal
+            labels = np.array([bool(x.families) for x in g])
+            sources.append(Source([x.frame for x in g], [x.clean for x in g], None,
+                                  np.array([x.scale for x in g]), labels))  # fmt: skip
         if self.labelled:
             f, c, m = (list(v) for v in zip(*self.labelled, strict=True))
             sources.append(Source(f, c, m, self.scale, np.array([x.any() for x in m])))
@@ -69,6 +81,10 @@ class AdaptData:
 def _corrupt(job: tuple[np.ndarray, float, int]) -> np.ndarray:
     frame, scale, seed = job
     return wide_interference(frame, scale, seed)[0]
+
+
+def _generated(seed: int) -> Synth:
+    return synth_sequence_frame(seed, bool(seed % 2), previous=False)
 
 
 def prepare(
@@ -96,12 +112,44 @@ def prepare(
     data = AdaptData(scale, train, held, labelled=list(labelled or []))
     jobs = [(f, scale, SEED + i) for i, f in enumerate(train * VARIANTS)]
     held_jobs = [(f, scale, SEED + 500_000 + i) for i, f in enumerate(held * HELD_VARIANTS)]
+    seeds = range(REHEARSAL_SEED, REHEARSAL_SEED + min(REHEARSAL, 2 * len(train)))
     with ProcessPoolExecutor(max_workers=max(workers, 1)) as ex:
         data.bad = list(ex.map(_corrupt, jobs, chunksize=8))
         data.held_bad = list(ex.map(_corrupt, held_jobs, chunksize=8))
+        data.rehearsal = list(ex.map(_generated, seeds, chunksize=8))
     data.bad_clean = [j[0] for j in jobs]
     data.held_bad_clean = [j[0] for j in held_jobs]
     return data
+
+
+def _crop(shape: tuple[int, ...], most: tuple[int, int]) -> tuple[int, int]:
+    """Training crops: at most ``most``, within the user's frame, in whole strides (the generated frames
+    mixed in are 640x480, and one batch takes one size)."""
+    return min(shape[0], most[0]) // 32 * 32, min(shape[1], most[1]) // 32 * 32
+
+
+def _visible(data: AdaptData) -> np.ndarray:
+    """Per held-out corrupted frame: at least ``VISIBLE`` of its valid pixels hit."""
+    pairs = zip(data.held_bad, data.held_bad_clean, strict=True)
+    return np.array([(b != c).sum() >= VISIBLE * max((c > 0).sum(), 1) for b, c in pairs], bool)
+
+
+def choose_threshold(clean: Arr, bad: Arr, visible: Arr, false_alarm: float, recall: float = 0.9) -> float:
+    """The detector threshold from held-out scores. ``lo``: the clean frames' score at the false-alarm
+    target; ``hi``: the score that keeps ``recall`` of the visibly corrupted frames. When they separate, the
+    middle in logit space: the widest margin both ways, since the user's later frames drift from the
+    held-out ones (a threshold just above the held-out clean scores flagged a fifth of a D435's later
+    frames). Otherwise the false-alarm target wins."""
+    if not len(clean):
+        return THRESHOLD
+    lo = float(np.quantile(clean, 1 - false_alarm)) + 0.02
+    hits = bad[visible] if visible.any() else bad
+    hi = float(np.quantile(hits, 1 - recall)) if len(hits) else lo
+    if hi > lo:
+        a, b = np.clip([lo, hi], 1e-4, 1 - 1e-4)
+        mid = (np.log(a / (1 - a)) + np.log(b / (1 - b))) / 2
+        return float(np.clip(1 / (1 + np.exp(-mid)), 0.1, 0.99))
+    return float(np.clip(lo, 0.1, 0.99))
 
 
 def _metres(frames: list[np.ndarray], scale: float) -> list[np.ndarray]:
@@ -215,15 +263,15 @@ def adapt(
     mask_before = sums[int(np.argmin([abs(t - shipped_logit) for t in MASK_LOGITS]))].result()
     pool = data.pool()
     budget = minutes * 60
+    size = data.train[0].shape
     phases = [
-        _Phase("detector", det, "detector", 0.3 * budget, 16, None, 0.5),
-        _Phase("recovery", rec, "recovery", 0.55 * budget, 8, (256, 320), 0.3),
+        _Phase("detector", det, "detector", 0.3 * budget, 16, _crop(size, (480, 640)), 0.5),
+        _Phase("recovery", rec, "recovery", 0.55 * budget, 8, _crop(size, (256, 320)), 0.3),
     ]
     fits = {p.name: _fit(p, pool, out, device, tick) for p in phases}
     clean_s = _scores(det, held_clean, data.scale, device)
     bad_s = _scores(det, data.held_bad, data.scale, device)
-    q = float(np.quantile(clean_s, 1 - false_alarm)) if len(clean_s) else THRESHOLD
-    threshold = float(np.clip(q + 0.02, 0.2, 0.95))
+    threshold = choose_threshold(clean_s, bad_s, _visible(data), false_alarm)
     after = _detector_figures(clean_s, bad_s, threshold)
     sums = _mask_sums(rec, data)
     logit, rule = pick_mask_logit(sums)

@@ -22,7 +22,7 @@ __all__ = ["Batch", "Pool", "Source", "synth_set"]
 
 @dataclass
 class Batch:
-    x: np.ndarray  # (N, C, H, W) float32 metres: what the sensor delivered (C=2: then its last clean frame)
+    x: np.ndarray  # (N, C, H, W) float32 metres: what the sensor delivered (C=2: then an earlier frame)
     y: np.ndarray  # ground-truth depth (metres)
     m: np.ndarray  # true interference mask (float32 0/1)
     label: np.ndarray  # (N,) float32: frame interfered
@@ -89,14 +89,16 @@ def _folders(cfg: TrainConfig) -> list[Source]:
 
 
 class Pool:
-    """All training frames of a run."""
+    """All training frames of a run. A temporal recovery model's second input is the sensor's last clean
+    frame; a temporal detector's (``raw_previous``) is the sensor's previous frame as delivered, which may
+    be interfered itself or missing (see ``_previous``)."""
 
-    def __init__(self, sources: list[Source], frames: int = 1) -> None:
+    def __init__(self, sources: list[Source], frames: int = 1, raw_previous: bool = False) -> None:
         if not sources:
             raise InputError("no training data")
         if frames > 1 and any(s.previous is None for s in sources):
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
-        self.sources, self.frames = sources, frames
+        self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
         self.index = [
             (s, i)
             for s, src in enumerate(sources)
@@ -116,7 +118,27 @@ class Pool:
                 shares = np.asarray(ss.meta["mask_share"])
                 skip |= ss.labels & (shares < cfg.min_share)
             sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
-        return cls(sources + _folders(cfg), frames)
+        return cls(sources + _folders(cfg), frames, raw_previous=cfg.task == "detector")
+
+    def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
+        """What a temporal detector sees as the previous frame, given the frame and the sensor's last clean
+        one: the frame itself 15% of the time (no sequence: the single-frame path); 35% the last clean frame
+        hit by another frame's interference (its mask and depth ratio: patterns change from frame to frame);
+        else the last clean frame."""
+        u = rng.random()
+        if u < 0.15:
+            return frame
+        if u >= 0.5:
+            return last
+        s, j = self.index[int(rng.choice(np.flatnonzero(self.labels)))]
+        f, c = np.asarray(self.sources[s].frames[j]), np.asarray(self.sources[s].clean[j])
+        if f.shape != last.shape:
+            return last
+        hit = (f != c) & (c > 0)
+        ratio = f[hit].astype(np.float32) / c[hit]
+        out = last.copy()
+        out[hit] = np.clip(np.rint(last[hit] * ratio), 0, 65535).astype(last.dtype)
+        return out
 
     def _pick(self, rng: np.random.Generator, n: int, clean_share: float) -> np.ndarray:
         pos, neg = np.flatnonzero(self.labels), np.flatnonzero(~self.labels)
@@ -136,7 +158,8 @@ class Pool:
             m = src.masks[i] if src.masks is not None else f != c
             ins = [f]
             if self.frames > 1 and src.previous is not None:
-                ins.append(np.asarray(src.previous[i]))
+                last = np.asarray(src.previous[i])
+                ins.append(self._previous(rng, f, last) if self.raw_previous else last)
             if crop is not None:
                 h, w = f.shape
                 ch, cw = min(crop[0], h), min(crop[1], w)
@@ -145,7 +168,7 @@ class Pool:
                 c, m = c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
             gain = np.float32(rng.uniform(0.85, 1.15) / scale_at(src.scale, i))
             x, y = np.stack([v.astype(np.float32) * gain for v in ins]), c.astype(np.float32) * gain
-            if len(ins) > 1 and rng.random() < 0.1:
+            if len(ins) > 1 and not self.raw_previous and rng.random() < 0.1:
                 x[1] = 0  # no clean frame yet (start-up): the model must fall back on the fill
             if rng.random() < 0.5:
                 x, y, m = x[:, :, ::-1], y[:, ::-1], m[:, ::-1]
