@@ -67,17 +67,19 @@ labels: $(STAMP)
 SHIP := src/d2sr/models/weights
 weights: $(STAMP)
 	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
+	$(BIN)/d2sr train detector --config configs/detector-temporal.toml --out runs/detector-temporal
 	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
-	mkdir -p runs/unet8-0.2.0
-	test -f runs/unet8-0.2.0/unet8.safetensors || \
-	  git show a496b2f:src/d2sr/models/weights/unet8.safetensors > runs/unet8-0.2.0/unet8.safetensors
+	for m in unet8 unet16; do mkdir -p runs/$$m-0.2.0; test -f runs/$$m-0.2.0/$$m.safetensors || \
+	  git show a496b2f:src/d2sr/models/weights/$$m.safetensors > runs/$$m-0.2.0/$$m.safetensors; done
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	mkdir -p $(SHIP)
-	for m in detector paper-detector unet8 unet8-temporal unet16 unet32; do \
+	for m in paper-detector unet8 unet8-temporal unet16 unet32; do \
 	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
+	# The shipped detector is the temporal one (the single-frame run is its warm start).
+	for e in safetensors card.json md; do cp runs/detector-temporal/detector-temporal.$$e $(SHIP)/detector.$$e; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
 # Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);

@@ -187,3 +187,17 @@ def test_saved_weights_get_the_usual_permissions(tmp_path):
     finally:
         os.umask(old)
     assert (tmp_path / "w.safetensors").stat().st_mode & 0o777 == 0o644
+
+
+def test_temporal_detector_flags_only_what_looks_interfered_alone_and_against_the_frame_before():
+    torch.manual_seed(0)
+    det = build("detector-temporal")
+    frame, before = torch.rand(3, 1, 64, 96) * 4, torch.rand(3, 1, 64, 96) * 4
+    pair = torch.cat([frame, before], dim=1)
+    with torch.no_grad():
+        trained_on = det.train()(pair)  # training scores the pair as it is
+        det.eval()
+        alone = det.logit(torch.cat([frame, frame], dim=1))
+        assert torch.allclose(det(pair), torch.minimum(trained_on, alone))
+        # No previous frame: the frame stands in for it, and the score is the frame's alone.
+        assert torch.allclose(det(torch.cat([frame, frame], dim=1)), alone)

@@ -120,7 +120,6 @@ class SensorLoop:
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         score = float(self.backend.scores(metres, before)[0])
-        self._last = (raw.shape, metres)
         flagged = score >= self._cut
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):
@@ -129,8 +128,7 @@ class SensorLoop:
             pred, m = self.backend.recover(metres, previous)
             pred, m = pred[0, :h, :w], m[0, :h, :w]
             depth, mask = repair_frame(raw, pred, m, cap.scale)
-        if not flagged and getattr(self.backend, "frames", 1) > 1:
-            self._last_clean = metres
+        self._remember(raw, metres, flagged)
         seconds = time.perf_counter() - t
         res = Result(cap, score, flagged, depth, mask, self.period, self.controller.offset, seconds)
         if self.sink is not None:
@@ -138,9 +136,20 @@ class SensorLoop:
         self._buffer(flagged, cap.slot)
         return res
 
-    def replay(self, flagged: bool, slot: int | None = None) -> None:
-        """Feed a flag decided earlier (a resumed run) without running the models."""
+    def replay(self, flagged: bool, slot: int | None = None, cap: Capture | None = None) -> None:
+        """Feed a flag decided earlier (a resumed run) without running the models; with the frame ``cap``,
+        the models' memory of earlier frames is restored too, so a resumed run decides as the first did."""
+        if cap is not None:
+            raw = cap.frame.depth
+            self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), flagged)
         self._buffer(flagged, slot)
+
+    def _remember(self, raw: np.ndarray, metres: np.ndarray, flagged: bool) -> None:
+        """What the next frame's models see: this frame (temporal detector) and, when it passed, the last
+        clean frame (temporal recovery)."""
+        self._last = (raw.shape, metres)
+        if not flagged and getattr(self.backend, "frames", 1) > 1:
+            self._last_clean = metres
 
     def _buffer(self, flagged: bool, slot: int | None) -> None:
         self._slotted = slot is not None

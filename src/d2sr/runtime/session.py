@@ -126,7 +126,7 @@ def run_recording(
         for k, cap in enumerate(recording(reader, scale)):
             rec = done.get((0, cap.name))
             if rec is not None:  # resumed: replay the controller from the logged flag
-                loop.replay(bool(int(rec["flagged"])))
+                loop.replay(bool(int(rec["flagged"])), cap=cap)
             else:
                 res = loop.process(cap)
                 stats.add(res)

@@ -25,10 +25,11 @@ import numpy as np
 import torch
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, THRESHOLD, WEIGHTS
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, THRESHOLD, WEIGHTS, detector_input
 from d2sr.errors import InputError
 from d2sr.metrics import RepairSums
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
+from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
 from d2sr.train.loop import MASK_LOGITS, loss_fn, mask_sums, pick_mask_logit
@@ -54,6 +55,10 @@ class AdaptData:
     scale: float
     train: list[np.ndarray]  # clean uint16 frames
     held: list[np.ndarray]
+    # Each frame's predecessor in its recording (the frame itself for a recording's first): what a
+    # temporal detector also sees.
+    train_prev: list[np.ndarray] = field(default_factory=list)
+    held_prev: list[np.ndarray] = field(default_factory=list)
     bad: list[np.ndarray] = field(default_factory=list)  # corrupted training frames
     bad_clean: list[np.ndarray] = field(default_factory=list)
     held_bad: list[np.ndarray] = field(default_factory=list)
@@ -61,21 +66,30 @@ class AdaptData:
     labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # frame, gt, mask
     rehearsal: list[Synth] = field(default_factory=list)  # generated frames (their own scales)
 
-    def pool(self) -> Pool:
-        n = len(self.train)
+    def pool(self, frames: int = 1) -> Pool:
+        """The training frames; ``frames=2`` for a temporal detector (each with its previous frame)."""
+
+        def prev(v: list[np.ndarray]) -> np.ndarray | None:
+            return np.stack(v) if frames > 1 else None
+
+        n, g = len(self.train), self.rehearsal
         sources = [
-            Source(self.train, self.train, None, self.scale, np.zeros(n, bool)),
-            Source(self.bad, self.bad_clean, None, self.scale, np.ones(len(self.bad), bool)),
-        ]
-        if self.rehearsal:
-            g = self.rehearsal
+            Source(self.train, self.train, None, self.scale, np.zeros(n, bool), prev(self.train_prev)),
+            Source(self.bad, self.bad_clean, None, self.scale, np.ones(len(self.bad), bool),
+                   prev(self.train_prev * VARIANTS)),
+        ]  # fmt: skip
+        if g:
+            last = [x.clean if x.previous is None else x.previous for x in g]
             labels = np.array([bool(x.families) for x in g])
-            sources.append(Source([x.frame for x in g], [x.clean for x in g], None,
-                                  np.array([x.scale for x in g]), labels))  # fmt: skip
+            scales = np.array([x.scale for x in g])
+            sources.append(
+                Source([x.frame for x in g], [x.clean for x in g], None, scales, labels, prev(last))
+            )
         if self.labelled:
             f, c, m = (list(v) for v in zip(*self.labelled, strict=True))
-            sources.append(Source(f, c, m, self.scale, np.array([x.any() for x in m])))
-        return Pool(sources)
+            before = [f[k - 1] if k and f[k - 1].shape == x.shape else x for k, x in enumerate(f)]
+            sources.append(Source(f, c, m, self.scale, np.array([x.any() for x in m]), prev(before)))
+        return Pool(sources, frames, raw_previous=True)
 
 
 def _corrupt(job: tuple[np.ndarray, float, int]) -> np.ndarray:
@@ -84,7 +98,7 @@ def _corrupt(job: tuple[np.ndarray, float, int]) -> np.ndarray:
 
 
 def _generated(seed: int) -> Synth:
-    return synth_sequence_frame(seed, bool(seed % 2), previous=False)
+    return synth_sequence_frame(seed, bool(seed % 2), previous=True)
 
 
 def prepare(
@@ -104,12 +118,14 @@ def prepare(
     empty = sum(not f.any() for f in frames)
     if empty == len(frames):
         raise InputError("the clean frames hold no valid depth")
-    train, held = [], []
+    data = AdaptData(scale, [], [], labelled=list(labelled or []))
     for r in recordings:
         cut = len(r) - max(1, round(HOLDOUT * len(r)))
-        train += [f for f in r[:cut] if f.any()]
-        held += [f for f in r[cut:] if f.any()]
-    data = AdaptData(scale, train, held, labelled=list(labelled or []))
+        for k, f in enumerate(r):
+            if f.any():  # with the frame delivered before it (a recording's first is its own)
+                (data.train if k < cut else data.held).append(f)
+                (data.train_prev if k < cut else data.held_prev).append(r[k - 1] if k else f)
+    train, held = data.train, data.held
     jobs = [(f, scale, SEED + i) for i, f in enumerate(train * VARIANTS)]
     held_jobs = [(f, scale, SEED + 500_000 + i) for i, f in enumerate(held * HELD_VARIANTS)]
     seeds = range(REHEARSAL_SEED, REHEARSAL_SEED + min(REHEARSAL, 2 * len(train)))
@@ -156,11 +172,20 @@ def _metres(frames: list[np.ndarray], scale: float) -> list[np.ndarray]:
     return [f.astype(np.float32)[None, None] / np.float32(scale) for f in frames]
 
 
-def _scores(model: torch.nn.Module, frames: list[np.ndarray], scale: float, device: torch.device) -> Arr:
+def _scores(
+    model: torch.nn.Module,
+    frames: list[np.ndarray],
+    prev: list[np.ndarray],
+    scale: float,
+    device: torch.device,
+) -> Arr:
+    """Detector scores of ``frames``; a temporal detector also sees each one's previous frame ``prev``."""
     model.eval()
     out = []
+    n = int(getattr(model, "frames", 1))
     with torch.inference_mode():
-        for x in _metres(frames, scale):
+        for x, p in zip(_metres(frames, scale), _metres(prev, scale), strict=True):
+            x = detector_input(x[:, 0], p[:, 0], n)
             out.append(float(torch.sigmoid(model(torch.from_numpy(x).to(device)))[0]))
     return np.array(out)
 
@@ -252,31 +277,34 @@ def adapt(
     device = torch_device()
     out.mkdir(parents=True, exist_ok=True)
     record_manifest(out, [f"detector-{CHECKPOINT}", f"recovery-{CHECKPOINT}"])
-    det, _ = load_model(weights / f"{DETECTOR}.safetensors")
+    det, det_name = load_model(weights / f"{DETECTOR}.safetensors")
     rec, _ = load_model(weights / f"{DEFAULT_RECOVERY}.safetensors")
     shipped_logit = mask_logit(weights / f"{DEFAULT_RECOVERY}.safetensors")
-    held_clean = data.held
-    clean_s = _scores(det, held_clean, data.scale, device)
-    before = _detector_figures(clean_s, _scores(det, data.held_bad, data.scale, device), THRESHOLD)
+    held_bad_prev = data.held_prev * HELD_VARIANTS  # the corrupted copies' frames before (clean)
+
+    def scored() -> tuple[Arr, Arr]:
+        return (_scores(det, data.held, data.held_prev, data.scale, device),
+                _scores(det, data.held_bad, held_bad_prev, data.scale, device))  # fmt: skip
+
+    clean_s, bad_s = scored()
+    before = _detector_figures(clean_s, bad_s, read_threshold(weights / f"{DETECTOR}.safetensors"))
     rec = rec.to(device)
     sums = _mask_sums(rec, data)
     mask_before = sums[int(np.argmin([abs(t - shipped_logit) for t in MASK_LOGITS]))].result()
-    pool = data.pool()
     budget = minutes * 60
     size = data.train[0].shape
     phases = [
         _Phase("detector", det, "detector", 0.3 * budget, 16, _crop(size, (480, 640)), 0.5),
         _Phase("recovery", rec, "recovery", 0.55 * budget, 8, _crop(size, (256, 320)), 0.3),
     ]
-    fits = {p.name: _fit(p, pool, out, device, tick) for p in phases}
-    clean_s = _scores(det, held_clean, data.scale, device)
-    bad_s = _scores(det, data.held_bad, data.scale, device)
+    fits = {p.name: _fit(p, data.pool(int(getattr(p.model, "frames", 1))), out, device, tick) for p in phases}
+    clean_s, bad_s = scored()
     threshold = choose_threshold(clean_s, bad_s, _visible(data), false_alarm)
     after = _detector_figures(clean_s, bad_s, threshold)
     sums = _mask_sums(rec, data)
     logit, rule = pick_mask_logit(sums)
     mask_after = sums[MASK_LOGITS.index(logit)].result()
-    save_model(det, DETECTOR, out / f"{DETECTOR}.safetensors", threshold=threshold)
+    save_model(det, det_name, out / f"{DETECTOR}.safetensors", threshold=threshold)
     save_model(rec, DEFAULT_RECOVERY, out / f"{DEFAULT_RECOVERY}.safetensors", mask_logit=logit)
     for name in (DETECTOR, DEFAULT_RECOVERY):
         export(out / f"{name}.safetensors", out / f"{name}.onnx")
