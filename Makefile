@@ -69,8 +69,9 @@ weights: $(STAMP)
 	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
 	$(BIN)/d2sr train detector --config configs/detector-temporal.toml --out runs/detector-temporal
 	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
-	for m in unet8 unet16; do mkdir -p runs/$$m-0.2.0; test -f runs/$$m-0.2.0/$$m.safetensors || \
-	  git show a496b2f:src/d2sr/models/weights/$$m.safetensors > runs/$$m-0.2.0/$$m.safetensors; done
+	for m in unet8:a496b2f unet16:a496b2f unet32:5263f3f; do n=$${m%:*}; mkdir -p runs/$$n-0.2.0; \
+	  test -f runs/$$n-0.2.0/$$n.safetensors || \
+	  git show $${m#*:}:src/d2sr/models/weights/$$n.safetensors > runs/$$n-0.2.0/$$n.safetensors; done
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
