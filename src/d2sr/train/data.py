@@ -128,9 +128,10 @@ class Pool:
         u = rng.random()
         if u < 0.15:
             return frame
-        if u >= 0.5:
+        hit_frames = np.flatnonzero(self.labels)
+        if u >= 0.5 or not len(hit_frames):
             return last
-        s, j = self.index[int(rng.choice(np.flatnonzero(self.labels)))]
+        s, j = self.index[int(rng.choice(hit_frames))]
         f, c = np.asarray(self.sources[s].frames[j]), np.asarray(self.sources[s].clean[j])
         if f.shape != last.shape:
             return last
