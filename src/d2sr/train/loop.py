@@ -207,7 +207,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 weights,
                 model=cfg.model,
                 summary=_SUMMARY[cfg.task],
-                data=_data_line(cfg),
+                data=_data_line(cfg, frames),
                 command=command or f"d2sr train {cfg.task} --config <config.toml>",
                 training=summary | {"config": cfg.model_dump(mode="json")},
                 date=dt.date.today().isoformat(),
@@ -294,7 +294,7 @@ _SUMMARY = {
 }
 
 
-def _data_line(cfg: TrainConfig) -> str:
+def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
     parts = []
     if cfg.synthetic:
         parts.append(
@@ -303,6 +303,7 @@ def _data_line(cfg: TrainConfig) -> str:
             "simulated rooms of any size, people; L515, stereo, time-of-flight and structured-light "
             "sensor models; the wide interference generator (d2sr.sim.families) on every other frame"
             + (f", frames with {', '.join(cfg.leave_out)} left out" if cfg.leave_out else "")
+            + ("; each with the same camera's last clean frame 1-12 frames earlier" if frames > 1 else "")
             + "). No real recordings."
         )
     parts += [f"folder {f.input} -> {f.target}" for f in cfg.folders]
