@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, THRESHOLD, WEIGHTS, detector_input
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, PAD, THRESHOLD, WEIGHTS, detector_input
 from d2sr.errors import InputError
 from d2sr.metrics import RepairSums
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
@@ -69,8 +69,8 @@ class AdaptData:
     def pool(self, frames: int = 1) -> Pool:
         """The training frames; ``frames=2`` for a temporal detector (each with its previous frame)."""
 
-        def prev(v: list[np.ndarray]) -> np.ndarray | None:
-            return np.stack(v) if frames > 1 else None
+        def prev(v: list[np.ndarray]) -> list[np.ndarray] | None:
+            return v if frames > 1 else None  # references, not copies: the corrupted copies share them
 
         n, g = len(self.train), self.rehearsal
         sources = [
@@ -141,7 +141,7 @@ def prepare(
 def _crop(shape: tuple[int, ...], most: tuple[int, int]) -> tuple[int, int]:
     """Training crops: at most ``most``, within the user's frame, in whole strides (the generated frames
     mixed in are 640x480, and one batch takes one size)."""
-    return min(shape[0], most[0]) // 32 * 32, min(shape[1], most[1]) // 32 * 32
+    return min(shape[0], most[0]) // PAD * PAD, min(shape[1], most[1]) // PAD * PAD
 
 
 def _visible(data: AdaptData) -> np.ndarray:

@@ -35,7 +35,7 @@ class Source:
     masks: list[np.ndarray] | None
     scale: float | np.ndarray  # depth units per metre: one for the source, or one per frame
     labels: np.ndarray
-    previous: np.ndarray | None = None  # each frame's last clean frame (temporal models)
+    previous: np.ndarray | list[np.ndarray] | None = None  # each frame's last clean frame (temporal models)
     skip: np.ndarray | None = None  # frames left out of training (a held-out interference family)
 
 
