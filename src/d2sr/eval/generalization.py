@@ -22,6 +22,7 @@ import numpy as np
 from d2sr.contract import padded, repair_frame
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
+from d2sr.frames.base import to_metres
 from d2sr.metrics import RepairSums
 from d2sr.runtime.backends import Backend
 from d2sr.sim.families import FAMILIES, WideConfig, wide_interference
@@ -91,7 +92,7 @@ def real_clean_sets(root: Path) -> list[RealSet]:
 
 
 def _metres(frame: np.ndarray, scale: float) -> np.ndarray:
-    return padded(frame.astype(np.float32)[None] / np.float32(scale))
+    return padded(to_metres(frame, scale)[None])
 
 
 def _run(
