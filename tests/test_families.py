@@ -41,7 +41,7 @@ def test_coverage_spans_faint_to_heavy():
 
 def test_shapes_aim_at_their_coverage():
     rng = np.random.default_rng(1)
-    for family in ("band", "bar", "blob", "region"):
+    for family in ("band", "bar", "blob", "region", "grating"):
         got = np.mean([shape(family, (240, 320), 0.2, rng).mean() for _ in range(10)])
         assert 0.05 < got < 0.5, (family, got)
 
@@ -120,3 +120,46 @@ def test_generalization_reads_each_shared_set_at_its_true_scale(tmp_path):
     assert sets["D435"].scale == 1000 and len(sets["D435"].frames) == 3 and sets["TUM"].scale == 5000
     with pytest.raises(InputError, match="none of the shared"):
         real_clean_sets(tmp_path / "nothing")
+
+
+def test_gratings_repeat_across_the_view():
+    import cv2
+
+    rng = np.random.default_rng(2)
+    counts = []
+    for _ in range(12):
+        g = shape("grating", (240, 320), 0.3, rng)
+        counts.append(cv2.connectedComponents(g.astype(np.uint8))[0] - 1)
+        assert 0.1 < g.mean() < 0.5
+    assert max(counts) >= 8  # dense: many stripes or rings, not a few bands
+
+
+class _Stub:
+    """A backend that scores every frame 0.9 and repairs the pixels nearer than 1.5 m to 3 m (or none)."""
+
+    threshold = 0.5
+    frames = 1
+
+    def __init__(self, repairs: bool, detector: bool = True) -> None:
+        self.repairs, self.detector = repairs, detector
+
+    def scores(self, metres, previous=None):
+        assert self.detector, "a recovery-only model was asked for a score"
+        return np.full(len(metres), 0.9, np.float32)
+
+    def recover(self, metres, previous=None):
+        mask = (metres > 0) & (metres < 1.5) if self.repairs else np.zeros(metres.shape, bool)
+        return np.full(metres.shape, 3.0, np.float32), mask
+
+
+def test_family_rows_report_recovery_trained_without_the_family():
+    from d2sr.eval.generalization import RealSet, family_rows
+
+    frames = [_clean(4000.0) for _ in range(4)]
+    sets = [RealSet("L515 dev0", "L515", frames, 4000.0)]
+    lofo = {"band": _Stub(False, detector=False), "all": _Stub(True, detector=False)}
+    rows = family_rows(_Stub(True), sets, families=("band", "blob"), lofo_recovery=lofo)
+    band, blob = rows
+    assert band["mask_f1_left_out"] == 0.0  # the left-out model repaired nothing
+    assert band["mask_f1_same_recipe"] == band["mask_f1"] and band["mask_f1"] >= 0  # same stub as the net
+    assert "mask_f1_left_out" not in blob and "mask_f1_same_recipe" not in blob  # none trained without blob

@@ -3,15 +3,17 @@ error model, so that learned stages learn "interference" rather than the look of
 
 Each frame's interference is one to three patterns. A pattern is:
 
-* a **shape** from one family (``FAMILIES``): bands of any curvature, orientation, thickness and density;
-  scanline streaks; bars at any angle; blobs and sparse clusters; speckle; large smooth regions; or the
-  physical simulator's own patterns (``sim.interference``);
+* a **shape** from one family (``FAMILIES``): a few bands of any curvature, orientation and thickness;
+  scanline streaks; bars at any angle; blobs and sparse clusters; speckle; large smooth regions; dense
+  periodic gratings (straight, wavy or concentric, any period and duty: a modulated source beating with
+  the sensor repeats across the whole view); or the physical simulator's own patterns
+  (``sim.interference``);
 * optionally **confined** to a random overlap region (half-plane, ellipse or polygon), as another sensor's
   light only lands where the views overlap;
 * **thinned** by a per-pattern hit rate (not every pixel under the pattern is hit), spatially correlated;
 * an **error model** drawn per pattern: dropouts (zeros), too-short depths (any factor), offsets both ways,
-  spurious near or far values independent of the scene, a smooth bias; and spurious returns where the
-  sensor had none.
+  spurious near or far values independent of the scene, a smooth bias (one of them throughout the pattern,
+  or a mixture); and spurious returns where the sensor had none.
 
 Coverage is drawn log-uniformly from 0.1% to 50% of the valid pixels. The mask is exactly the pixels
 whose value changed. Everything is a pure function of the seed (numpy and OpenCV, no torch).
@@ -31,7 +33,7 @@ from d2sr.sim.interference import Interferer
 
 __all__ = ["FAMILIES", "WideConfig", "shape", "wide_interference"]
 
-FAMILIES = ("band", "streak", "bar", "blob", "speckle", "region", "physical")
+FAMILIES = ("band", "streak", "bar", "blob", "speckle", "region", "grating", "physical")
 
 
 class WideConfig(Settings):
@@ -149,6 +151,21 @@ def _region(h: int, w: int, c: float, rng: np.random.Generator) -> np.ndarray:
     return g > np.quantile(g, 1 - c)
 
 
+def _grating(h: int, w: int, c: float, rng: np.random.Generator) -> np.ndarray:
+    """A periodic pattern over the whole image: stripes (straight or wavy) or rings around a centre that
+    may lie off the image, of any period (4-200 px) and a duty cycle near the coverage."""
+    s, n = _angle_coords(h, w, rng)
+    kind = rng.integers(3)
+    if kind == 1:  # wavy stripes
+        s = s + rng.uniform(0.02, 0.2) * h * np.sin(2 * np.pi * n / (rng.uniform(0.2, 2.0) * w))
+    elif kind == 2:  # rings, possibly squashed
+        cx, cy = rng.uniform(-1, 1) * w, rng.uniform(-1, 1) * h
+        s = np.hypot(s - cx, (n - cy) * rng.uniform(0.5, 2.0))
+    period = float(np.exp(rng.uniform(np.log(4), np.log(200))))
+    duty = float(np.clip(c, 1.2 / period, 0.8))
+    return ((s / period + rng.uniform(0, 1)) % 1) < duty
+
+
 def _physical(h: int, w: int, c: float, rng: np.random.Generator) -> np.ndarray:
     """The physical simulator's drifting patterns (band, wave, bar, cluster) at one frame."""
     it = Interferer.draw((h, w), int(rng.integers(2**31)))
@@ -163,6 +180,7 @@ SHAPES: dict[str, Callable[[int, int, float, np.random.Generator], np.ndarray]] 
     "blob": _blob,
     "speckle": _speckle,
     "region": _region,
+    "grating": _grating,
     "physical": _physical,
 }
 
@@ -197,8 +215,9 @@ def _errors(d: np.ndarray, where: np.ndarray, rng: np.random.Generator) -> np.nd
     has = d > 0
     smooth = _smooth_field(h, w, rng.uniform(4, 60), rng)
     smooth = (smooth - smooth.min()) / max(float(np.ptp(smooth)), 1e-6)  # 0..1
-    # A mixture of error kinds for returning pixels: zero, too short, offset, spurious, bias.
-    p = rng.dirichlet(np.full(5, 0.6))
+    # Error kinds for returning pixels: zero, too short, offset, spurious, bias. Half the patterns have one
+    # mechanism throughout (a coherent wrong surface, as one other sensor's light makes), half a mixture.
+    p = rng.dirichlet(np.full(5, 0.6)) if rng.random() < 0.5 else np.eye(5)[rng.integers(5)]
     kind = rng.choice(5, size=(h, w), p=p)
     out = d.copy()
     lo = rng.uniform(0.05, 0.9)

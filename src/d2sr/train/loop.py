@@ -22,6 +22,7 @@ from d2sr.models.registry import build, describe
 from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool
+from d2sr.train.synth import VERSION
 from d2sr.ui import console, progress_bar
 
 __all__ = [
@@ -298,7 +299,7 @@ def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
     parts = []
     if cfg.synthetic:
         parts.append(
-            f"{cfg.synthetic} generated 640x480 frames (d2sr.train.synth, "
+            f"{cfg.synthetic} generated 640x480 frames (d2sr.train.synth version {VERSION}, "
             f"seeds {cfg.seed}..{cfg.seed + cfg.synthetic - 1}; "
             "simulated rooms of any size, people; L515, stereo, time-of-flight and structured-light "
             "sensor models; the wide interference generator (d2sr.sim.families) on every other frame"
