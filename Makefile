@@ -91,13 +91,21 @@ eval-models: $(STAMP)
 
 # Leave-one-family-out: a detector trained without each interference family (runs/lofo/no-<family>),
 # then false alarms on every real clean frame in ../shared/data and each family on real L515 frames.
-FAMILIES := band streak bar blob speckle region physical
+# The same for the recovery model (runs/lofo-recovery/no-<family>), beside one run of the same recipe on
+# every family (runs/lofo-recovery/all) to compare with.
+FAMILIES := band streak bar blob speckle region grating physical
 lofo: $(STAMP)
 	for f in $(FAMILIES); do \
 	  $(BIN)/d2sr train detector --config configs/detector-lofo.toml --leave-out $$f --out runs/lofo/no-$$f || exit 1; done
+	test -f runs/unet8-0.2.0/unet8.safetensors || \
+	  (mkdir -p runs/unet8-0.2.0 && git show a496b2f:src/d2sr/models/weights/unet8.safetensors > runs/unet8-0.2.0/unet8.safetensors)
+	$(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --out runs/lofo-recovery/all
+	for f in $(FAMILIES); do \
+	  $(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --leave-out $$f --out runs/lofo-recovery/no-$$f || exit 1; done
 
 eval-generalization: $(STAMP)
-	$(BIN)/d2sr eval generalization --data $(DATA) --lofo runs/lofo --out docs/results/generalization --overwrite
+	$(BIN)/d2sr eval generalization --data $(DATA) --lofo runs/lofo --lofo-recovery runs/lofo-recovery \
+	  --out docs/results/generalization --overwrite
 
 # The paper's evaluation side by side with its numbers, one report (docs/results/paper/report.md).
 eval-paper: $(STAMP)

@@ -22,25 +22,31 @@ def open_backend(
     model: str | None = DEFAULT_RECOVERY,
     backend: str = "auto",
     weights: Path = WEIGHTS,
-    detector: str = DETECTOR,
+    detector: str | None = DETECTOR,
     threads: int | None = None,
     int8: bool = False,
     mask_logit: float | None = None,
 ) -> Backend:
-    """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only).
-    ``mask_logit`` overrides the recovery model's own mask threshold (a logit)."""
+    """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
+    ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
+    threshold (a logit)."""
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
     if mask_logit is not None and not np.isfinite(mask_logit):
         raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
     if not weights.is_dir():
         raise InputError(f"{weights}: no such weights folder")
-    for name in [detector] + ([model] if model else []):
+    names = ([detector] if detector else []) + ([model] if model else [])
+    if not names:
+        raise InputError("open_backend needs a detector, a recovery model or both")
+    for name in names:
         if not any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors")):
             hint = f" (shipped: {', '.join(SHIPPED_RECOVERY)}; `make weights` trains the others)"
             raise InputError(f"no such model {name} in {weights}" + (hint if weights == WEIGHTS else ""))
     ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
-    onnx_files = [weights / f"{detector}{ext}"] + ([weights / f"{model}{ext}"] if model else [])
+    det_onnx = weights / f"{detector}{ext}" if detector else None
+    rec_onnx = weights / f"{model}{ext}" if model else None
+    onnx_files = [f for f in (det_onnx, rec_onnx) if f is not None]
     if int8 and backend == "torch":
         raise InputError("int8 models run on onnxruntime (--backend onnx)")
     if int8:
@@ -49,10 +55,11 @@ def open_backend(
         has_ort = importlib.util.find_spec("onnxruntime") is not None
         backend = "onnx" if has_ort and all(f.is_file() for f in onnx_files) else "torch"
     if backend == "onnx":
-        return OnnxBackend(onnx_files[0], onnx_files[1] if model else None, threads, mask_logit)
+        return OnnxBackend(det_onnx, rec_onnx, threads, mask_logit)
     if importlib.util.find_spec("torch") is None:
         raise InputError(f"no ONNX models in {weights} and torch is not installed")
     from d2sr.models.inference import TorchBackend
 
     rec = weights / f"{model}.safetensors" if model else None
-    return TorchBackend(weights / f"{detector}.safetensors", rec, mask_logit)
+    det = weights / f"{detector}.safetensors" if detector else None
+    return TorchBackend(det, rec, mask_logit)

@@ -190,10 +190,17 @@ def generalization(
         Path | None,
         typer.Option(help="Folder of detectors trained without one family each: no-<family>/detector.*"),
     ] = None,
+    lofo_recovery: Annotated[
+        Path | None,
+        typer.Option(
+            help="Folder of recovery models trained without one family each (no-<family>/<model>.*) "
+            "and the same recipe on every family (all/<model>.*)"
+        ),
+    ] = None,
     overwrite: Overwrite = False,
 ) -> None:
     """False alarms on every real clean frame of every sensor, and each interference family alone on real
-    L515 frames (with --lofo: by a detector trained without it). Worst cells beside the means.
+    L515 frames (with --lofo / --lofo-recovery: by models trained without it). Worst cells beside the means.
 
     Example: d2sr eval generalization --data ../shared/data --lofo runs/lofo --out out/eval/generalization
     """
@@ -206,22 +213,27 @@ def generalization(
         raise InputError(f"{data}: not a folder")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[data])
     net = open_backend(model, backend, weights)
-    left = {}
-    for fam in FAMILIES if lofo else ():
-        assert lofo is not None
-        folder = lofo / f"no-{fam}"
-        if any((folder / f"detector{e}").is_file() for e in (".onnx", ".safetensors")):  # finished runs
-            left[fam] = open_backend(None, backend, folder)
+
+    def finished(root: Path | None, names: tuple[str, ...], name: str) -> dict[str, Path]:
+        folders = {n: root / (n if n == "all" else f"no-{n}") for n in names} if root else {}
+        return {n: f for n, f in folders.items() if (f / f"{name}.safetensors").is_file()}  # finished runs
+
+    left = {k: open_backend(None, backend, f) for k, f in finished(lofo, FAMILIES, "detector").items()}
+    left_rec = {
+        k: open_backend(model, backend, f, detector=None)
+        for k, f in finished(lofo_recovery, ("all", *FAMILIES), model).items()
+    }
     sets = g.real_clean_sets(data)
     l515 = sum(len(s.frames) for s in sets if s.name.startswith("L515"))
     with progress_bar() as bar:
         task = bar.add_task("real clean frames", total=sum(len(s.frames) for s in sets))
         real = g.real_rows(net, sets, lambda: bar.advance(task))
         task = bar.add_task("interference families", total=l515 * len(FAMILIES))
-        fams = g.family_rows(net, sets, left, tick=lambda: bar.advance(task))
+        fams = g.family_rows(net, sets, left, tick=lambda: bar.advance(task), lofo_recovery=left_rec)
     worst = g.summary(real, fams)
     md = g.table(real, fams, worst)
     cmd = f"d2sr eval generalization --data {data} --model {model}" + (f" --lofo {lofo}" if lofo else "")
+    cmd += f" --lofo-recovery {lofo_recovery}" if lofo_recovery else ""
     result = {"command": cmd, "model": model, "real": real, "families": fams, "worst": worst}
     with out_dir(out, overwrite, [data]) as tmp:
         (tmp / "generalization.json").write_text(json.dumps(result, indent=1) + "\n")

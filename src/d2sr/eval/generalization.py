@@ -5,7 +5,9 @@
    (every frame) move by more than 5 cm. Every flag and every moved pixel here is a false alarm.
 2. **Each interference family alone on real L515 frames** (seeds no model trained on): detector recall
    and false alarms, and ``recover --all``'s RMSE change, mask F1 and clean pixels changed. With
-   ``lofo``, also each family scored by a detector trained without it (leave-one-family-out).
+   ``lofo``, also each family scored by a detector trained without it (leave-one-family-out); with
+   ``lofo_recovery``, the mask F1 of a recovery model trained without it, beside one trained by the same
+   recipe on every family.
 
 The worst cell of each column is reported beside the mean.
 """
@@ -96,16 +98,18 @@ def _metres(frame: np.ndarray, scale: float) -> np.ndarray:
 
 
 def _run(
-    net: Backend, frame: np.ndarray, scale: float, before: np.ndarray | None = None
+    net: Backend, frame: np.ndarray, scale: float, before: np.ndarray | None = None, score: bool = True
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """(score, repaired frame as ``recover --all`` writes it, mask of pixels repaired) for one frame;
-    ``before``: the frame delivered before it (uint16), for a temporal detector."""
+    ``before``: the frame delivered before it (uint16), for a temporal detector; ``score=False``: a
+    recovery model alone (the score is nan)."""
     h, w = frame.shape
     x = _metres(frame, scale)
-    score = float(net.scores(x, None if before is None else _metres(before, scale))[0])
+    p = None if before is None else _metres(before, scale)
+    s = float(net.scores(x, p)[0]) if score else float("nan")
     pred, mask = net.recover(x)
     out, kept = repair_frame(frame, pred[0, :h, :w], mask[0, :h, :w], scale)
-    return score, out, kept
+    return s, out, kept
 
 
 def real_rows(net: Backend, sets: list[RealSet], tick: Callable[[], None] | None = None) -> list[dict]:
@@ -160,9 +164,13 @@ def family_rows(
     lofo: dict[str, Backend] | None = None,
     families: tuple[str, ...] = FAMILIES,
     tick: Callable[[], None] | None = None,
+    lofo_recovery: dict[str, Backend] | None = None,
 ) -> list[dict]:
     """Per interference family on the real L515 frames: detector recall and false alarms (also by the
-    detector trained without that family, from ``lofo``), and recover --all on the interfered frames."""
+    detector trained without that family, from ``lofo``), and recover --all on the interfered frames (also
+    by a recovery model trained without the family, ``lofo_recovery[family]``, beside one trained the same
+    way on every family, ``lofo_recovery["all"]``)."""
+    rec_lofo = lofo_recovery or {}
     l515 = [s for s in sets if s.name.startswith("L515")]
     if not l515:
         raise InputError("the family table needs the real L515 captures (../shared/data/l515)")
@@ -170,6 +178,8 @@ def family_rows(
     for fam in families:
         scores, left_out, labels, shares = [], [], [], []
         ident, sums = RepairSums(), RepairSums()
+        pair = [rec_lofo[k] for k in (fam, "all") if k in rec_lofo] if fam in rec_lofo else []
+        pair_sums = [RepairSums() for _ in pair]
         for bad, clean, scale in _family_frames(l515, fam):
             interfered = bool((bad != clean).any())
             score, out, kept = _run(net, bad, scale)
@@ -184,6 +194,9 @@ def family_rows(
                 true = bad != clean
                 ident.add(x, np.zeros_like(true), x, y, true)
                 sums.add(out.astype(np.float32) / s, kept, x, y, true)
+                for b, acc in zip(pair, pair_sums, strict=True):
+                    _, o, k = _run(b, bad, scale, score=False)
+                    acc.add(o.astype(np.float32) / s, k, x, y, true)
             if tick:
                 tick()
         lab = np.array(labels)
@@ -204,6 +217,8 @@ def family_rows(
         if left_out:
             cut = lofo[fam].threshold if lofo else net.threshold
             row["recall_left_out"] = round(float((np.array(left_out) >= cut)[lab].mean()), 4)
+        for key, acc in zip(("mask_f1_left_out", "mask_f1_same_recipe"), pair_sums, strict=False):
+            row[key] = round(acc.result()["mask_f1"], 4)
         rows.append(row)
     return rows
 
@@ -222,6 +237,7 @@ def summary(real: list[dict], fams: list[dict]) -> dict:
         ("false_alarms", False),
         ("rmse_vs_identity", False),
         ("mask_f1", True),
+        ("mask_f1_left_out", True),
         ("clean_changed", False),
     ):
         have = [r for r in fams if r.get(key) is not None]
@@ -254,15 +270,18 @@ def table(real: list[dict], fams: list[dict], worst: dict) -> str:
         "### Each interference family alone on real L515 frames",
         "",
         "| family | frames | recall | recall, >=1% hit | recall, trained without it | false alarms "
-        "| RMSE vs identity | mask F1 | clean px changed |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| RMSE vs identity | mask F1 | mask F1, trained without it (with it) | clean px changed |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in fams:
         lo = f"{r['recall_left_out']:.3f}" if "recall_left_out" in r else "n/a"
+        mlo = f"{r['mask_f1_left_out']:.3f}" if "mask_f1_left_out" in r else "n/a"
+        if "mask_f1_same_recipe" in r:
+            mlo += f" ({r['mask_f1_same_recipe']:.3f})"
         lines.append(
             f"| {r['family']} | {r['frames']} | {r['recall']:.3f} | {r['recall_1pct'] or 0:.3f} | {lo} "
             f"| {r['false_alarms']:.3f} "
-            f"| {r['rmse_vs_identity']:+.1%} | {r['mask_f1']:.3f} | {r['clean_changed']:.2%} |"
+            f"| {r['rmse_vs_identity']:+.1%} | {r['mask_f1']:.3f} | {mlo} | {r['clean_changed']:.2%} |"
         )
     lines += ["", "### Worst cells", "", "| measure | mean | worst | where |", "|---|---|---|---|"]
     for k, v in worst.items():

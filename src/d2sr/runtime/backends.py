@@ -57,7 +57,7 @@ class OnnxBackend:
 
     def __init__(
         self,
-        detector: Path,
+        detector: Path | None,
         recovery: Path | None,
         threads: int | None = None,
         mask_logit: float | None = None,
@@ -82,14 +82,14 @@ class OnnxBackend:
             except Exception as exc:  # onnxruntime raises its own untyped errors on corrupt files
                 raise InputError(f"{path}: corrupt ONNX model ({str(exc).splitlines()[0][:120]})") from None
 
-        self.det = session(detector)
+        self.det = session(detector) if detector is not None else None
         self.rec = session(recovery) if recovery is not None else None
         self._meta = {
             k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
         }
         if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
             self._meta["recovery"].mask_logit = mask_logit
-        self.threshold = self._meta["detector"].threshold
+        self.threshold = self._meta["detector"].threshold if "detector" in self._meta else THRESHOLD
 
     @staticmethod
     def _props(s: Any) -> _Props:
@@ -107,6 +107,8 @@ class OnnxBackend:
         return self._meta["recovery"].frames if "recovery" in self._meta else 1
 
     def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        if self.det is None:
+            raise InputError("no detector loaded")
         h, w = metres.shape[1:]
         p = self._meta["detector"]
         check_size(h, w, p.stride, p.height, "the detector")
