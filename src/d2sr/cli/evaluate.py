@@ -202,7 +202,8 @@ def generalization(
     """False alarms on every real clean frame of every sensor, and each interference family alone on real
     L515 frames (with --lofo / --lofo-recovery: by models trained without it). Worst cells beside the means.
 
-    Example: d2sr eval generalization --data ../shared/data --lofo runs/lofo --out out/eval/generalization
+    Example: d2sr eval generalization --data ../shared/data --lofo runs/lofo
+    --lofo-recovery runs/lofo-recovery --out out/eval/generalization
     """
     from d2sr.eval import generalization as g
     from d2sr.eval.model_plots import generalization as plot
