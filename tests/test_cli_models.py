@@ -95,6 +95,10 @@ def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     )
     assert res.returncode == 2 and "--mask-logit" in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "bad").exists()
+    bad = ("--out", str(tmp_path / "bad"), "--weights", str(weights), "--passes", "0")
+    res = d2sr("recover", str(src), *bad)
+    assert res.returncode == 2 and "--passes" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "bad").exists()
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

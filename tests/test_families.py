@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from d2sr.contract import guard, repair_frame
+from d2sr.contract import guard, recover_passes, repair_frame
 from d2sr.errors import InputError
 from d2sr.frames import Intrinsics
 from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
@@ -87,6 +89,41 @@ def test_guard_keeps_predictions_where_no_trusted_pixel_is_near():
     x[:, :32] = 0.5
     p, m = guard(x, np.full_like(x, 2.0), mask)
     assert m[:, :32].all() and np.allclose(p[:, :32], 2.0)
+
+
+def _wide_wrong_surface() -> tuple[np.ndarray, list[np.ndarray], Callable]:
+    """A wall at 2 m with a band at 0.8 m over columns 20-44; a stand-in model that flags only the band's
+    pixels next to a correct one (a wrong surface shows only at its edges) and predicts 2 m there."""
+    x = np.full((1, 64, 64), 2.0, np.float32)
+    x[:, :, 20:44] = 0.8
+    seen: list[np.ndarray] = []
+
+    def raw(m: np.ndarray, _prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        seen.append(m.copy())
+        wrong = m < 1.5
+        edge = wrong & ~(np.roll(wrong, 3, axis=2) & np.roll(wrong, -3, axis=2))
+        return np.where(edge, 5.0, -5.0).astype(np.float32), np.full_like(m, 2.0)
+
+    return x, seen, raw
+
+
+def test_each_pass_sees_the_last_repair_and_keeps_what_it_found():
+    x, seen, raw = _wide_wrong_surface()
+    _, one = recover_passes(raw, x, None, 0.0, 1)
+    assert one[0, :, 20:23].all() and not one[0, :, 26:38].any()
+    seen.clear()
+    pred, many = recover_passes(raw, x, None, 0.0, 8)
+    assert many[0, :, 20:44].all() and not many[0, :, :20].any() and not many[0, :, 44:].any()
+    assert np.array_equal(seen[0], x) and len(seen) < 8  # stopped once the band was filled in
+    assert (seen[1][0, :, 20:23] == 2.0).all() and (seen[1][0, :, 26:38] == np.float32(0.8)).all()
+    assert np.allclose(pred[many], 2.0)
+
+
+def test_a_pass_that_repairs_nothing_ends_it():
+    x, seen, raw = _wide_wrong_surface()
+    x[:] = 2.0  # clean: nothing flagged, the model runs once
+    _, mask = recover_passes(raw, x, None, 0.0, 4)
+    assert not mask.any() and len(seen) == 1
 
 
 def test_repair_frame_is_bit_identical_outside_what_it_repaired():

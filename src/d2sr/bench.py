@@ -168,14 +168,15 @@ def bench_models(
     outside: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> dict:
-    """Frames per second at 640x480, batch 1, of the detector, each UNet, and detect + repair (UNet8, every
-    frame repaired), for torch and onnxruntime; and ``d2sr recover --all`` timed from outside the process
-    (60 frames minus 10 frames, so start-up and model loading cancel out)."""
+    """Frames per second at 640x480, batch 1, of the detector, each UNet (``recover``, its passes
+    included), and detect + repair (UNet8, every frame repaired), for torch and onnxruntime; and ``d2sr
+    recover --all`` timed from outside the process (60 frames minus 10 frames, so start-up and model
+    loading cancel out)."""
     import tempfile
 
     import torch
 
-    from d2sr.contract import WEIGHTS, repair_frame
+    from d2sr.contract import REPAIR_PASSES, WEIGHTS, repair_frame
     from d2sr.models.inference import TorchBackend
     from d2sr.runtime.backends import Backend, OnnxBackend
 
@@ -183,6 +184,7 @@ def bench_models(
     frame = frame_4000(1_000_001, interfered=True)
     metres = (frame.astype(np.float32) / np.float32(4000))[None]
     out: dict = {"resolution": "640x480", "batch": 1, "threads": threads, "repeats": repeats, "fps": {}}
+    out["recovery_passes"] = REPAIR_PASSES  # an interfered frame: recover runs the model this many times
     with tempfile.TemporaryDirectory() as tmp:
         wdir = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
         out["weights"] = "shipped" if wdir == WEIGHTS else "random (no shipped ONNX found)"

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, SHIPPED_RECOVERY, WEIGHTS
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, REPAIR_PASSES, SHIPPED_RECOVERY, WEIGHTS
 from d2sr.errors import InputError
 from d2sr.runtime.backends import Backend, OnnxBackend
 
@@ -26,10 +26,11 @@ def open_backend(
     threads: int | None = None,
     int8: bool = False,
     mask_logit: float | None = None,
+    passes: int = REPAIR_PASSES,
 ) -> Backend:
     """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
     ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
-    threshold (a logit)."""
+    threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``)."""
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
     if mask_logit is not None and not np.isfinite(mask_logit):
@@ -55,11 +56,11 @@ def open_backend(
         has_ort = importlib.util.find_spec("onnxruntime") is not None
         backend = "onnx" if has_ort and all(f.is_file() for f in onnx_files) else "torch"
     if backend == "onnx":
-        return OnnxBackend(det_onnx, rec_onnx, threads, mask_logit)
+        return OnnxBackend(det_onnx, rec_onnx, threads, mask_logit, passes)
     if importlib.util.find_spec("torch") is None:
         raise InputError(f"no ONNX models in {weights} and torch is not installed")
     from d2sr.models.inference import TorchBackend
 
     rec = weights / f"{model}.safetensors" if model else None
     det = weights / f"{detector}.safetensors" if detector else None
-    return TorchBackend(det, rec, mask_logit)
+    return TorchBackend(det, rec, mask_logit, passes)

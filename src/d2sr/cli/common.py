@@ -62,6 +62,13 @@ MaskLogit = Annotated[
         "more clean ones). Default: the model's own, chosen on validation frames."
     ),
 ]
+Passes = Annotated[
+    int,
+    typer.Option(
+        help="Runs of the recovery model per frame: each run after the first sees the last one's repair "
+        "(finds more of a wide wrong surface; 1 is fastest). A run that repairs nothing ends it early."
+    ),
+]
 Overwrite = Annotated[
     bool,
     typer.Option(

@@ -18,6 +18,7 @@ from d2sr.cli.common import (
     MaxRange,
     ModelDir,
     Overwrite,
+    Passes,
     RerunOpt,
     Scale,
     Threshold,
@@ -25,7 +26,14 @@ from d2sr.cli.common import (
     checked,
     open_input,
 )
-from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, WEIGHTS, check_probability
+from d2sr.contract import (
+    DEFAULT_RECOVERY,
+    MODEL_HELP,
+    RECOVERY_NAMES,
+    REPAIR_PASSES,
+    WEIGHTS,
+    check_probability,
+)
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Reader
@@ -55,6 +63,7 @@ def run(
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
+    passes: Passes = REPAIR_PASSES,
     depth_scale: Scale = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
@@ -107,6 +116,7 @@ def run(
         threads=threads,
         int8=int8,
         mask_logit=mask_logit,
+        passes=passes,
     )
     if is_recording:
         path = Path(source)

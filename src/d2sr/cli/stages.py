@@ -21,6 +21,7 @@ from d2sr.cli.common import (
     MaxRange,
     ModelDir,
     Overwrite,
+    Passes,
     RerunOpt,
     Scale,
     Threshold,
@@ -30,7 +31,14 @@ from d2sr.cli.common import (
     open_input,
     prefetch,
 )
-from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, RECOVERY_NAMES, WEIGHTS, check_probability
+from d2sr.contract import (
+    DEFAULT_RECOVERY,
+    MODEL_HELP,
+    RECOVERY_NAMES,
+    REPAIR_PASSES,
+    WEIGHTS,
+    check_probability,
+)
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import InputError
 from d2sr.frames.base import PLAUSIBLE_M
@@ -92,6 +100,7 @@ def recover(
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
+    passes: Passes = REPAIR_PASSES,
     topic: Topic = None,
     backend: BackendOpt = "auto",
     weights: ModelDir = WEIGHTS,
@@ -116,7 +125,7 @@ def recover(
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
     if rerun is not None and rerun != LIVE:
         check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
-    net = open_backend(model, backend, weights, mask_logit=mask_logit)
+    net = open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
     loop = SensorLoop(

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.baselines import BASELINES, last_clean
-from d2sr.contract import scale_at
+from d2sr.contract import Raw, scale_at
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.labels import drifting_interference
 from d2sr.frames import open_frames
@@ -234,9 +234,6 @@ def recovery_metrics(
         r["rmse_vs_identity"] = round(r["rmse_cm"] / ident - 1, 4) if ident else 0.0
     errors = {k: np.concatenate(a.errors) for k, a in accs.items() if a.errors}
     return rows, errors
-
-
-Raw = Callable[[np.ndarray, np.ndarray | None], tuple[np.ndarray, np.ndarray]]
 
 
 def operating_curve(

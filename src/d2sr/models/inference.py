@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from d2sr.contract import THRESHOLD, detector_input, model_input
+from d2sr.contract import REPAIR_PASSES, THRESHOLD, check_passes, detector_input, model_input, recover_passes
 from d2sr.errors import InputError
 from d2sr.models.registry import check_input_size
 from d2sr.models.store import load_model, torch_device
@@ -22,7 +22,13 @@ class TorchBackend:
 
     name = "torch"
 
-    def __init__(self, detector: Path | None, recovery: Path | None, mask_logit: float | None = None) -> None:
+    def __init__(
+        self,
+        detector: Path | None,
+        recovery: Path | None,
+        mask_logit: float | None = None,
+        passes: int = REPAIR_PASSES,
+    ) -> None:
         self.device = torch_device()
         self.det = load_model(detector)[0].to(self.device) if detector is not None else None
         self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
@@ -30,6 +36,7 @@ class TorchBackend:
         if mask_logit is None:  # the model's own, chosen on validation frames
             mask_logit = read_mask_logit(recovery) if recovery is not None else 0.0
         self.mask_logit = mask_logit
+        self.passes = check_passes(passes)
         self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
     def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
@@ -53,5 +60,4 @@ class TorchBackend:
     def recover(
         self, metres: np.ndarray, previous: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        logit, pred = self.raw(metres, previous)
-        return pred, logit > self.mask_logit
+        return recover_passes(self.raw, metres, previous, self.mask_logit, self.passes)

@@ -11,7 +11,15 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from d2sr.contract import THRESHOLD, check_size, detector_input, model_input
+from d2sr.contract import (
+    REPAIR_PASSES,
+    THRESHOLD,
+    check_passes,
+    check_size,
+    detector_input,
+    model_input,
+    recover_passes,
+)
 from d2sr.errors import InputError
 
 __all__ = ["Backend", "OnnxBackend"]
@@ -20,6 +28,7 @@ __all__ = ["Backend", "OnnxBackend"]
 class Backend(Protocol):
     name: str
     threshold: float  # the detector's own probability threshold (stored with it; contract.THRESHOLD)
+    passes: int  # recovery runs of the model per frame (contract.recover_passes)
 
     def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
         """(N, H, W) float32 metres -> (N,) probability that each frame is interfered. ``previous``: the
@@ -35,7 +44,8 @@ class Backend(Protocol):
         self, metres: np.ndarray, previous: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """(N, H, W) float32 metres -> (predicted depth in metres, predicted mask bool), both (N, H, W).
-        ``previous``: each frame's last clean frame (N, H, W), for temporal models (others ignore it)."""
+        ``previous``: each frame's last clean frame (N, H, W), for temporal models (others ignore it).
+        The model runs up to ``passes`` times (``d2sr.contract.recover_passes``)."""
         ...
 
 
@@ -61,7 +71,9 @@ class OnnxBackend:
         recovery: Path | None,
         threads: int | None = None,
         mask_logit: float | None = None,
+        passes: int = REPAIR_PASSES,
     ) -> None:
+        self.passes = check_passes(passes)
         try:
             import onnxruntime as ort
         except ImportError:  # pragma: no cover - depends on the install
@@ -115,13 +127,21 @@ class OnnxBackend:
         scores: np.ndarray = self.det.run(None, {"depth": detector_input(metres, previous, p.frames)})[0]
         return scores
 
-    def recover(
-        self, metres: np.ndarray, previous: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(mask logits, predicted depth), before any threshold."""
         if self.rec is None:
             raise InputError("no recovery model loaded")
         h, w = metres.shape[1:]
         p = self._meta["recovery"]
         check_size(h, w, p.stride, p.height, "the recovery model")
         logit, pred = self.rec.run(None, {"depth": model_input(metres, previous, self.frames)})
-        return pred[:, 0], logit[:, 0] > p.mask_logit
+        return logit[:, 0], pred[:, 0]
+
+    @property
+    def mask_logit(self) -> float:
+        return self._meta["recovery"].mask_logit if "recovery" in self._meta else 0.0
+
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        return recover_passes(self.raw, metres, previous, self.mask_logit, self.passes)
