@@ -72,6 +72,8 @@ weights: $(STAMP)
 	for m in unet8:a496b2f unet16:a496b2f unet32:5263f3f; do n=$${m%:*}; mkdir -p runs/$$n-0.2.0; \
 	  test -f runs/$$n-0.2.0/$$n.safetensors || \
 	  git show $${m#*:}:src/d2sr/models/weights/$$n.safetensors > runs/$$n-0.2.0/$$n.safetensors; done
+	$(BIN)/d2sr train recovery --config configs/unet8-stage1.toml --out runs/unet8-stage1
+	$(BIN)/d2sr train recovery --config configs/unet8-stage2.toml --out runs/unet8-stage2
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16

@@ -14,10 +14,10 @@ import torch
 from safetensors.torch import load_file
 
 from d2sr.errors import ConfigError
-from d2sr.models.store import mask_logit, read_card
+from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool, synth_set
-from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, loss_fn, train
+from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, lineage, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
 
@@ -207,3 +207,17 @@ def test_cli_train_bad_config_is_one_line(tmp_path):
     res = d2sr("train", "detector", "--model", "unet8", "--out", str(tmp_path / "o"))
     assert res.returncode == 2 and "task detector takes one of" in res.stderr
     assert not (tmp_path / "o" / "detector.safetensors").exists()
+
+
+def test_a_fine_tune_card_names_the_whole_chain_it_started_from(tmp_path):
+    first, second = tmp_path / "a" / "unet8.safetensors", tmp_path / "b" / "unet8.safetensors"
+    for p in (first, second):
+        p.parent.mkdir()
+    write_card(first, command="d2sr train recovery --config a.toml", training={"steps": 5, "minutes": 1.5})
+    write_card(second, command="d2sr train recovery --config b.toml", training={"steps": 7, "minutes": 2.0},
+               started_from=lineage(first))  # fmt: skip
+    chain = lineage(second)
+    assert chain["command"].endswith("b.toml") and chain["minutes"] == 2.0 and chain["steps"] == 7
+    assert chain["started_from"] == {"weights": str(first), "command": "d2sr train recovery --config a.toml",
+                                     "steps": 5, "minutes": 1.5}  # fmt: skip
+    assert lineage(tmp_path / "none.safetensors") == {"weights": str(tmp_path / "none.safetensors")}

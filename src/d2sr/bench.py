@@ -143,22 +143,30 @@ def _median_ms(fn: Callable[[], object], repeats: int, warmup: int = 3) -> float
     return 1000 * statistics.median(times)
 
 
-def _weights_with_onnx(names: list[str], tmp: str) -> Path:
-    """The shipped weights folder when it has every model as ONNX and safetensors; otherwise random-weight
-    copies in ``tmp`` (speed does not depend on the weights' values)."""
-    from d2sr.contract import WEIGHTS
+def _weights_with_onnx(names: list[str], tmp: str) -> tuple[Path, dict[str, str]]:
+    """A folder with every model as ONNX and safetensors: the shipped files where they exist (a repair's
+    passes depend on what the first one finds, so speed depends on the weights), random-weight ones for
+    the rest; and which each is."""
+    import shutil
 
-    if all((WEIGHTS / f"{n}.onnx").is_file() and (WEIGHTS / f"{n}.safetensors").is_file() for n in names):
-        return WEIGHTS
+    from d2sr.contract import WEIGHTS
     from d2sr.export import export
     from d2sr.models import build
     from d2sr.models.store import save_model
 
-    root = Path(tmp)
+    root, kinds = Path(tmp), {}
     for n in names:
-        save_model(build(n).eval(), n, root / f"{n}.safetensors")
-        export(root / f"{n}.safetensors", root / f"{n}.onnx", check=False)
-    return root
+        files = [WEIGHTS / f"{n}{e}" for e in (".onnx", ".safetensors", ".card.json")]
+        if all(f.is_file() for f in files[:2]):
+            for f in files:
+                if f.is_file():
+                    shutil.copy(f, root / f.name)
+            kinds[n] = "shipped"
+        else:
+            save_model(build(n).eval(), n, root / f"{n}.safetensors")
+            export(root / f"{n}.safetensors", root / f"{n}.onnx", check=False)
+            kinds[n] = "random (not shipped)"
+    return root, kinds
 
 
 def bench_models(
@@ -168,15 +176,15 @@ def bench_models(
     outside: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> dict:
-    """Frames per second at 640x480, batch 1, of the detector, each UNet (``recover``, its passes
-    included), and detect + repair (UNet8, every frame repaired), for torch and onnxruntime; and ``d2sr
-    recover --all`` timed from outside the process (60 frames minus 10 frames, so start-up and model
-    loading cancel out)."""
+    """Frames per second at 640x480, batch 1, of the detector, each UNet (one forward pass, and ``recover``
+    with its passes on an interfered frame), and detect + repair (every frame repaired), for torch and
+    onnxruntime; and ``d2sr recover --all`` timed from outside the process (60 frames minus 10 frames, so
+    start-up and model loading cancel out)."""
     import tempfile
 
     import torch
 
-    from d2sr.contract import REPAIR_PASSES, WEIGHTS, repair_frame
+    from d2sr.contract import REPAIR_PASSES, repair_frame
     from d2sr.models.inference import TorchBackend
     from d2sr.runtime.backends import Backend, OnnxBackend
 
@@ -184,10 +192,9 @@ def bench_models(
     frame = frame_4000(1_000_001, interfered=True)
     metres = (frame.astype(np.float32) / np.float32(4000))[None]
     out: dict = {"resolution": "640x480", "batch": 1, "threads": threads, "repeats": repeats, "fps": {}}
-    out["recovery_passes"] = REPAIR_PASSES  # an interfered frame: recover runs the model this many times
+    out["recovery_passes"] = REPAIR_PASSES  # at most, in "<model> recover" and "detect+<model>"
     with tempfile.TemporaryDirectory() as tmp:
-        wdir = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
-        out["weights"] = "shipped" if wdir == WEIGHTS else "random (no shipped ONNX found)"
+        wdir, out["weights"] = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
 
         def load(backend: str, detector: str, model: str | None) -> Backend:
             if backend == "onnxruntime":
@@ -215,7 +222,8 @@ def bench_models(
                     pred, mask = net.recover(metres)
                     repair_frame(frame, pred[0], mask[0], 4000.0)
 
-                fps[m] = fps_of(functools.partial(net.recover, metres))
+                fps[m] = fps_of(functools.partial(net.raw, metres))  # one forward pass (paper Table III)
+                fps[f"{m} recover"] = fps_of(functools.partial(net.recover, metres))  # its passes included
                 fps[f"detect+{m}"] = fps_of(both)
         if outside:
             if progress:

@@ -40,6 +40,10 @@ class Backend(Protocol):
         """2: a temporal recovery model, which also takes the last clean frame; else 1."""
         ...
 
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """One run of the recovery model: (mask logits, predicted depth in metres), both (N, H, W)."""
+        ...
+
     def recover(
         self, metres: np.ndarray, previous: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:

@@ -211,6 +211,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 data=_data_line(cfg, frames),
                 command=command or f"d2sr train {cfg.task} --config <config.toml>",
                 training=summary | {"config": cfg.model_dump(mode="json")},
+                **({"started_from": lineage(cfg.init)} if cfg.init is not None else {}),
                 date=dt.date.today().isoformat(),
             )
             record_manifest(out, [weights.name, f"{cfg.model}.card.json", f"{cfg.model}.md", "loss.json"])
@@ -293,6 +294,20 @@ _SUMMARY = {
     "recovery": "Two-head recovery UNet (stage 3): interference mask and depth; output = predicted depth "
     "inside the mask, the input outside it.",
 }
+
+
+def lineage(init: Path) -> dict:
+    """What a fine-tune started from: the weights and, where a card lies beside them, the command and time
+    that made them and what those started from in turn (the whole chain of a model trained in stages)."""
+    card = read_card(init)
+    out: dict = {"weights": str(init)}
+    if card:
+        t = card.get("training", {})
+        out |= {k: v for k, v in (("command", card.get("command")), ("steps", t.get("steps")),
+                ("minutes", t.get("minutes")), ("device", t.get("device"))) if v is not None}  # fmt: skip
+        if "started_from" in card:
+            out["started_from"] = card["started_from"]
+    return out
 
 
 def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
