@@ -114,6 +114,8 @@ def _scored(tmp: Path, name: str, clean: list[np.ndarray], scale: float, models:
         "rmse_cm_before": round(100 * np.sqrt(err_in / max(valid, 1)), 2),
         "rmse_cm_after": round(100 * np.sqrt(err_out / max(valid, 1)), 2),
         "rmse_change": round(float(np.sqrt(err_out / max(err_in, 1e-12)) - 1), 4),
+        "mask_precision": round(p, 4),
+        "mask_recall": round(r, 4),
         "mask_f1": round(2 * p * r / max(p + r, 1e-12), 4),
         "clean_changed": round(changed / max(clean_px, 1), 5),
     }
