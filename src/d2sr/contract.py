@@ -172,9 +172,10 @@ def recover_passes(
             break
         logit, pred = raw(np.where(keep, p, metres).astype(np.float32), previous)
         grown = keep | (logit > mask_logit)
-        if not (grown & ~mask).any():  # nothing new: a further pass would see much the same frame
-            return pred, grown
+        found = (grown & ~mask).any()  # nothing new: a further pass would see much the same frame
         mask = grown
+        if not found:
+            break
     return pred, mask
 
 

@@ -29,6 +29,7 @@ class TorchBackend:
         mask_logit: float | None = None,
         passes: int = REPAIR_PASSES,
     ) -> None:
+        self.passes = check_passes(passes)
         self.device = torch_device()
         self.det = load_model(detector)[0].to(self.device) if detector is not None else None
         self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
@@ -36,7 +37,6 @@ class TorchBackend:
         if mask_logit is None:  # the model's own, chosen on validation frames
             mask_logit = read_mask_logit(recovery) if recovery is not None else 0.0
         self.mask_logit = mask_logit
-        self.passes = check_passes(passes)
         self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
     def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:

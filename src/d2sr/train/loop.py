@@ -300,14 +300,10 @@ def lineage(init: Path) -> dict:
     """What a fine-tune started from: the weights and, where a card lies beside them, the command and time
     that made them and what those started from in turn (the whole chain of a model trained in stages)."""
     card = read_card(init)
-    out: dict = {"weights": str(init)}
-    if card:
-        t = card.get("training", {})
-        out |= {k: v for k, v in (("command", card.get("command")), ("steps", t.get("steps")),
-                ("minutes", t.get("minutes")), ("device", t.get("device"))) if v is not None}  # fmt: skip
-        if "started_from" in card:
-            out["started_from"] = card["started_from"]
-    return out
+    t = card.get("training", {})
+    found = {"command": card.get("command"), "steps": t.get("steps"), "minutes": t.get("minutes"),
+             "device": t.get("device"), "started_from": card.get("started_from")}  # fmt: skip
+    return {"weights": str(init)} | {k: v for k, v in found.items() if v is not None}
 
 
 def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
