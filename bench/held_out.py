@@ -142,7 +142,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
-    ap.add_argument("--minutes", type=float, default=8.0, help="d2sr adapt's training budget")
+    ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -165,7 +165,7 @@ def main() -> None:
             for f in files[:100]:
                 (first / f.name).symlink_to(f.resolve())
             t0 = time.perf_counter()
-            minutes = ["--minutes", f"{args.minutes:g}"]
+            minutes = ["--minutes", f"{args.minutes:g}"] if args.minutes else []
             _d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(tmp / "m"), *minutes)
             took = (time.perf_counter() - t0) / 60
             rest = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files[100:]]

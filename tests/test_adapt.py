@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import cv2
@@ -92,6 +93,33 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
         "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "0.1"
     )
     assert code == 0, err
+    # another budget cannot resume it: the result would be neither run
+    code, _, err = d2sr_inprocess(
+        "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "0.2"
+    )
+    assert code == 2 and "another --minutes" in err and err.count("\n") == 1
+
+
+@pytest.mark.slow
+def test_adapt_gives_the_same_model_twice(tmp_path):
+    """The budget buys a number of steps, not seconds: the same command gives the same weights."""
+    from safetensors.numpy import load_file
+
+    clean = _room(tmp_path / "clean", 60)
+    runs = []
+    for k in (1, 2):
+        out = tmp_path / f"m{k}"
+        code, _, err = d2sr_inprocess(
+            "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(out), "--minutes", "0.05"
+        )
+        assert code == 0, err
+        card = json.loads((out / "adapt.json").read_text())
+        assert not any(f["stopped_at_time_cap"] for f in card["training"].values())
+        runs.append([load_file(out / f"{m}.safetensors") for m in ("detector", "unet8")])
+    shipped = load_file(WEIGHTS / "unet8.safetensors")
+    for a, b in zip(*runs, strict=True):
+        assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+    assert any(not np.array_equal(runs[0][1][k], shipped[k]) for k in shipped)  # it did train
 
 
 def test_threshold_takes_the_widest_margin_and_else_the_false_alarm_target():

@@ -16,7 +16,7 @@ from d2sr.atomic import check_out
 from d2sr.cli.common import Overwrite, Scale, Topic, split_list
 from d2sr.contract import WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
-from d2sr.ui import console
+from d2sr.ui import console, warn
 
 __all__ = ["adapt", "export", "train"]
 
@@ -118,7 +118,13 @@ def adapt(
     ],
     out: Annotated[Path, typer.Option(help="Model folder to write (use it with --models).")],
     depth_scale: Scale = None,
-    minutes: Annotated[float, typer.Option(help="Training budget in minutes.")] = 8.0,
+    minutes: Annotated[
+        float,
+        typer.Option(
+            help="Training budget in minutes: the steps 2 cores take in that time (the same command gives "
+            "the same model); a slower machine stops at 1.25x and says so."
+        ),
+    ] = 8.0,
     false_alarm: Annotated[
         float, typer.Option(help="Target share of clean held-out frames flagged (sets the threshold).")
     ] = 0.01,
@@ -178,6 +184,10 @@ def adapt(
 
         command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
         card = run(data, out, minutes, false_alarm, command, weights, tick)
+    for name, fit in card["training"].items():
+        if fit["stopped_at_time_cap"]:
+            warn(f"the {name} stopped at its time cap after {fit['steps']} of {fit['planned_steps']} steps "
+                 "(a slower or busier machine); its card says so")  # fmt: skip
     d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
     console.print(
         f"held out ({card['data']['held_out']} clean frames, x{card['data']['corrupted_copies']['held_out']} "
