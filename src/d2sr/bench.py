@@ -156,11 +156,10 @@ def _weights_with_onnx(names: list[str], tmp: str) -> tuple[Path, dict[str, str]
 
     root, kinds = Path(tmp), {}
     for n in names:
-        files = [WEIGHTS / f"{n}{e}" for e in (".onnx", ".safetensors", ".card.json")]
-        if all(f.is_file() for f in files[:2]):
+        files = [WEIGHTS / f"{n}{e}" for e in (".onnx", ".safetensors")]  # thresholds are in their metadata
+        if all(f.is_file() for f in files):
             for f in files:
-                if f.is_file():
-                    shutil.copy(f, root / f.name)
+                shutil.copy(f, root / f.name)
             kinds[n] = "shipped"
         else:
             save_model(build(n).eval(), n, root / f"{n}.safetensors")

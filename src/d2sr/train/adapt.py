@@ -222,7 +222,7 @@ class _Phase:
     model: torch.nn.Module
     task: str
     steps: int
-    seconds: float  # the time cap
+    cap: float  # seconds: it stops here whatever its steps
     batch: int
     crop: tuple[int, int] | None
     clean_share: float
@@ -235,8 +235,8 @@ def _fit(
     device: torch.device,
     tick: Callable[[str, float], None] | None,
 ) -> dict:
-    """Fine-tune for ``phase.steps`` (over every resumed part; at most ``phase.seconds``), checkpointing as it
-    goes."""
+    """Fine-tune for ``phase.steps`` (over every resumed part; for at most ``phase.cap`` seconds),
+    checkpointing as it goes."""
     ckpt = out / f"{phase.name}-{CHECKPOINT}"
     model = phase.model.to(device)
     opt = torch.optim.AdamW(model.parameters(), lr=LR, weight_decay=1e-4)
@@ -244,8 +244,8 @@ def _fit(
     spent, steps, losses = 0.0, 0, []
     if ckpt.is_file():
         state = torch.load(ckpt, weights_only=False)
-        if state.get("planned") != phase.steps:  # resumed, it would be neither run
-            raise InputError(f"{out} holds an adapt run of another --minutes; repeat it, or use a new --out")
+        if state.get("planned") != phase.steps:  # resumed, it would be neither run (none: before 0.7.0)
+            raise InputError(f"{out} holds an adapt run of another --minutes or version; use a new --out")
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["opt"])
         rng.bit_generator.state = state["rng"]
@@ -256,7 +256,7 @@ def _fit(
     def elapsed() -> float:
         return spent + time.perf_counter() - t0
 
-    while steps < phase.steps and elapsed() < phase.seconds:
+    while steps < phase.steps and elapsed() < phase.cap:
         b = pool.batch(rng, phase.batch, phase.crop, phase.clean_share)
         loss = loss_fn(model, phase.task, b, device)
         opt.zero_grad(set_to_none=True)
