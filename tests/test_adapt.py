@@ -61,6 +61,14 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
     assert code == 0, err
     for f in ("detector.onnx", "unet8.onnx", "detector.safetensors", "unet8.safetensors", "adapt.json"):
         assert (models / f).is_file(), f
+    # the detector is the adapted model's mask, at the repair threshold the folder's unet8 carries
+    from safetensors.numpy import load_file
+
+    from d2sr.models.store import mask_logit
+
+    det, rec = load_file(models / "detector.safetensors"), load_file(models / "unet8.safetensors")
+    assert all(np.array_equal(det[f"net.{k}"], v) for k, v in rec.items())
+    assert float(det["cut"]) == pytest.approx(mask_logit(models / "unet8.safetensors"))
     assert "false alarms" in out and "--models" in out
     code, out, err = d2sr_inprocess(
         "detect",
@@ -101,10 +109,11 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
 
 
 @pytest.mark.slow
-def test_adapt_gives_the_same_model_twice(tmp_path):
+def test_adapt_gives_the_same_model_twice(tmp_path, monkeypatch):
     """The budget buys a number of steps, not seconds: the same command gives the same weights."""
     from safetensors.numpy import load_file
 
+    monkeypatch.setattr("d2sr.train.adapt.TIME_CAP", 1e6)  # a busy test machine must not cut a run short
     clean = _room(tmp_path / "clean", 60)
     runs = []
     for k in (1, 2):

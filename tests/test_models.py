@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from d2sr.contract import DETECTOR_NAMES, RECOVERY_NAMES
+from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, RECOVERY_NAMES
 from d2sr.errors import InputError
 from d2sr.models import MODELS, build, check_input_size
 from d2sr.models.store import load_model, save_model, warm_start
@@ -20,7 +20,7 @@ def _depth(n=2, h=96, w=128, seed=0) -> torch.Tensor:
     return d * (torch.rand(n, 1, h, w, generator=g) > 0.6)
 
 
-@pytest.mark.parametrize("name", [n for n in MODELS if n != "paper-detector"])
+@pytest.mark.parametrize("name", [n for n in MODELS if n not in ("paper-detector", MASK_DETECTOR)])
 def test_forward_backward_at_allowed_sizes(name):
     torch.manual_seed(0)
     m = build(name)
@@ -102,7 +102,7 @@ def test_corrupt_missing_and_mismatched_weights(tmp_path):
         load_model(wrong)
 
 
-@pytest.mark.parametrize("name", ["detector", "unet8", "unet8-temporal"])
+@pytest.mark.parametrize("name", ["detector", "unet8", "unet8-temporal", MASK_DETECTOR])
 def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
@@ -112,7 +112,8 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     w = tmp_path / f"{name}.safetensors"
     net = build(name).eval()
     frames = getattr(net, "frames", 1)
-    save_model(net, name, w, mask_logit=-1.5 if name != "detector" else None)
+    detector = name in (*DETECTOR_NAMES, MASK_DETECTOR)
+    save_model(net, name, w, mask_logit=None if detector else -1.5)
     res = export(w, tmp_path / f"{name}.onnx")
     assert res["max_abs_diff"] < 1e-3
     sess = ort.InferenceSession(str(tmp_path / f"{name}.onnx"), providers=["CPUExecutionProvider"])
@@ -121,19 +122,20 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     model, _ = load_model(w)
     with torch.inference_mode():
         ref = model(x)
-    ref = (torch.sigmoid(ref),) if name == "detector" else ref
+    ref = (torch.sigmoid(ref),) if detector else ref
     for r, g in zip(ref, got, strict=True):
         np.testing.assert_allclose(r.numpy(), g, atol=1e-3)
     meta = sess.get_modelmeta().custom_metadata_map
     assert meta["model"] == name and int(meta["stride"]) == model.stride and int(meta["frames"]) == frames
-    assert float(meta["mask_logit"]) == (0.0 if name == "detector" else -1.5)
+    assert float(meta["mask_logit"]) == (0.0 if detector else -1.5)
 
 
 def test_every_recovery_model_has_the_paper_composition():
     # Recovery names cover ours and the paper's reference layouts; both share one class and the heads.
     assert {"unet8", "unet16", "unet32", "paper-unet8", "paper-unet16", "paper-unet32"} <= set(RECOVERY_NAMES)
     assert {"unet8-temporal", "unet8-direct"} <= set(RECOVERY_NAMES)
-    assert tuple(MODELS) == DETECTOR_NAMES + RECOVERY_NAMES  # the torch registry and the torch-free contract
+    # the torch registry and the torch-free contract
+    assert tuple(MODELS) == (*DETECTOR_NAMES, *RECOVERY_NAMES, MASK_DETECTOR)
     assert build("paper-unet8").s2d == 1 and build("unet8").s2d == 4
     assert build("unet8").fill and not build("paper-unet8").fill and not build("unet8-direct").fill
 
@@ -201,3 +203,28 @@ def test_temporal_detector_flags_only_what_looks_interfered_alone_and_against_th
         assert torch.allclose(det(pair), torch.minimum(trained_on, alone))
         # No previous frame: the frame stands in for it, and the score is the frame's alone.
         assert torch.allclose(det(torch.cat([frame, frame], dim=1)), alone)
+
+
+def test_mask_detector_scores_the_share_of_returns_its_model_would_repair():
+    from d2sr.models.detector import REF_SHARE, MaskDetector
+
+    class Fixed(torch.nn.Module):  # mask logits +10 on the first k pixels of each row, -10 elsewhere
+        frames, stride = 1, 1
+
+        def __init__(self, k: int) -> None:
+            super().__init__()
+            self.k = k
+
+        def forward(self, depth: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+            logit = torch.full_like(depth, -10.0)
+            logit[..., : self.k] = 10.0
+            return logit, depth
+
+    depth = torch.ones(2, 1, 10, 100)
+    depth[1, :, :, 50:] = 0  # half the second frame returns nothing: the share is of its returns
+    for k, share in ((0, (0.0, 0.0)), (1, (0.01, 0.02)), (25, (0.25, 0.5))):
+        got = torch.sigmoid(MaskDetector(Fixed(k), cut=2.0)(depth))
+        want = torch.tensor([(s + 1e-6) / (s + 1e-6 + REF_SHARE) for s in share])
+        torch.testing.assert_close(got, want, atol=1e-4, rtol=0)
+    # the cut decides which pixels count: well above every logit, none do
+    assert torch.sigmoid(MaskDetector(Fixed(25), cut=13.0)(depth)).max() < 0.001

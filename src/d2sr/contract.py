@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_RECOVERY",
     "DETECTOR",
     "DETECTOR_NAMES",
+    "MASK_DETECTOR",
     "MODEL_HELP",
     "PAD",
     "RECOVERY_NAMES",
@@ -46,6 +47,7 @@ __all__ = [
 WEIGHTS = Path(__file__).resolve().parent / "models" / "weights"  # the shipped weights, ONNX and cards
 DETECTOR = "detector"
 DETECTOR_NAMES = ("detector", "detector-temporal", "paper-detector")
+MASK_DETECTOR = "mask-detector"  # d2sr adapt's detector: a recovery model's mask (not trained on its own)
 # Ours first; unet8-direct is the ablation unet8 starts from; paper-* are the paper's layouts.
 RECOVERY_NAMES = (
     "unet8",

@@ -11,7 +11,7 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import DETECTOR_NAMES
+from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
 from d2sr.models.store import load_model, mask_logit, threshold
@@ -22,7 +22,7 @@ OPSET = 17
 
 
 def _wrapped(model: nn.Module, name: str) -> tuple[nn.Module, list[str]]:
-    if name in DETECTOR_NAMES:
+    if name in (*DETECTOR_NAMES, MASK_DETECTOR):
         return Scored(model).eval(), ["score"]
     return model, ["mask_logit", "pred_depth"]
 
