@@ -146,3 +146,6 @@ def test_threshold_takes_the_widest_margin_and_else_the_false_alarm_target():
     faint = np.r_[bad, np.full(50, 0.01)]
     assert choose_threshold(clean, faint, np.r_[seen, np.zeros(50, bool)], 0.01) == t
     assert choose_threshold(np.array([]), bad, seen, 0.01) == THRESHOLD
+    # A floor holds against held-out frames that separate low (the mask detector's: 0.5).
+    low = choose_threshold(clean * 0.1, bad * 0.3, seen, 0.01)
+    assert low < 0.5 and choose_threshold(clean * 0.1, bad * 0.3, seen, 0.01, floor=0.5) == 0.5

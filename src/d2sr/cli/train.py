@@ -136,8 +136,8 @@ def adapt(
     weights: Annotated[Path, typer.Option(help="Models to start from (default: shipped).")] = WEIGHTS,
     overwrite: Overwrite = False,
 ) -> None:
-    """Fit the detector and the default recovery model to your sensor and room from a clean recording
-    (self-supervised: the interference generator corrupts your frames). Resumes an interrupted run in OUT.
+    """Fit the default recovery model to your sensor and room from a clean recording (self-supervised: the
+    interference generator corrupts your frames); its mask becomes the detector. Resumes a run in OUT.
 
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
