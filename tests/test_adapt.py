@@ -70,6 +70,8 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
     assert all(np.array_equal(det[f"net.{k}"], v) for k, v in rec.items())
     assert float(det["cut"]) == pytest.approx(mask_logit(models / "unet8.safetensors"))
     assert "false alarms" in out and "--models" in out
+    card = (models / "detector.md").read_text()  # a model card: what it is, data, command, metrics, date
+    assert "mask-detector" in card and all(f"## {t}" in card for t in ("Data", "Command", "Metrics", "Date"))
     code, out, err = d2sr_inprocess(
         "detect",
         str(clean),

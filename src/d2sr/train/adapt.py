@@ -344,6 +344,13 @@ def adapt(
     def mask_row(r: dict) -> dict:
         return {k: round(float(r[k]), 4) for k in ("rmse_cm", "mask_f1", "clean_changed")}
 
+    held_out = {
+        "detector": {"shipped": before, "adapted": after, "target_false_alarms": false_alarm},
+        "recovery": {
+            "shipped": mask_row(mask_before) | {"mask_logit": shipped_logit},
+            "adapted": mask_row(mask_after) | {"mask_logit": logit, "rule": rule},
+        },
+    }
     card = {
         "data": {
             "clean_frames": len(data.train) + len(data.held),
@@ -356,18 +363,25 @@ def adapt(
         "command": command,
         "started_from": str(weights),
         "training": fits,
-        "held_out": {
-            "detector": {"shipped": before, "adapted": after, "target_false_alarms": false_alarm},
-            "recovery": {
-                "shipped": mask_row(mask_before) | {"mask_logit": shipped_logit},
-                "adapted": mask_row(mask_after) | {"mask_logit": logit, "rule": rule},
-            },
-        },
+        "held_out": held_out,
         "minutes": round((time.perf_counter() - t_start) / 60, 2),
         "date": dt.date.today().isoformat(),
     }
-    for name in (DETECTOR, DEFAULT_RECOVERY):
-        write_card(out / f"{name}.safetensors", model=name, summary="adapted by d2sr adapt", adapt=card)
+    summary = {
+        DETECTOR: f"{MASK_DETECTOR}, made by d2sr adapt: the share of a frame's returns that "
+        f"{DEFAULT_RECOVERY} in this folder would repair (mask logit > {logit:g}); flags at threshold "
+        f"{threshold:.3f} (false-alarm target {false_alarm:.0%} on held-out clean frames, never below 0.5)",
+        DEFAULT_RECOVERY: f"{DEFAULT_RECOVERY} fine-tuned by d2sr adapt from {weights} on this sensor's "
+        f"clean frames and generated interference; mask logit {logit:g} ({rule})",
+    }
+    limits = (
+        f"held-out figures: the generator's interference on the last {HOLDOUT:.0%} of each clean recording; "
+        "real interference, and the room's later views, can differ"
+    )
+    for name, kind in ((DETECTOR, "detector"), (DEFAULT_RECOVERY, "recovery")):
+        write_card(out / f"{name}.safetensors", model=name, summary=summary[name], data=card["data"],
+                   command=command, training=fits, metrics=held_out[kind], date=card["date"],
+                   limits=limits, adapt=card)  # fmt: skip
     atomic_write(out / "adapt.json", json.dumps(card, indent=1) + "\n")
     ext = (".safetensors", ".onnx", ".card.json", ".md")
     files = [f"{n}{e}" for n in (DETECTOR, DEFAULT_RECOVERY) for e in ext]
