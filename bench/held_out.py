@@ -143,9 +143,12 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
+    ap.add_argument("--keep", type=Path, default=None, help="write the adapted folder here (new) to study it")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
+    if args.keep is not None and args.keep.exists():
+        ap.error(f"--keep {args.keep} exists: give a new folder")
     models = ["--models", str(args.models)] if args.models else []
     result: dict = {"models": str(args.models or "shipped")}
     with tempfile.TemporaryDirectory() as t:
@@ -166,11 +169,12 @@ def main() -> None:
                 (first / f.name).symlink_to(f.resolve())
             t0 = time.perf_counter()
             minutes = ["--minutes", f"{args.minutes:g}"] if args.minutes else []
-            _d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(tmp / "m"), *minutes)
+            adapted = args.keep or tmp / "m"
+            _d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(adapted), *minutes)
             took = (time.perf_counter() - t0) / 60
             rest = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files[100:]]
             result["adapt"] = {"minutes": round(took, 2)} | _scored(
-                tmp, "d435-rest", rest, 1000.0, ["--models", str(tmp / "m")]
+                tmp, "d435-rest", rest, 1000.0, ["--models", str(adapted)]
             )
             result["adapt_shipped"] = _scored(tmp, "d435-rest-shipped", rest, 1000.0, models)
             print("adapt", result["adapt"], "shipped", result["adapt_shipped"], flush=True)
