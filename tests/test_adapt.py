@@ -69,6 +69,12 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
     det, rec = load_file(models / "detector.safetensors"), load_file(models / "unet8.safetensors")
     assert all(np.array_equal(det[f"net.{k}"], v) for k, v in rec.items())
     assert float(det["cut"]) == pytest.approx(mask_logit(models / "unet8.safetensors"))
+    # its mask threshold keeps the 1% rule for the repair recover writes (two passes), or is the highest
+    from d2sr.train.loop import MASK_LOGITS
+
+    held = json.loads((models / "adapt.json").read_text())["held_out"]["recovery"]["adapted"]
+    assert held["clean_changed"] <= 0.01 or held["mask_logit"] == MASK_LOGITS[0]
+    assert "passes" in held["rule"]
     assert "false alarms" in out and "--models" in out
     card = (models / "detector.md").read_text()  # a model card: what it is, data, command, metrics, date
     assert "mask-detector" in card and all(f"## {t}" in card for t in ("Data", "Command", "Metrics", "Date"))

@@ -25,17 +25,24 @@ class TorchBackend:
     def __init__(
         self,
         detector: Path | None,
-        recovery: Path | None,
+        recovery: Path | torch.nn.Module | None,
         mask_logit: float | None = None,
         passes: int = REPAIR_PASSES,
     ) -> None:
+        """``recovery`` may be a model in memory (``d2sr adapt`` checks its repair as ``recover`` runs it);
+        then ``mask_logit`` is needed."""
         self.passes = check_passes(passes)
         self.device = torch_device()
         self.det = load_model(detector)[0].to(self.device) if detector is not None else None
-        self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
+        if isinstance(recovery, torch.nn.Module):
+            if mask_logit is None:
+                raise ValueError("a recovery model in memory needs its mask_logit")
+            self.rec: torch.nn.Module | None = recovery.to(self.device)
+        else:
+            self.rec = load_model(recovery)[0].to(self.device) if recovery is not None else None
         self.frames = int(getattr(self.rec, "frames", 1))
         if mask_logit is None:  # the model's own, chosen on validation frames
-            mask_logit = read_mask_logit(recovery) if recovery is not None else 0.0
+            mask_logit = read_mask_logit(recovery) if isinstance(recovery, (str, Path)) else 0.0
         self.mask_logit = mask_logit
         self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
