@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from torch import nn
 
-from d2sr.contract import DEFAULT_RECOVERY, check_size
+from d2sr.contract import DEFAULT_RECOVERY, MASK_DETECTOR, check_size
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector, MaskDetector, PaperDetector
 from d2sr.models.unet import UNet
@@ -29,7 +29,7 @@ MODELS: dict[str, Callable[[], nn.Module]] = {
     "paper-unet16": lambda: UNet(16, s2d=1),
     "paper-unet32": lambda: UNet(32, s2d=1),
     # d2sr adapt's detector: its fine-tuned unet8's mask, thresholded (the cut is in the weights).
-    "mask-detector": lambda: MaskDetector(build(DEFAULT_RECOVERY)),
+    MASK_DETECTOR: lambda: MaskDetector(build(DEFAULT_RECOVERY)),
 }
 
 

@@ -46,6 +46,7 @@ from d2sr.contract import (
 from d2sr.errors import InputError
 from d2sr.metrics import RepairSums
 from d2sr.models.detector import MaskDetector
+from d2sr.models.inference import TorchBackend
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
@@ -236,8 +237,6 @@ def _mask_sums(model: torch.nn.Module, data: AdaptData) -> list[RepairSums]:
 def _as_recover_runs(model: torch.nn.Module, data: AdaptData, logit: float) -> dict:
     """``RepairSums`` figures on the held-out corrupted frames of the repair ``d2sr recover`` writes (its
     passes, its guard) at mask threshold ``logit``."""
-    from d2sr.models.inference import TorchBackend
-
     was = model.training
     model.eval()
     net, sums, s = TorchBackend(None, model, mask_logit=logit), RepairSums(), np.float32(data.scale)
@@ -333,6 +332,7 @@ def adapt(
     t_start = time.perf_counter()
     device = torch_device()
     out.mkdir(parents=True, exist_ok=True)
+    # detector-*: what 0.7.0 left in a folder (it fine-tuned the frame CNN), still a file d2sr made
     record_manifest(out, [f"detector-{CHECKPOINT}", f"recovery-{CHECKPOINT}"])
     shipped_det, _ = load_model(weights / f"{DETECTOR}.safetensors")
     rec, _ = load_model(weights / f"{DEFAULT_RECOVERY}.safetensors")
