@@ -83,6 +83,18 @@ def test_guard_leaves_noise_alone_and_clamps_to_the_neighbours():
     assert m[20:24, 20:24].all() and np.allclose(p[20:24, 20:24], 2.0)
 
 
+def test_guard_leaves_a_return_within_the_models_own_error():
+    x = np.full((64, 64), 2.0, np.float32)
+    mask = np.zeros(x.shape, bool)
+    mask[20:24, 20:24] = True
+    x[20:22, 20:24] = 1.4  # 30% short: repaired
+    x[22:24, 20:24] = 1.85  # 7.5% short: as likely the model's error as the pixel's, left alone
+    _, m = guard(x, np.full_like(x, 2.0), mask)
+    assert m[20:22, 20:24].all() and not m[22:24].any()
+    out, kept = repair_frame(np.rint(x * 1000).astype(np.uint16), np.full_like(x, 2.0), mask, 1000.0)
+    assert (kept == m).all() and (out[22:24, 20:24] == 1850).all() and (out[20:22, 20:24] == 2000).all()
+
+
 def test_guard_keeps_predictions_where_no_trusted_pixel_is_near():
     x = np.full((64, 64), 2.0, np.float32)
     mask = np.ones(x.shape, bool)
