@@ -41,17 +41,15 @@ from d2sr.contract import (
     THRESHOLD,
     WEIGHTS,
     detector_input,
-    repair_frame,
 )
 from d2sr.errors import InputError
 from d2sr.metrics import RepairSums
 from d2sr.models.detector import MaskDetector
-from d2sr.models.inference import TorchBackend
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
-from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, loss_fn, mask_sums, pick_mask_logit
+from d2sr.train.loop import keep_rule_as_recovered, loss_fn, mask_sums, pick_mask_logit, recovered_sums
 from d2sr.train.synth import Synth, synth_sequence_frame
 
 __all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
@@ -230,23 +228,11 @@ def _detector_figures(clean: np.ndarray, bad: np.ndarray, threshold: float) -> d
 
 
 def _mask_sums(model: torch.nn.Module, data: AdaptData) -> list[RepairSums]:
-    pairs = zip(data.held_bad, data.held_bad_clean, strict=True)
-    return mask_sums(model, (([f], c, data.scale) for f, c in pairs))
+    return mask_sums(model, _held_items(data))
 
 
-def _as_recover_runs(model: torch.nn.Module, data: AdaptData, logit: float) -> dict:
-    """``RepairSums`` figures on the held-out corrupted frames of the repair ``d2sr recover`` writes (its
-    passes, its guard) at mask threshold ``logit``."""
-    was = model.training
-    model.eval()
-    net, sums, s = TorchBackend(None, model, mask_logit=logit), RepairSums(), np.float32(data.scale)
-    for bad, clean in zip(data.held_bad, data.held_bad_clean, strict=True):
-        x = bad.astype(np.float32) / s
-        pred, mask = net.recover(x[None])
-        out, kept = repair_frame(bad, pred[0], mask[0], data.scale)
-        sums.add(out.astype(np.float32) / s, kept, x, clean.astype(np.float32) / s, bad != clean)
-    model.train(was)
-    return sums.result()
+def _held_items(data: AdaptData) -> list[tuple[list[np.ndarray], np.ndarray, float]]:
+    return [([f], c, data.scale) for f, c in zip(data.held_bad, data.held_bad_clean, strict=True)]
 
 
 @dataclass
@@ -346,7 +332,7 @@ def adapt(
 
     before = _detector_figures(*scored(shipped_det), read_threshold(weights / f"{DETECTOR}.safetensors"))
     rec = rec.to(device)
-    mask_before = _as_recover_runs(rec, data, shipped_logit)
+    mask_before = recovered_sums(rec, _held_items(data), shipped_logit).result()
     seconds = SHARE * minutes * 60
     steps = max(1, round(STEPS_PER_SECOND * seconds))
     crop = _crop(data.train[0].shape, CROP)
@@ -354,13 +340,7 @@ def adapt(
     fits = {phase.name: _fit(phase, data.pool(int(getattr(rec, "frames", 1))), out, device, tick)}
     sums = _mask_sums(rec, data)
     logit, rule = pick_mask_logit(sums)
-    # The curve is of one pass; recover runs REPAIR_PASSES, which changes more (1.2-1.3% at the logit picked
-    # for 1% on a D435): step the threshold up until the repair users get keeps the rule.
-    k = MASK_LOGITS.index(logit)
-    mask_after = _as_recover_runs(rec, data, logit)
-    while mask_after["clean_changed"] > MAX_CLEAN_CHANGED and k > 0:
-        k -= 1
-        logit, mask_after = MASK_LOGITS[k], _as_recover_runs(rec, data, MASK_LOGITS[k])
+    logit, mask_after = keep_rule_as_recovered(rec, _held_items(data), logit)
     rule += f", as recover repairs ({REPAIR_PASSES} passes)"
     det = MaskDetector(rec, logit)  # the detector: this model's mask, at the repair threshold just chosen
     clean_s, bad_s = scored(det)
