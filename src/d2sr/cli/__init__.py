@@ -32,6 +32,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "calibrate": data.calibrate,
     "gallery": data.gallery,
     "train": train.train,
+    "threshold": train.threshold,
     "export": train.export,
     "adapt": train.adapt,
     "bench": bench.bench,

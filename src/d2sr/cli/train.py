@@ -1,4 +1,4 @@
-"""``d2sr train`` and ``d2sr export``."""
+"""``d2sr train``, ``d2sr threshold``, ``d2sr export`` and ``d2sr adapt``."""
 
 from __future__ import annotations
 
@@ -13,12 +13,12 @@ import typer
 from rich.progress import TaskID
 
 from d2sr.atomic import check_out
-from d2sr.cli.common import Overwrite, Scale, Topic, split_list
-from d2sr.contract import WEIGHTS, check_probability
+from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
+from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.ui import console, warn
 
-__all__ = ["adapt", "export", "train"]
+__all__ = ["adapt", "export", "threshold", "train"]
 
 
 def train(
@@ -68,6 +68,47 @@ def train(
     console.print(
         f"{cfg.model}: {summary['steps']} steps in {summary['minutes']} min, loss {summary['final_loss']}"
     )
+
+
+def threshold(
+    weights: Annotated[Path, typer.Argument(help="A recovery model's .safetensors (card beside it).")],
+    out: Annotated[Path, typer.Option(help="New folder: the weights with the new threshold, card, ONNX.")],
+    cache: Cache = Path("out/data"),
+    overwrite: Overwrite = False,
+) -> None:
+    """Choose a recovery model's mask threshold again, by the rule training uses now (lowest RMSE on
+    generated validation frames with at most 1% of clean pixels changed by the repair recover writes), and
+    write the same weights with it (the input is never written; copy the folder's files where you want them).
+
+    Example: d2sr threshold src/d2sr/models/weights/unet8.safetensors --out runs/unet8-threshold
+    """
+    import datetime as dt
+
+    from d2sr.export import export as to_onnx
+    from d2sr.models.store import load_model, mask_logit, read_card, save_model, write_card
+    from d2sr.train.loop import choose_mask_logit
+
+    if not weights.is_file():
+        raise InputError(f"{weights}: no such weights file")
+    model, name = load_model(weights)
+    if name not in RECOVERY_NAMES:
+        raise InputError(f"{weights} is a {name}, not a recovery model")
+    model.eval()
+    chosen = choose_mask_logit(model, cache)
+    was = mask_logit(weights)
+    command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    card = read_card(weights)
+    training = dict(card.get("training", {})) | {"mask_threshold": chosen}
+    with out_dir(out, overwrite, [weights.parent]) as tmp:
+        target = tmp / weights.name
+        save_model(model, name, target, mask_logit=chosen["mask_logit"])
+        # The card's metrics were measured at the old threshold: dropped until `d2sr eval ... --card`.
+        stale = ("metrics", "evaluation", "training", "rethreshold")
+        kept = {k: v for k, v in card.items() if k not in stale}
+        again = {"from": str(weights), "was": was, "command": command, "date": dt.date.today().isoformat()}
+        write_card(target, **kept, training=training, rethreshold=again)
+        to_onnx(target, target.with_suffix(".onnx"))
+    console.print(f"{name}: mask logit {was:g} -> {chosen['mask_logit']:g} ({chosen['rule']}) -> {out}")
 
 
 def export(

@@ -144,6 +144,7 @@ def write_card(path: Path, **update: object) -> dict:
         ("data", "Data"),
         ("command", "Command"),
         ("training", "Training"),
+        ("rethreshold", "Mask threshold chosen again (d2sr threshold)"),
         ("metrics", "Metrics (held-out data, never trained on)"),
         ("evaluation", "Evaluation command"),
         ("limits", "Limits"),

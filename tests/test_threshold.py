@@ -1,0 +1,61 @@
+"""`d2sr threshold`: a recovery model's mask threshold chosen again, written beside new, never in place."""
+
+import hashlib
+import shutil
+
+import onnx
+import pytest
+from safetensors.torch import load_file
+
+from d2sr.contract import WEIGHTS
+from d2sr.models.store import mask_logit, read_card
+from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED
+from helpers import d2sr
+
+
+def _digest(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_threshold_writes_the_same_weights_with_the_rule_kept(tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    for ext in (".safetensors", ".card.json"):
+        shutil.copy(WEIGHTS / f"unet8{ext}", src / f"unet8{ext}")
+    before = _digest(src / "unet8.safetensors")
+    out = tmp_path / "out"
+    res = d2sr("threshold", str(src / "unet8.safetensors"), "--out", str(out), "--cache", str(tmp_path / "c"))
+    assert res.returncode == 0, res.stderr
+    assert _digest(src / "unet8.safetensors") == before  # the input is never written
+    new = out / "unet8.safetensors"
+    a, b = load_file(src / "unet8.safetensors"), load_file(new)
+    assert a.keys() == b.keys() and all((a[k] == b[k]).all() for k in a)
+    card = read_card(new)
+    chosen = card["training"]["mask_threshold"]
+    assert mask_logit(new) == chosen["mask_logit"] in MASK_LOGITS
+    assert chosen["as_recovered"]["clean_changed"] <= MAX_CLEAN_CHANGED
+    assert card["rethreshold"]["was"] == mask_logit(src / "unet8.safetensors") and "metrics" not in card
+    meta = {p.key: p.value for p in onnx.load(str(out / "unet8.onnx")).metadata_props}
+    assert float(meta["mask_logit"]) == chosen["mask_logit"]
+    # an existing output is refused; the weights' own folder is never the output
+    again = d2sr("threshold", str(new), "--out", str(out), "--cache", str(tmp_path / "c"))
+    inside = d2sr("threshold", str(new), "--out", str(out / "x"), "--cache", str(tmp_path / "c"))
+    assert again.returncode == 2 and inside.returncode == 2
+    assert "Traceback" not in again.stderr + inside.stderr
+
+
+def test_threshold_refuses_what_is_not_a_recovery_model(tmp_path):
+    res = d2sr("threshold", str(WEIGHTS / "detector.safetensors"), "--out", str(tmp_path / "o"))
+    assert (
+        res.returncode == 2
+        and "not a recovery model" in res.stderr
+        and len(res.stderr.strip().splitlines()) == 1
+    )
+    res = d2sr("threshold", str(tmp_path / "none.safetensors"), "--out", str(tmp_path / "o"))
+    assert res.returncode == 2 and "no such weights file" in res.stderr
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not a model")
+    res = d2sr("threshold", str(bad), "--out", str(tmp_path / "o"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert not (tmp_path / "o").exists()
