@@ -93,12 +93,11 @@ def threshold(
     model, name = load_model(weights)
     if name not in RECOVERY_NAMES:
         raise InputError(f"{weights} is a {name}, not a recovery model")
-    model.eval()
     chosen = choose_mask_logit(model, cache)
     was = mask_logit(weights)
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     card = read_card(weights)
-    training = dict(card.get("training", {})) | {"mask_threshold": chosen}
+    training = card.get("training", {}) | {"mask_threshold": chosen}
     with out_dir(out, overwrite, [weights.parent]) as tmp:
         target = tmp / weights.name
         save_model(model, name, target, mask_logit=chosen["mask_logit"])

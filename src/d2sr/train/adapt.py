@@ -37,19 +37,17 @@ from d2sr.contract import (
     DETECTOR,
     MASK_DETECTOR,
     PAD,
-    REPAIR_PASSES,
     THRESHOLD,
     WEIGHTS,
     detector_input,
 )
 from d2sr.errors import InputError
-from d2sr.metrics import RepairSums
 from d2sr.models.detector import MaskDetector
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
-from d2sr.train.loop import keep_rule_as_recovered, loss_fn, mask_sums, pick_mask_logit, recovered_sums
+from d2sr.train.loop import loss_fn, pick_as_recovered, recovered_sums
 from d2sr.train.synth import Synth, synth_sequence_frame
 
 __all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
@@ -227,10 +225,6 @@ def _detector_figures(clean: np.ndarray, bad: np.ndarray, threshold: float) -> d
     }
 
 
-def _mask_sums(model: torch.nn.Module, data: AdaptData) -> list[RepairSums]:
-    return mask_sums(model, _held_items(data))
-
-
 def _held_items(data: AdaptData) -> list[tuple[list[np.ndarray], np.ndarray, float]]:
     return [([f], c, data.scale) for f, c in zip(data.held_bad, data.held_bad_clean, strict=True)]
 
@@ -338,10 +332,7 @@ def adapt(
     crop = _crop(data.train[0].shape, CROP)
     phase = _Phase("recovery", rec, "recovery", steps, TIME_CAP * seconds, 8, crop, 0.3)
     fits = {phase.name: _fit(phase, data.pool(int(getattr(rec, "frames", 1))), out, device, tick)}
-    sums = _mask_sums(rec, data)
-    logit, rule = pick_mask_logit(sums)
-    logit, mask_after = keep_rule_as_recovered(rec, _held_items(data), logit)
-    rule += f", as recover repairs ({REPAIR_PASSES} passes)"
+    logit, rule, _, mask_after = pick_as_recovered(rec, _held_items(data))
     det = MaskDetector(rec, logit)  # the detector: this model's mask, at the repair threshold just chosen
     clean_s, bad_s = scored(det)
     # Not below 0.5 (the model would repair REF_SHARE of the returns): 20-odd held-out clean frames do not

@@ -31,9 +31,9 @@ __all__ = [
     "MASK_LOGITS",
     "MAX_CLEAN_CHANGED",
     "choose_mask_logit",
-    "keep_rule_as_recovered",
     "loss_fn",
     "mask_sums",
+    "pick_as_recovered",
     "pick_mask_logit",
     "recovered_sums",
     "train",
@@ -284,17 +284,19 @@ def recovered_sums(model: nn.Module, items: Items, logit: float) -> RepairSums:
     return sums
 
 
-def keep_rule_as_recovered(model: nn.Module, items: Items, logit: float) -> tuple[float, dict]:
-    """(mask threshold, its ``recovered_sums`` figures): ``logit`` (picked on one pass) stepped up
-    ``MASK_LOGITS`` until the repair ``recover`` writes changes at most ``MAX_CLEAN_CHANGED`` of the clean
-    pixels. Its second pass repairs more than the one-pass curve counts (1.2-1.3% at the logit picked for
-    1% on a D435)."""
+def pick_as_recovered(model: nn.Module, items: Items) -> tuple[float, str, list[RepairSums], dict]:
+    """(mask threshold, the rule in words, the one-pass curve's sums, the threshold's ``recovered_sums``
+    figures): ``pick_mask_logit`` on the one-pass curve, stepped up ``MASK_LOGITS`` until the repair
+    ``recover`` writes changes at most ``MAX_CLEAN_CHANGED`` of the clean pixels. Its second pass repairs
+    more than the one-pass curve counts (1.2-1.3% at the logit picked for 1% on a D435)."""
+    sums = mask_sums(model, items)
+    logit, rule = pick_mask_logit(sums)
     k = MASK_LOGITS.index(logit)
     figures = recovered_sums(model, items, logit).result()
     while figures["clean_changed"] > MAX_CLEAN_CHANGED and k > 0:
         k -= 1
         figures = recovered_sums(model, items, MASK_LOGITS[k]).result()
-    return MASK_LOGITS[k], figures
+    return MASK_LOGITS[k], f"{rule}, as recover repairs ({REPAIR_PASSES} passes)", sums, figures
 
 
 def choose_mask_logit(
@@ -303,7 +305,7 @@ def choose_mask_logit(
     """The recovery model's mask threshold: of the candidate logits, the one with the lowest RMSE on
     generated validation frames (seeds VALIDATION_SEED+, never trained or tested on) among those that change
     at most MAX_CLEAN_CHANGED of the clean pixels by more than 1 cm (``pick_mask_logit``), raised until the
-    repair ``recover`` writes keeps that (``keep_rule_as_recovered``). The mask head errs towards missing
+    repair ``recover`` writes keeps that (``pick_as_recovered``). The mask head errs towards missing
     dropouts (a dropout and a natural no-return look alike), and each missed one costs metres. The
     ``rmse_cm`` and ``clean_changed`` curves are of one pass."""
     from d2sr.train.data import synth_set
@@ -316,15 +318,12 @@ def choose_mask_logit(
         ([ss.frames[i]] + ([prev[i]] if prev is not None else []), ss.clean[i], float(ss.scales[i]))
         for i in map(int, np.flatnonzero(ss.labels))
     ]
-    sums = mask_sums(model, items)
-    logit, rule = pick_mask_logit(sums)
-    logit, figures = keep_rule_as_recovered(model, items, logit)
+    logit, rule, sums, figures = pick_as_recovered(model, items)
     rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
     changed = np.array([r.result()["clean_changed"] for r in sums])
     return {
         "mask_logit": logit,
-        "rule": f"{rule}, as recover repairs ({REPAIR_PASSES} passes), {count} generated validation frames "
-        f"(seeds {VALIDATION_SEED}+)",
+        "rule": f"{rule}, {count} generated validation frames (seeds {VALIDATION_SEED}+)",
         "as_recovered": {k: round(float(figures[k]), 5) for k in ("rmse_cm", "mask_f1", "clean_changed")},
         "rmse_cm": {f"{t:g}": round(100 * float(r), 2) for t, r in zip(MASK_LOGITS, rmse, strict=True)},
         "clean_changed": {f"{t:g}": round(float(c), 5) for t, c in zip(MASK_LOGITS, changed, strict=True)},
