@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import cv2
@@ -77,6 +78,17 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         raw, fixed, mask = _png(f), _png(out / f.name), _png(out / "masks" / f.name)
         assert fixed.dtype == np.uint16 and mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 255}
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
+    # --all asks no detector: a folder holding only the recovery model repairs the same
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for f in weights.glob("unet8.*"):
+        shutil.copy(f, alone / f.name)
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o2"), "--all", "--weights", str(alone))
+    assert res.returncode == 0, res.stderr
+    for f in sorted(src.glob("*.png")):
+        assert np.array_equal(_png(tmp_path / "o2" / f.name), _png(out / f.name))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o3"), "--weights", str(alone))
+    assert res.returncode == 2 and "detector" in res.stderr and not (tmp_path / "o3").exists()
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from d2sr.contract import guard, recover_passes, repair_frame
+from d2sr.contract import GUARD_PX, KEEP_M, KEEP_REL, LEAVE_REL, guard, recover_passes, repair_frame
 from d2sr.errors import InputError
 from d2sr.frames import Intrinsics
 from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
@@ -101,6 +102,34 @@ def test_guard_keeps_predictions_where_no_trusted_pixel_is_near():
     x[:, :32] = 0.5
     p, m = guard(x, np.full_like(x, 2.0), mask)
     assert m[:, :32].all() and np.allclose(p[:, :32], 2.0)
+
+
+def _guard_rule(x: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """guard's rule written out over the whole frame: no crop to the mask, no gathers."""
+    trusted = (x > 0) & ~mask
+    k = np.ones((2 * GUARD_PX + 1, 2 * GUARD_PX + 1), np.uint8)
+    lo = cv2.erode(np.where(trusted, x, np.float32(np.inf)), k)
+    hi = cv2.dilate(np.where(trusted, x, np.float32(0)), k)
+    tol = np.float32(KEEP_M) + np.float32(KEEP_REL) * x
+    p = np.where(hi > 0, np.clip(pred, lo - tol, hi + tol), pred)
+    keep = mask & ~((x > 0) & (np.abs(p - x) <= np.float32(KEEP_M) + np.float32(LEAVE_REL) * x))
+    return p, keep
+
+
+def test_guard_is_its_rule_over_the_whole_frame():
+    # guard only works near the mask (a crop, then the masked pixels): that must change nothing.
+    rng = np.random.default_rng(4)
+    for share in (0.0, 0.001, 0.02, 0.3, 1.0):
+        for _ in range(4):
+            h, w = (int(v) for v in rng.integers(3, 80, 2))
+            x = (rng.uniform(0.3, 5, (h, w)) * (rng.random((h, w)) > 0.2)).astype(np.float32)
+            pred = rng.uniform(0, 6, (h, w)).astype(np.float32)
+            mask = rng.random((h, w)) < share
+            mask[: int(rng.integers(0, 3)), :] |= share > 0  # masked rows along an edge
+            p, keep = guard(x, pred, mask)
+            rp, rk = _guard_rule(x, pred, mask)
+            assert np.array_equal(keep, rk) and np.array_equal(p[mask], rp[mask])
+            assert np.array_equal(p[~mask], pred[~mask])  # nothing outside the mask is repaired
 
 
 def _wide_wrong_surface() -> tuple[np.ndarray, list[np.ndarray], Callable]:

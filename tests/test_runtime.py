@@ -77,6 +77,23 @@ def test_open_loop_makes_a_period_of_every_n_frames_and_repairs_only_flagged():
     assert not results[0].mask.any() and results[0].depth is results[0].capture.frame.depth
 
 
+def test_repairing_every_frame_needs_no_detector():
+    class NoDetector(FakeNet):
+        def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+            raise AssertionError("the detector ran")
+
+    ctrl = make_controller("static", 30, 3)
+    got = SensorLoop(NoDetector(), ctrl, repair="all", detect=False).process(_cap("0", bad=True))
+    ref = SensorLoop(FakeNet(), ctrl, repair="all").process(_cap("0", bad=True))
+    assert np.array_equal(got.depth, ref.depth) and np.array_equal(got.mask, ref.mask) and got.mask.any()
+    assert np.isnan(got.score) and not got.flagged
+    # Only where no verdict is used: repairing flagged frames, or a temporal model's last clean frame.
+    with pytest.raises(ConfigError, match="detect=False"):
+        SensorLoop(FakeNet(), ctrl, repair="flagged", detect=False)
+    with pytest.raises(ConfigError, match="detect=False"):
+        SensorLoop(FakeNet(frames=2), ctrl, repair="all", detect=False)
+
+
 def test_temporal_backend_gets_the_last_frame_the_detector_passed():
     net = FakeNet(frames=2)
     loop = SensorLoop(net, make_controller("static", 30, 3), repair="all")

@@ -1,5 +1,5 @@
 """d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
 
-__version__ = "0.9.0"
+__version__ = "0.10.0"
 
 __all__ = ["__version__"]

@@ -139,20 +139,36 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
     - A returning pixel whose (clamped) prediction is within ``KEEP_M`` + ``LEAVE_REL`` x depth of its own
       value is left alone: the repair would move it by no more than the model's own error.
 
+    Only masked pixels can be repaired, so only they are clamped (``pred`` is returned as is elsewhere).
     Works on one frame (H, W) or a batch (N, H, W), in metres."""
     if metres.ndim == 3:
         pairs = [guard(x, p, m) for x, p, m in zip(metres, pred, mask, strict=True)]
         return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs])
-    x = metres.astype(np.float32, copy=False)
-    tol = np.float32(KEEP_M) + np.float32(KEEP_REL) * x
-    trusted = (x > 0) & ~mask
+    p = np.array(pred, np.float32)  # a contiguous copy, written below
+    keep = np.zeros(mask.shape, bool)
+    rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
+    if rows.size == 0:
+        return p, keep
+    # The neighbours' range is needed only within GUARD_PX of a masked pixel (erode and dilate ignore
+    # what lies beyond a crop's edge), and the rest only at the masked pixels: the cost follows the mask.
+    rs = slice(max(rows[0] - GUARD_PX, 0), rows[-1] + GUARD_PX + 1)
+    cs = slice(max(cols[0] - GUARD_PX, 0), cols[-1] + GUARD_PX + 1)
+    x = np.ascontiguousarray(metres[rs, cs], np.float32)
+    m = mask[rs, cs]
+    trusted = ((x > 0) & ~m).view(np.uint8)
     k = np.ones((2 * GUARD_PX + 1, 2 * GUARD_PX + 1), np.uint8)
-    lo = cv2.erode(np.where(trusted, x, np.float32(np.inf)), k)
-    hi = cv2.dilate(np.where(trusted, x, np.float32(0)), k)
-    near = hi > 0
-    p = np.where(near, np.clip(pred, lo - tol, hi + tol), pred).astype(np.float32)
-    leave = np.float32(KEEP_M) + np.float32(LEAVE_REL) * x
-    keep = mask & ~((x > 0) & (np.abs(p - x) <= leave))
+    at = np.flatnonzero(m)
+    # The trusted returns, inf (for the minimum) or 0 (for the maximum) elsewhere; cv2.copyTo: 6x np.where.
+    lo = cv2.erode(cv2.copyTo(x, trusted, np.full_like(x, np.inf)), k).ravel()[at]
+    hi = cv2.dilate(cv2.copyTo(x, trusted, np.zeros_like(x)), k).ravel()[at]
+    xi = x.ravel()[at]
+    pc = p[rs, cs]  # a view into p
+    pi = pc[m]
+    tol = np.float32(KEEP_M) + np.float32(KEEP_REL) * xi
+    pi = np.where(hi > 0, np.minimum(np.maximum(pi, lo - tol), hi + tol), pi)
+    pc[m] = pi
+    leave = np.float32(KEEP_M) + np.float32(LEAVE_REL) * xi
+    keep[rs, cs][m] = ~((xi > 0) & (np.abs(pi - xi) <= leave))
     return p, keep
 
 
@@ -193,5 +209,7 @@ def repair_frame(
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units; the input itself everywhere else, bit for bit."""
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
-    units = np.clip(np.rint(np.maximum(p, 0) * np.float32(scale)), 0, 65535).astype(np.uint16)
-    return np.where(m, units, frames), m
+    out = frames.copy()
+    units = np.rint(np.maximum(p[m], 0) * np.float32(scale))
+    out[m] = np.clip(units, 0, 65535).astype(np.uint16)
+    return out, m

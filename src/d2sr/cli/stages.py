@@ -33,6 +33,7 @@ from d2sr.cli.common import (
 )
 from d2sr.contract import (
     DEFAULT_RECOVERY,
+    DETECTOR,
     MODEL_HELP,
     RECOVERY_NAMES,
     REPAIR_PASSES,
@@ -125,7 +126,13 @@ def recover(
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
     if rerun is not None and rerun != LIVE:
         check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
-    net = open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
+    # --all asks no detector (its verdict would go unused) unless a view shows it or a temporal model
+    # needs to know which frames were clean.
+    detect = not every or rerun is not None
+    det = DETECTOR if detect else None
+    net = open_backend(model, backend, weights, det, mask_logit=mask_logit, passes=passes)
+    if not detect and net.frames > 1:
+        detect, net = True, open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
     loop = SensorLoop(
@@ -133,6 +140,7 @@ def recover(
         make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
         threshold=threshold,
         repair="all" if every else "flagged",
+        detect=detect,
     )
     rows, repaired = [], 0
     log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()

@@ -83,6 +83,9 @@ class SensorLoop:
     sink: Sink | None = None
     threshold: float | None = None  # None: the detector's own (backend.threshold)
     repair: str = "flagged"
+    # False: no detector runs (score NaN, never flagged). Only with repair="all" and a single-frame
+    # recovery model, where no verdict is used: a temporal one needs to know which frames were clean.
+    detect: bool = True
     period: int = 0
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
@@ -98,6 +101,8 @@ class SensorLoop:
     def __post_init__(self) -> None:
         if self.repair not in REPAIR:
             raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {self.repair!r}")
+        if not self.detect and (self.repair != "all" or getattr(self.backend, "frames", 1) > 1):
+            raise ConfigError("detect=False needs repair='all' and a single-frame recovery model")
         if self.trigger is not None:
             self.trigger.set_offset(0, self.controller.offset)
         own = float(getattr(self.backend, "threshold", THRESHOLD))
@@ -119,8 +124,8 @@ class SensorLoop:
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
-        score = float(self.backend.scores(metres, before)[0])
-        flagged = score >= self._cut
+        score = float(self.backend.scores(metres, before)[0]) if self.detect else float("nan")
+        flagged = score >= self._cut  # False for NaN
         depth, mask = raw, np.zeros(raw.shape, bool)
         if self.repair == "all" or (flagged and self.repair == "flagged"):
             last = self._last_clean

@@ -1,0 +1,104 @@
+"""Benchmark: ``d2sr recover --all`` from outside the process, this checkout against another commit, in one
+run: the worst case for speed (real 640x480 L515 frames, every one corrupted by the outside interference
+of ``held_out.py``, so both passes run on every frame). Runs alternate between the two trees so that a
+shared, noisy machine slows both alike; per tree, the median over ``--runs`` of (60 frames - 10 frames) / 50
+is the time a frame takes without start-up. Also checks that both write the same repaired frames and masks.
+
+Run:  .venv/bin/python bench/against.py --ref b1062a7 --data ../shared/data \
+          --json docs/results/bench_against.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.bench import check_output, output_args, write_result
+from held_out import outside_interference
+
+HERE = Path(__file__).resolve().parents[1]
+
+
+def _recover(src: Path, frames: Path, out: Path) -> float:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    cmd = [sys.executable, "-m", "d2sr", "recover", str(frames), "--all", "--depth-scale", "4000"]
+    cmd += ["--out", str(out)]
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    if r.returncode:
+        raise SystemExit(f"{' '.join(cmd)} ({src}) failed: {r.stderr.strip()}")
+    return time.perf_counter() - t
+
+
+def _same(a: Path, b: Path) -> bool:
+    for f in sorted(a.glob("*.png")):
+        for sub in ("", "masks"):
+            x, y = (cv2.imread(str(d / sub / f.name), cv2.IMREAD_UNCHANGED) for d in (a, b))
+            if x is None or y is None or not np.array_equal(x, y):
+                return False
+    return True
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--ref", required=True, help="the commit to compare with (git rev)")
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--runs", type=int, default=5)
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    files = sorted((args.data / "l515" / "dev1").glob("*.png"))[:60]
+    if len(files) < 60:
+        raise SystemExit(f"{args.data}/l515/dev1: needs 60 frames, found {len(files)}")
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        ref = root / "ref"
+        git = ["git", "-C", str(HERE), "worktree"]
+        subprocess.run([*git, "add", "--detach", str(ref), args.ref], check=True)
+        try:
+            for n in (10, 60):
+                (root / f"in{n}").mkdir()
+                for i, f in enumerate(files[:n]):
+                    img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
+                    cv2.imwrite(str(root / f"in{n}" / f.name), outside_interference(img, 4000.0, 7 + i))
+            trees = {"this": HERE / "src", args.ref: ref / "src"}
+            secs: dict[tuple[str, int], list[float]] = {}
+            for k in range(args.runs):
+                for j, (name, src) in enumerate(trees.items()):
+                    for n in (60, 10):
+                        out = root / f"out{j}-{n}-{k}"
+                        secs.setdefault((name, n), []).append(_recover(src, root / f"in{n}", out))
+                        took = secs[(name, n)][-1]
+                        print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
+            same = _same(root / "out0-60-0", root / "out1-60-0")
+        finally:
+            subprocess.run([*git, "remove", "--force", str(ref)], check=False)
+    fps = {}
+    for name in trees:
+        per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
+        fps[name] = round(1 / per, 1)
+    result = {
+        "command": "d2sr recover IN --all --depth-scale 4000 --out OUT",
+        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
+        "ref": args.ref,
+        "runs": args.runs,
+        "cpu": f"{os.cpu_count()} cores",
+        "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
+        "fps": fps,
+        "speedup": round(fps["this"] / fps[args.ref], 3),
+        "identical_output": same,
+    }
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()
