@@ -74,6 +74,9 @@ def threshold(
     weights: Annotated[Path, typer.Argument(help="A recovery model's .safetensors (card beside it).")],
     out: Annotated[Path, typer.Option(help="New folder: the weights with the new threshold, card, ONNX.")],
     cache: Cache = Path("out/data"),
+    validation: Annotated[
+        int, typer.Option(min=2, help="Generated validation frames that choose it (training uses 100).")
+    ] = 100,
     overwrite: Overwrite = False,
 ) -> None:
     """Choose a recovery model's mask threshold again, by the rule training uses now (lowest RMSE on
@@ -93,7 +96,8 @@ def threshold(
     model, name = load_model(weights)
     if name not in RECOVERY_NAMES:
         raise InputError(f"{weights} is a {name}, not a recovery model")
-    chosen = choose_mask_logit(model, cache)
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[weights.parent])  # refused before the work
+    chosen = choose_mask_logit(model, cache, count=validation)
     was = mask_logit(weights)
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     card = read_card(weights)
