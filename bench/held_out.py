@@ -13,6 +13,8 @@ folds at its ambiguity range where another camera's modulated light adds in), an
   corrupted, through ``--models``: precision, recall, recover --all mask F1; and the time adapt took.
 
 Run:  .venv/bin/python bench/held_out.py --data ../shared/data --adapt --json docs/results/held_out.json
+      .venv/bin/python bench/held_out.py --data ../shared/data --model unet8-temporal \
+          --json docs/results/held_out_temporal.json
 """
 
 from __future__ import annotations
@@ -78,15 +80,18 @@ def _flags(csv_path: Path) -> np.ndarray:
         return np.array([row["interfered"] == "1" for row in csv.DictReader(f)])
 
 
-def _scored(tmp: Path, name: str, clean: list[np.ndarray], scale: float, models: list[str]) -> dict:
-    """Every other frame corrupted; detect and recover --all from outside; the figures."""
+def _scored(
+    tmp: Path, name: str, clean: list[np.ndarray], scale: float, models: list[str], recovery: list[str] = ()
+) -> dict:
+    """Every other frame corrupted; detect and recover --all (``recovery``: its model option) from outside;
+    the figures."""
     bad = [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
     _d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
     pred = _flags(tmp / f"{name}.csv")
-    _d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s)
+    _d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
     err_in = err_out = valid = changed = clean_px = 0.0
     for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
@@ -121,11 +126,11 @@ def _scored(tmp: Path, name: str, clean: list[np.ndarray], scale: float, models:
     }
 
 
-def _moved(tmp: Path, folder: Path, scale: float, models: list[str]) -> dict:
+def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: list[str] = ()) -> dict:
     frames = sorted(folder.glob("*.png"))
     s = ["--depth-scale", f"{scale:g}", *models]
     _d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
-    _d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s)
+    _d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery)
     moved = valid = 0.0
     for f in frames:
         a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
@@ -141,6 +146,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
+    ap.add_argument("--model", default=None, help="recover's --model (default: its own, unet8)")
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
     ap.add_argument("--keep", type=Path, default=None, help="write the adapted folder here (new) to study it")
@@ -150,16 +156,17 @@ def main() -> None:
     if args.keep is not None and args.keep.exists():
         ap.error(f"--keep {args.keep} exists: give a new folder")
     models = ["--models", str(args.models)] if args.models else []
-    result: dict = {"models": str(args.models or "shipped")}
+    recovery = ["--model", args.model] if args.model else []
+    result: dict = {"models": str(args.models or "shipped"), "model": args.model or "default"}
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
         l515 = []
         for cap, skip in (("dev0", 60), ("dev1", 0)):
             files = sorted((args.data / "l515" / cap).glob("*.png"))[skip : skip + 60]
             l515 += [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
-        result["l515"] = _scored(tmp, "l515", l515, 4000.0, models)
+        result["l515"] = _scored(tmp, "l515", l515, 4000.0, models, recovery)
         print("l515", result["l515"], flush=True)
-        result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models)
+        result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models, recovery)
         print("d435", result["d435"], flush=True)
         if args.adapt:
             files = sorted((args.data / "d435").glob("*.png"))
