@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -81,7 +82,12 @@ def _flags(csv_path: Path) -> np.ndarray:
 
 
 def _scored(
-    tmp: Path, name: str, clean: list[np.ndarray], scale: float, models: list[str], recovery: list[str] = ()
+    tmp: Path,
+    name: str,
+    clean: list[np.ndarray],
+    scale: float,
+    models: list[str],
+    recovery: Sequence[str] = (),
 ) -> dict:
     """Every other frame corrupted; detect and recover --all (``recovery``: its model option) from outside;
     the figures."""
@@ -126,7 +132,7 @@ def _scored(
     }
 
 
-def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: list[str] = ()) -> dict:
+def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: Sequence[str] = ()) -> dict:
     frames = sorted(folder.glob("*.png"))
     s = ["--depth-scale", f"{scale:g}", *models]
     _d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)

@@ -34,6 +34,12 @@ def agreement(frame: np.ndarray, previous: np.ndarray | None) -> float:
     return float((np.abs(frame - previous)[ok] <= 0.05 + 0.02 * frame[ok]).mean())
 
 
+def squared_error(frame: np.ndarray, clean: np.ndarray, scale: float) -> float:
+    """Sum of squared errors (m^2) of a frame against its clean one, over the clean frame's returns."""
+    ok = clean > 0
+    return float((((frame.astype(np.float64) - clean) / scale)[ok] ** 2).sum())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -51,9 +57,7 @@ def main() -> None:
     def error(name: str, bad: np.ndarray, clean: np.ndarray, prev: np.ndarray | None, scale: float) -> float:
         x = (bad.astype(np.float32) / np.float32(scale))[None]
         pred, mask = nets[name].recover(x, None if prev is None else prev[None])
-        out = repair_frame(bad, pred[0], mask[0], scale)[0]
-        ok = clean > 0
-        return float((((out.astype(np.float64) - clean) / scale)[ok] ** 2).sum())
+        return squared_error(repair_frame(bad, pred[0], mask[0], scale)[0], clean, scale)
 
     frames = []
     for cap, skip in (("dev0", 60), ("dev1", 0)):
@@ -74,12 +78,10 @@ def main() -> None:
         items = [it for it in items if (it[0] != it[1]).any()]
         rows = []
         for bad, clean, prev, scale in items:
-            ok = clean > 0
-            before = float((((bad.astype(np.float64) - clean) / scale)[ok] ** 2).sum())
             rows.append(
                 (
                     agreement(bad.astype(np.float32) / np.float32(scale), prev),
-                    before,
+                    squared_error(bad, clean, scale),
                     error("unet8", bad, clean, None, scale),
                     error("unet8-temporal", bad, clean, prev, scale),
                 )

@@ -16,6 +16,7 @@ from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
 from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
+from d2sr.train.config import VALIDATION_FRAMES
 from d2sr.ui import console, warn
 
 __all__ = ["adapt", "export", "threshold", "train"]
@@ -75,8 +76,8 @@ def threshold(
     out: Annotated[Path, typer.Option(help="New folder: the weights with the new threshold, card, ONNX.")],
     cache: Cache = Path("out/data"),
     validation: Annotated[
-        int, typer.Option(min=2, help="Generated validation frames that choose it (training uses 100).")
-    ] = 100,
+        int, typer.Option(min=2, help="Generated validation frames that choose it (training's number).")
+    ] = VALIDATION_FRAMES,
     overwrite: Overwrite = False,
 ) -> None:
     """Choose a recovery model's mask threshold again, by the rule training uses now (lowest RMSE on

@@ -9,6 +9,8 @@ from pydantic import Field, model_validator
 
 from d2sr.config import Settings
 
+VALIDATION_FRAMES = 100  # generated frames that choose a recovery model's mask threshold
+
 __all__ = ["Folders", "TrainConfig"]
 
 
@@ -37,7 +39,9 @@ class TrainConfig(Settings):
     clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
-        100, ge=2, description="recovery: generated validation frames that choose the mask threshold"
+        VALIDATION_FRAMES,
+        ge=2,
+        description="recovery: generated validation frames that choose the mask threshold",
     )
     min_share: float = Field(
         0.003,

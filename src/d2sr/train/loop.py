@@ -22,7 +22,7 @@ from d2sr.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
 from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
-from d2sr.train.config import TrainConfig
+from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.train.synth import VERSION
 from d2sr.ui import console, progress_bar
@@ -42,7 +42,6 @@ __all__ = [
 CHECKPOINT = "checkpoint.pt"
 MASK_LOGITS = tuple(float(t) for t in np.arange(3.0, -6.01, -0.25))  # candidate mask thresholds (logits)
 MAX_CLEAN_CHANGED = 0.01  # half the 2% bar: room for real frames to differ from generated ones
-VALIDATION_FRAMES = 100
 
 
 @contextlib.contextmanager
