@@ -17,7 +17,7 @@ from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool, synth_set
-from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, lineage, loss_fn, train
+from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
 
@@ -123,6 +123,33 @@ def test_depth_is_learned_only_where_the_ground_truth_has_a_return():
     # The mask head is pushed to flag the dropouts over real surfaces hardest: missing them costs depth.
     lg = model.logit.grad[0, 0]
     assert (lg[y[0, 0] > 0] < lg[1, 2]).all()
+
+
+class _Shorter(torch.nn.Module):
+    """Flags every return nearer than 1.5 m and predicts 2 m everywhere."""
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        near = (x[:, :1] > 0) & (x[:, :1] < 1.5)
+        return torch.where(near, 5.0, -5.0), torch.full_like(x[:, :1], 2.0)
+
+
+def test_second_pass_inputs_are_what_recover_feeds_its_second_pass():
+    x = np.full((3, 2, 32, 48), 2.0, np.float32)  # a wall at 2 m; channel 1 stands for an earlier frame
+    x[:, :, 10:14] = 1.0  # a too-short stripe
+    y = np.full((3, 1, 32, 48), 2.0, np.float32)
+    m = (x[:, :1] != y).astype(np.float32)
+    b = Batch(x, y, m, np.array([1, 0, 1], np.float32))  # the middle frame is labelled clean
+    model = _Shorter().train()
+    same = as_second_pass(model, b, 0.0, 0.0, np.random.default_rng(0), torch.device("cpu"))
+    assert same is b
+    out = as_second_pass(model, b, 1.0, 0.0, np.random.default_rng(0), torch.device("cpu"))
+    assert model.training  # back in training mode
+    assert np.array_equal(b.x, x)  # the batch it was given is left as it was
+    for i in (0, 2):  # interfered: the stripe holds the guarded first repair, everything else as it was
+        assert np.all(out.x[i, 0] == 2.0)
+    assert np.array_equal(out.x[1], x[1])  # clean frames are trained on as delivered
+    assert np.array_equal(out.x[:, 1], x[:, 1])  # an earlier frame is never rewritten
+    assert out.y is b.y and out.m is b.m  # targets: the clean frame and the true mask, as before
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

@@ -37,6 +37,13 @@ class TrainConfig(Settings):
     mask_weight: float = Field(3.0, ge=0, description="recovery: weight of the mask head's BCE")
     dice: float = Field(1.0, ge=0, description="recovery: weight of the soft-F1 (Dice) term on the mask")
     clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
+    second_pass: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="recovery: share of interfered frames trained on as recover's second pass sees them "
+        "(the frame with the model's own guarded first repair filled in)",
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime as dt
 import json
 import os
@@ -17,11 +18,11 @@ import torch.nn.functional as F
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.contract import REPAIR_PASSES, repair_frame
+from d2sr.contract import REPAIR_PASSES, guard, repair_frame
 from d2sr.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
-from d2sr.models.store import read_card, save_model, torch_device, warm_start, write_card
+from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
 from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.train.synth import VERSION
@@ -30,6 +31,7 @@ from d2sr.ui import console, progress_bar
 __all__ = [
     "MASK_LOGITS",
     "MAX_CLEAN_CHANGED",
+    "as_second_pass",
     "choose_mask_logit",
     "loss_fn",
     "mask_sums",
@@ -82,6 +84,27 @@ def loss_fn(
         # and a dropout look alike pixel by pixel); the F1 term pays for deciding them from the context.
         mask = mask + dice * (1 - 2 * (soft * m).sum() / (soft.sum() + m.sum()).clamp(min=1))
     return mask + 10 * depth + inside
+
+
+def as_second_pass(
+    model: nn.Module, b: Batch, share: float, logit: float, rng: np.random.Generator, device: torch.device
+) -> Batch:
+    """``b`` with about ``share`` of its interfered frames as ``recover``'s second pass sees them: the frame
+    with the model's own guarded first repair (mask threshold ``logit``) filled in
+    (``d2sr.contract.recover_passes``). Targets stay the same: the clean frame and the true mask."""
+    pick = np.flatnonzero((b.label > 0) & (rng.random(len(b.label)) < share))
+    if pick.size == 0:
+        return b
+    was = model.training
+    model.eval()
+    with torch.inference_mode():
+        lg, pred = (t[:, 0].cpu().numpy() for t in model(torch.from_numpy(b.x[pick]).to(device)))
+    model.train(was)
+    x = b.x.copy()
+    for k, j in enumerate(pick):
+        p, keep = guard(x[j, 0], pred[k], lg[k] > logit)
+        x[j, 0] = np.where(keep, p, x[j, 0])
+    return dataclasses.replace(b, x=x)
 
 
 def _save_checkpoint(
@@ -164,6 +187,9 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 console.print(f"{ckpt} is from another config: starting afresh")
         crop = (cfg.crop[0], cfg.crop[1]) if cfg.task == "recovery" else None
         share = cfg.clean_share if cfg.task == "recovery" else 0.5
+        second = cfg.second_pass if cfg.task == "recovery" else 0.0
+        # The second pass's inputs are made at the threshold the model starts with (its own, or 0).
+        pass_logit = mask_logit(cfg.init) if cfg.init is not None else 0.0
         t0, stopped, done = time.perf_counter(), False, start
         bar = progress_bar() if progress and rank == 0 else contextlib.nullcontext()
         with bar as pb:
@@ -171,6 +197,8 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
             model.train()
             for step in range(start, cfg.steps):
                 b = pool.batch(rng, cfg.batch, crop, share)
+                if second:
+                    b = as_second_pass(core, b, second, pass_logit, rng, device)
                 loss = loss_fn(model, cfg.task, b, device, cfg.mask_weight, cfg.dice)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
