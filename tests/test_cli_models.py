@@ -12,7 +12,9 @@ import cv2
 import numpy as np
 import pytest
 
+from d2sr.contract import padded, repair_frame
 from d2sr.frames.png import encode_png
+from d2sr.inference import open_backend
 from helpers import d2sr
 
 
@@ -68,7 +70,7 @@ def test_backends_agree(tmp_path, weights):
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
-    src = _folder(tmp_path / "in")
+    src = _folder(tmp_path / "in", 7)
     out = tmp_path / "out"
     res = d2sr("recover", str(src), "--out", str(out), "--all", "--weights", str(weights))
     assert res.returncode == 0, res.stderr
@@ -78,6 +80,16 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         raw, fixed, mask = _png(f), _png(out / f.name), _png(out / "masks" / f.name)
         assert fixed.dtype == np.uint16 and mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 255}
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
+    # --all repairs several frames at a time: the same frames, in the same order, as one at a time
+    net = open_backend("unet8", "onnx", weights, None, threads=2)
+    for f in sorted(src.glob("*.png")):
+        raw = _png(f)
+        pred, m = net.recover(padded(raw.astype(np.float32)[None] / np.float32(1000)))
+        h, w = raw.shape
+        fixed, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], 1000)
+        assert np.array_equal(_png(out / f.name), fixed)
+        assert np.array_equal(_png(out / "masks" / f.name) > 0, mask)
+    assert [r["name"] for r in meta["frames"]] == sorted(f.stem for f in src.glob("*.png"))
     # --all asks no detector: a folder holding only the recovery model repairs the same
     alone = tmp_path / "alone"
     alone.mkdir()

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import nullcontext
+from itertools import islice
 from pathlib import Path
 from typing import Annotated
 
@@ -133,23 +135,51 @@ def recover(
     net = open_backend(model, backend, weights, det, mask_logit=mask_logit, passes=passes)
     if not detect and net.frames > 1:
         detect, net = True, open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
+    # Frames that depend on no other (no detector, a single-frame model) are repaired several at a time,
+    # each on fewer of onnxruntime's threads: the guard and write-back run on one core, and the model
+    # scales poorly over two (worst case on 2 cores: 1.4-1.5x the frames a second, the same output).
+    cores = os.cpu_count() or 1
+    workers = min(cores, 4) if not detect and net.name == "onnxruntime" else 1
+    if workers > 1:
+        net = open_backend(
+            model, "onnx", weights, None, cores // workers, mask_logit=mask_logit, passes=passes
+        )
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
-    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
-    loop = SensorLoop(
-        net,
-        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
-        threshold=threshold,
-        repair="all" if every else "flagged",
-        detect=detect,
-    )
+    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair. One
+    # loop per worker: a loop keeps state, and a worker's next frame starts only after its last is done.
+    loops = [
+        SensorLoop(
+            net,
+            make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
+            threshold=threshold,
+            repair="all" if every else "flagged",
+            detect=detect,
+        )
+        for _ in range(workers)
+    ]
     rows, repaired = [], 0
     log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
-    with log as view, atomic_dir(out) as tmp, ThreadPoolExecutor(1) as writer, progress_bar() as bar:
+    with (
+        log as view,
+        atomic_dir(out) as tmp,
+        ThreadPoolExecutor(1) as writer,
+        ThreadPoolExecutor(workers) as pool,
+        progress_bar() as bar,
+    ):
         folder = FrameFolder(tmp, REPAIRED)
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
         pending: deque[Future[None]] = deque()
-        for f in prefetch(checked_counts(reader, scale, "frame")):
-            res = loop.process(Capture(f, scale))
+        frames = prefetch(checked_counts(reader, scale, "frame"))
+        running = deque(
+            (f, pool.submit(loops[k % workers].process, Capture(f, scale)))
+            for k, f in enumerate(islice(frames, workers))
+        )
+        while running:
+            f, job = running.popleft()
+            res = job.result()
+            nxt = next(frames, None)  # in order: frame k + workers goes to the loop frame k has just left
+            if nxt is not None:
+                running.append((nxt, pool.submit(loops[len(rows) % workers].process, Capture(nxt, scale))))
             if view is not None:
                 view.write(0, res)
             fix = every or res.flagged
