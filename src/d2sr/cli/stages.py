@@ -10,7 +10,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import nullcontext
 from itertools import islice
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -157,7 +157,8 @@ def recover(
         )
         for _ in range(workers)
     ]
-    rows, repaired = [], 0
+    rows: list[dict[str, Any]] = []
+    repaired = 0
     log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
     with (
         log as view,
