@@ -40,6 +40,7 @@ __all__ = [
     "model_input",
     "padded",
     "recover_passes",
+    "refill",
     "repair_frame",
     "scale_at",
 ]
@@ -181,6 +182,13 @@ def check_passes(passes: int) -> int:
     return passes
 
 
+def refill(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What a pass after the first sees (``recover_passes``): the frame with the guarded repair filled in
+    (float32 metres), and the pixels it filled."""
+    p, keep = guard(metres, pred, mask)
+    return np.where(keep, p, metres).astype(np.float32), keep
+
+
 def recover_passes(
     raw: Raw, metres: np.ndarray, previous: np.ndarray | None, mask_logit: float, passes: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -191,10 +199,10 @@ def recover_passes(
     logit, pred = raw(metres, previous)
     mask = logit > mask_logit
     for _ in range(passes - 1):
-        p, keep = guard(metres, pred, mask)
+        filled, keep = refill(metres, pred, mask)
         if not keep.any():
             break
-        logit, pred = raw(np.where(keep, p, metres).astype(np.float32), previous)
+        logit, pred = raw(filled, previous)
         grown = keep | (logit > mask_logit)
         found = (grown & ~mask).any()  # nothing new: a further pass would see much the same frame
         mask = grown

@@ -18,7 +18,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.contract import REPAIR_PASSES, guard, repair_frame
+from d2sr.contract import REPAIR_PASSES, refill, repair_frame
 from d2sr.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
@@ -102,8 +102,7 @@ def as_second_pass(
     model.train(was)
     x = b.x.copy()
     for k, j in enumerate(pick):
-        p, keep = guard(x[j, 0], pred[k], lg[k] > logit)
-        x[j, 0] = np.where(keep, p, x[j, 0])
+        x[j, 0] = refill(x[j, 0], pred[k], lg[k] > logit)[0]
     return dataclasses.replace(b, x=x)
 
 
