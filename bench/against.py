@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from held_out import outside_interference
+from held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
 
@@ -56,9 +56,7 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    files = sorted((args.data / "l515" / "dev1").glob("*.png"))[:60]
-    if len(files) < 60:
-        raise SystemExit(f"{args.data}/l515/dev1: needs 60 frames, found {len(files)}")
+    frames = worst_case(args.data)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         ref = root / "ref"
@@ -67,9 +65,8 @@ def main() -> None:
         try:
             for n in (10, 60):
                 (root / f"in{n}").mkdir()
-                for i, f in enumerate(files[:n]):
-                    img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
-                    cv2.imwrite(str(root / f"in{n}" / f.name), outside_interference(img, 4000.0, 7 + i))
+                for name, frame in frames[:n]:
+                    cv2.imwrite(str(root / f"in{n}" / name), frame)
             trees = {"this": HERE / "src", args.ref: ref / "src"}
             secs: dict[tuple[str, int], list[float]] = {}
             for k in range(args.runs):

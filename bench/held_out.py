@@ -64,6 +64,27 @@ def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarr
     return out.astype(np.uint16)
 
 
+def outside_set(data: Path) -> list[np.ndarray]:
+    """The 120 clean L515 frames of the outside set: dev0 after the person has left, and dev1."""
+    frames = []
+    for cap, skip in (("dev0", 60), ("dev1", 0)):
+        files = sorted((data / "l515" / cap).glob("*.png"))[skip : skip + 60]
+        frames += [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
+    return frames
+
+
+def worst_case(data: Path, n: int = 60) -> list[tuple[str, np.ndarray]]:
+    """The speed benchmarks' frames: the first ``n`` L515 dev1 frames (file name, frame), every one
+    corrupted by ``outside_interference`` (so recover's every pass runs on each)."""
+    files = sorted((data / "l515" / "dev1").glob("*.png"))[:n]
+    if len(files) < n:
+        raise SystemExit(f"{data}/l515/dev1: needs {n} frames, found {len(files)}")
+    return [
+        (f.name, outside_interference(cv2.imread(str(f), cv2.IMREAD_UNCHANGED), 4000.0, 7 + i))
+        for i, f in enumerate(files)
+    ]
+
+
 def _write(folder: Path, frames: list[np.ndarray]) -> None:
     folder.mkdir(parents=True)
     for i, f in enumerate(frames):
@@ -166,11 +187,7 @@ def main() -> None:
     result: dict = {"models": str(args.models or "shipped"), "model": args.model or "default"}
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        l515 = []
-        for cap, skip in (("dev0", 60), ("dev1", 0)):
-            files = sorted((args.data / "l515" / cap).glob("*.png"))[skip : skip + 60]
-            l515 += [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
-        result["l515"] = _scored(tmp, "l515", l515, 4000.0, models, recovery)
+        result["l515"] = _scored(tmp, "l515", outside_set(args.data), 4000.0, models, recovery)
         print("l515", result["l515"], flush=True)
         result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models, recovery)
         print("d435", result["d435"], flush=True)

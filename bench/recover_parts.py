@@ -16,13 +16,12 @@ import statistics
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import guard, padded, repair_frame
 from d2sr.inference import open_backend
-from held_out import outside_interference
+from held_out import worst_case
 
 PARTS = ("metres", "pass 1", "guard 1", "fill", "pass 2", "guard 2 + write-back")
 
@@ -34,14 +33,8 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    files = sorted((args.data / "l515" / "dev1").glob("*.png"))[:60]
-    if len(files) < 60:
-        raise SystemExit(f"{args.data}/l515/dev1: needs 60 frames, found {len(files)}")
     scale = 4000.0
-    frames = [
-        outside_interference(cv2.imread(str(f), cv2.IMREAD_UNCHANGED), scale, 7 + i)
-        for i, f in enumerate(files)
-    ]
+    frames = [frame for _, frame in worst_case(args.data)]
     net = open_backend("unet8", "onnx", detector=None)
     cut = net.mask_logit
     ms: dict[str, list[float]] = {k: [] for k in (*PARTS, "total")}

@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
@@ -50,7 +49,7 @@ def main() -> None:
     from d2sr.contract import WEIGHTS, repair_frame
     from d2sr.eval.models import moving_set
     from d2sr.models.inference import TorchBackend
-    from held_out import SEED, outside_interference
+    from held_out import SEED, outside_interference, outside_set
 
     nets = {m: TorchBackend(None, WEIGHTS / f"{m}.safetensors") for m in ("unet8", "unet8-temporal")}
 
@@ -59,10 +58,7 @@ def main() -> None:
         pred, mask = nets[name].recover(x, None if prev is None else prev[None])
         return squared_error(repair_frame(bad, pred[0], mask[0], scale)[0], clean, scale)
 
-    frames = []
-    for cap, skip in (("dev0", 60), ("dev1", 0)):
-        files = sorted((args.data / "l515" / cap).glob("*.png"))[skip : skip + 60]
-        frames += [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
+    frames = outside_set(args.data)
     s = 4000.0
     outside = [
         (outside_interference(frames[i], s, SEED + i), frames[i], frames[i - 1].astype(np.float32) / s, s)

@@ -131,19 +131,19 @@ def recover(
     # --all asks no detector (its verdict would go unused) unless a view shows it or a temporal model
     # needs to know which frames were clean.
     detect = not every or rerun is not None
-    det = DETECTOR if detect else None
-    net = open_backend(model, backend, weights, det, mask_logit=mask_logit, passes=passes)
-    if not detect and net.frames > 1:
-        detect, net = True, open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
     # Frames that depend on no other (no detector, a single-frame model) are repaired several at a time,
     # each on fewer of onnxruntime's threads: the guard and write-back run on one core, and the model
     # scales poorly over two (worst case on 2 cores: 1.4-1.5x the frames a second, the same output).
     cores = os.cpu_count() or 1
-    workers = min(cores, 4) if not detect and net.name == "onnxruntime" else 1
-    if workers > 1:
-        net = open_backend(
-            model, "onnx", weights, None, cores // workers, mask_logit=mask_logit, passes=passes
-        )
+    workers = 1 if detect else min(cores, 4)
+    det = DETECTOR if detect else None
+    threads = cores // workers if workers > 1 else None  # None: the backend's own choice
+    net = open_backend(model, backend, weights, det, threads, mask_logit=mask_logit, passes=passes)
+    if not detect and net.frames > 1:
+        detect, workers = True, 1
+        net = open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
+    if net.name != "onnxruntime":  # torch has threads of its own
+        workers = 1
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
     # The runtime's loop, open loop with a controller that never moves: one way to detect and repair. One
     # loop per worker: a loop keeps state, and a worker's next frame starts only after its last is done.
