@@ -107,12 +107,26 @@ def _scored(
     name: str,
     clean: list[np.ndarray],
     scale: float,
-    models: list[str],
+    models: Sequence[str],
     recovery: Sequence[str] = (),
 ) -> dict:
     """Every other frame corrupted; detect and recover --all (``recovery``: its model option) from outside;
     the figures."""
     bad = [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
+    return scored(tmp, name, bad, clean, scale, models, recovery)
+
+
+def scored(
+    tmp: Path,
+    name: str,
+    bad: list[np.ndarray],
+    clean: list[np.ndarray],
+    scale: float,
+    models: Sequence[str] = (),
+    recovery: Sequence[str] = (),
+) -> dict:
+    """A sequence as delivered (``bad``) and without interference (``clean``), written to ``tmp/name``:
+    ``d2sr detect`` and ``d2sr recover --all`` from outside, scored on the frames that differ."""
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]

@@ -104,6 +104,73 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_path, weights):
+    import torch
+
+    from d2sr.contract import DETECTOR
+    from d2sr.desync import make_controller
+    from d2sr.export import export
+    from d2sr.frames import Frame
+    from d2sr.models import build
+    from d2sr.models.store import save_model
+    from d2sr.runtime.loop import Capture, SensorLoop
+
+    both = tmp_path / "both"
+    shutil.copytree(weights, both)
+    torch.manual_seed(1)
+    save_model(build("unet8-temporal").eval(), "unet8-temporal", both / "unet8-temporal.safetensors")
+    export(both / "unet8-temporal.safetensors", both / "unet8-temporal.onnx")
+    # A still sensor for 4 frames (the scene with fresh noise), then another scene for 4.
+    src = tmp_path / "in"
+    src.mkdir()
+    rng = np.random.default_rng(3)
+    for k in range(8):
+        scene = np.random.default_rng(k // 4).uniform(1.0, 4.0, (96, 128))
+        d = ((scene + rng.normal(0, 0.005, scene.shape)) * 1000).astype(np.uint16)
+        d[rng.random(d.shape) < 0.2] = 0
+        (src / f"f{k:03d}.png").write_bytes(encode_png(d, "x"))
+    for name, folder in (("auto", both), ("unet8", both), ("fallback", weights)):
+        model = "unet8" if name == "unet8" else "auto"
+        res = d2sr(
+            "recover",
+            str(src),
+            "--out",
+            str(tmp_path / name),
+            "--all",
+            "--weights",
+            str(folder),
+            "--model",
+            model,
+        )
+        assert res.returncode == 0, res.stderr
+    files = sorted(src.glob("*.png"))
+    # Without unet8-temporal in the folder (d2sr adapt's), auto is unet8.
+    for f in files:
+        assert np.array_equal(_png(tmp_path / "fallback" / f.name), _png(tmp_path / "unet8" / f.name))
+    # The same frames as the runtime's loop repairing one at a time, in order; both models were used.
+    net = open_backend("auto", "onnx", both, DETECTOR, threads=2)
+    used = {"single": 0, "temporal": 0}
+
+    def counted(side: str):
+        run = getattr(net, side).recover
+
+        def recover(x, p):
+            used[side] += 1
+            return run(x, p)
+
+        return recover
+
+    for side in used:
+        getattr(net, side).recover = counted(side)
+    loop = SensorLoop(net, make_controller("static", 30, 30), repair="all")
+    for f in files:
+        r = loop.process(Capture(Frame(f.stem, _png(f)), 1000.0))
+        assert np.array_equal(_png(tmp_path / "auto" / f.name), r.depth)
+        assert np.array_equal(_png(tmp_path / "auto" / "masks" / f.name) > 0, r.mask)
+    assert used["single"] > 0 and used["temporal"] > 0, used
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 @pytest.mark.parametrize("backend", ["onnx", "torch"])
 def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     src = _folder(tmp_path / "in", 1)

@@ -9,11 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from d2sr.contract import agreement
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
 from d2sr.inference import open_backend
+from d2sr.runtime.backends import Gated
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
 from d2sr.runtime.session import run_recording, run_sim
 from d2sr.sim.overlap import OverlapGraph
@@ -27,6 +29,8 @@ class FakeNet:
     """Flags frames whose top-left pixel is 1; repairs by writing 2 m into the left half."""
 
     name = "fake"
+    threshold = 0.5
+    passes = 1
 
     def __init__(self, frames: int = 1) -> None:
         self.recovered = 0
@@ -114,6 +118,41 @@ def test_temporal_backend_gets_the_last_frame_the_detector_passed():
     loop.process(clean)
     loop.process(_cap("2", bad=True))
     assert one.previous == [None, None]  # a one-frame model is never handed frames it cannot use
+
+
+def test_agreement_counts_pixels_returning_in_both_within_5_cm_and_2_percent():
+    a = np.full((4, 4), 2.0, np.float32)
+    assert agreement(a, None) == 0.0
+    assert agreement(a, a) == 1.0
+    b = a.copy()
+    b[0] = 2.0 + 0.05 + 0.02 * 2.0 + 0.01  # one row just outside the tolerance
+    b[1] = 2.0 + 0.05 + 0.02 * 2.0 - 0.01  # one just inside
+    b[2] = 0.0  # no return: not counted
+    assert agreement(a, b) == pytest.approx(2 / 3)
+    assert agreement(a, np.zeros_like(a)) == 0.0
+    with pytest.raises(InputError):
+        agreement(a, np.zeros((4, 5), np.float32))
+
+
+def test_auto_takes_the_temporal_model_only_where_the_last_clean_frame_lines_up():
+    single, temporal = FakeNet(1), FakeNet(2)
+    net = Gated(single, temporal)
+    assert net.frames == 2 and net.name == "fake"
+    x = np.full((3, 8, 16), 2.0, np.float32)
+    moved = x.copy()
+    moved[1, :5] = 3.0  # frame 1: 5 of 8 rows no longer line up (a moving sensor)
+    moved[2, :3] = 3.0  # frame 2: 3 of 8 rows moved, the rest lines up
+    pred, mask = net.recover(x, moved)
+    assert pred.shape == mask.shape == x.shape
+    assert single.recovered == 1 and temporal.recovered == 2  # frames 0 and 2 temporal, frame 1 not
+    assert single.previous == [None]  # the single-frame model never gets the frame it cannot use
+    assert np.array_equal(temporal.previous[0], moved[0:1])
+    assert np.array_equal(temporal.previous[1], moved[2:3])
+    net.recover(x[:1], None)  # no last clean frame at all
+    assert single.recovered == 2 and temporal.recovered == 2
+    assert net.scores(x[:1]).shape == (1,)  # the detector is the single-frame side's
+    with pytest.raises(InputError):
+        Gated(temporal, single)
 
 
 def test_triggered_loop_reads_flags_in_window_order_and_tells_the_trigger():

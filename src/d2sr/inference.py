@@ -9,9 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR, REPAIR_PASSES, SHIPPED_RECOVERY, WEIGHTS
+from d2sr.contract import (
+    AUTO_RECOVERY,
+    DEFAULT_RECOVERY,
+    DETECTOR,
+    REPAIR_PASSES,
+    SHIPPED_RECOVERY,
+    TEMPORAL_RECOVERY,
+    WEIGHTS,
+)
 from d2sr.errors import InputError
-from d2sr.runtime.backends import Backend, OnnxBackend
+from d2sr.runtime.backends import Backend, Gated, OnnxBackend
 
 __all__ = ["BACKENDS", "open_backend"]
 
@@ -30,7 +38,15 @@ def open_backend(
 ) -> Backend:
     """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
     ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
-    threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``)."""
+    threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``).
+    ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up, ``unet8`` elsewhere
+    (``runtime.backends.Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
+    if model == AUTO_RECOVERY:
+        single = open_backend(DEFAULT_RECOVERY, backend, weights, detector, threads, int8, mask_logit, passes)
+        if not any((weights / f"{TEMPORAL_RECOVERY}{e}").is_file() for e in (".onnx", ".safetensors")):
+            return single
+        temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, mask_logit, passes)
+        return Gated(single, temporal)
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
     if mask_logit is not None and not np.isfinite(mask_logit):

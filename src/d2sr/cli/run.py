@@ -29,7 +29,7 @@ from d2sr.cli.common import (
 from d2sr.contract import (
     DEFAULT_RECOVERY,
     MODEL_HELP,
-    RECOVERY_NAMES,
+    REPAIR_MODELS,
     REPAIR_PASSES,
     WEIGHTS,
     check_probability,
@@ -94,8 +94,8 @@ def run(
         raise ConfigError("--controller oracle needs the simulated world's global knowledge (source 'sim')")
     if repair not in REPAIR:
         raise ConfigError(f"--repair must be one of {', '.join(REPAIR)}, got {repair!r}")
-    if model not in RECOVERY_NAMES:
-        raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
+    if model not in REPAIR_MODELS:
+        raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
     if threshold is not None:
         check_probability(threshold, "--threshold")
     if not 1 <= active_frames <= TOTAL_FRAMES:

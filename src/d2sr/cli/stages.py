@@ -37,7 +37,7 @@ from d2sr.contract import (
     DEFAULT_RECOVERY,
     DETECTOR,
     MODEL_HELP,
-    RECOVERY_NAMES,
+    REPAIR_MODELS,
     REPAIR_PASSES,
     WEIGHTS,
     check_probability,
@@ -121,8 +121,8 @@ def recover(
     from d2sr.runtime.loop import Capture, SensorLoop
     from d2sr.runtime.viewer import LIVE, RerunLog
 
-    if model not in RECOVERY_NAMES:
-        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(RECOVERY_NAMES)}")
+    if model not in REPAIR_MODELS:
+        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
     if threshold is not None:
         check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
@@ -131,32 +131,30 @@ def recover(
     # --all asks no detector (its verdict would go unused) unless a view shows it or a temporal model
     # needs to know which frames were clean.
     detect = not every or rerun is not None
-    # Frames that depend on no other (no detector, a single-frame model) are repaired several at a time,
-    # each on fewer of onnxruntime's threads: the guard and write-back run on one core, and the model
-    # scales poorly over two (worst case on 2 cores: 1.4-1.5x the frames a second, the same output).
+    # Frames are decided in order (the detector weighs the frame before; a temporal model gets the last clean
+    # one) and then repaired several at a time, each on fewer of onnxruntime's threads: the guard and
+    # write-back run on one core, and the model scales poorly over two (worst case on 2 cores: 1.4-1.5x the
+    # frames a second, the same output).
     cores = os.cpu_count() or 1
-    workers = 1 if detect else min(cores, 4)
-    det = DETECTOR if detect else None
+    workers = min(cores, 4)
     threads = cores // workers if workers > 1 else None  # None: the backend's own choice
-    net = open_backend(model, backend, weights, det, threads, mask_logit=mask_logit, passes=passes)
+    net = open_backend(
+        model, backend, weights, DETECTOR if detect else None, threads, mask_logit=mask_logit, passes=passes
+    )
     if not detect and net.frames > 1:
-        detect, workers = True, 1
-        net = open_backend(model, backend, weights, mask_logit=mask_logit, passes=passes)
+        detect = True
+        net = open_backend(model, backend, weights, DETECTOR, threads, mask_logit=mask_logit, passes=passes)
     if net.name != "onnxruntime":  # torch has threads of its own
         workers = 1
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
-    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair. One
-    # loop per worker: a loop keeps state, and a worker's next frame starts only after its last is done.
-    loops = [
-        SensorLoop(
-            net,
-            make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
-            threshold=threshold,
-            repair="all" if every else "flagged",
-            detect=detect,
-        )
-        for _ in range(workers)
-    ]
+    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
+    loop = SensorLoop(
+        net,
+        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
+        threshold=threshold,
+        repair="all" if every else "flagged",
+        detect=detect,
+    )
     rows: list[dict[str, Any]] = []
     repaired = 0
     log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
@@ -172,15 +170,14 @@ def recover(
         pending: deque[Future[None]] = deque()
         frames = prefetch(checked_counts(reader, scale, "frame"))
         running = deque(
-            (f, pool.submit(loops[k % workers].process, Capture(f, scale)))
-            for k, f in enumerate(islice(frames, workers))
+            (f, pool.submit(loop.finish, loop.decide(Capture(f, scale)))) for f in islice(frames, workers)
         )
         while running:
             f, job = running.popleft()
             res = job.result()
-            nxt = next(frames, None)  # in order: frame k + workers goes to the loop frame k has just left
+            nxt = next(frames, None)
             if nxt is not None:
-                running.append((nxt, pool.submit(loops[len(rows) % workers].process, Capture(nxt, scale))))
+                running.append((nxt, pool.submit(loop.finish, loop.decide(Capture(nxt, scale)))))
             if view is not None:
                 view.write(0, res)
             fix = every or res.flagged

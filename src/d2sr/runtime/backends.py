@@ -12,8 +12,10 @@ from typing import Any, Protocol
 import numpy as np
 
 from d2sr.contract import (
+    LINES_UP,
     REPAIR_PASSES,
     THRESHOLD,
+    agreement,
     check_passes,
     check_size,
     detector_input,
@@ -22,7 +24,7 @@ from d2sr.contract import (
 )
 from d2sr.errors import InputError
 
-__all__ = ["Backend", "OnnxBackend"]
+__all__ = ["Backend", "Gated", "OnnxBackend"]
 
 
 class Backend(Protocol):
@@ -149,3 +151,40 @@ class OnnxBackend:
         self, metres: np.ndarray, previous: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         return recover_passes(self.raw, metres, previous, self.mask_logit, self.passes)
+
+
+class Gated:
+    """``--model auto``: a temporal recovery model for each frame whose last clean frame lines up with it (a
+    sensor that held still: ``contract.agreement`` >= ``LINES_UP``), a single-frame one for the others.
+    ``single`` also holds the detector; both are open backends of the same kind."""
+
+    frames = 2  # the loop keeps the last clean frame for it
+
+    def __init__(self, single: Backend, temporal: Backend) -> None:
+        if single.frames != 1 or temporal.frames != 2:
+            raise InputError("auto needs a single-frame and a temporal recovery model")
+        self.single, self.temporal = single, temporal
+        self.name, self.threshold, self.passes = single.name, single.threshold, single.passes
+
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        return self.single.scores(metres, previous)
+
+    def _each(
+        self, run: str, metres: np.ndarray, previous: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``run`` ("raw" or "recover") of the model each frame gets, stacked."""
+        outs = []
+        for i in range(len(metres)):
+            x, net, prev = metres[i : i + 1], self.single, None
+            if previous is not None and agreement(x[0], previous[i]) >= LINES_UP:  # the sensor held still
+                net, prev = self.temporal, previous[i : i + 1]
+            outs.append(getattr(net, run)(x, prev))
+        return np.concatenate([a for a, _ in outs]), np.concatenate([b for _, b in outs])
+
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        return self._each("raw", metres, previous)
+
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        return self._each("recover", metres, previous)

@@ -23,7 +23,7 @@ from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
 
-__all__ = ["REPAIR", "Capture", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
+__all__ = ["REPAIR", "Capture", "Decision", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
 
 
 @dataclass
@@ -60,6 +60,21 @@ class Result:
     period: int
     offset: int  # the window offset the sensor ran this frame's period with
     seconds: float = 0.0  # processing time of detect + repair
+
+
+@dataclass
+class Decision:
+    """A frame as ``SensorLoop.decide`` left it for ``SensorLoop.finish``."""
+
+    capture: Capture
+    metres: np.ndarray  # (1, H', W') padded
+    score: float
+    flagged: bool
+    repair: bool
+    previous: np.ndarray | None  # the last clean frame a temporal recovery model sees (metres, padded)
+    period: int
+    offset: int
+    started: float  # perf_counter at decide
 
 
 class Trigger(Protocol):
@@ -115,30 +130,43 @@ class SensorLoop:
         return self.process(item)
 
     def process(self, cap: Capture) -> Result:
+        return self.finish(self.decide(cap))
+
+    def decide(self, cap: Capture) -> Decision:
+        """The part of ``process`` that depends on earlier frames, in frame order: the detector's verdict
+        (it weighs the previous frame), what the recovery model will see as the last clean frame, and the
+        controller's window. ``finish`` then repairs; it depends on no other frame, so several can run at
+        once (``d2sr recover``)."""
         raw = cap.frame.depth
         if raw.dtype != np.uint16:  # the loop works in the sensor's units; readers deliver uint16
             raise InputError(f"{cap.name}: the runtime takes uint16 depth frames, got {raw.dtype}")
         check_depth(raw, cap.name)
         t = time.perf_counter()
-        h, w = raw.shape
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         score = float(self.backend.scores(metres, before)[0]) if self.detect else float("nan")
         flagged = score >= self._cut  # False for NaN
-        depth, mask = raw, np.zeros(raw.shape, bool)
-        if self.repair == "all" or (flagged and self.repair == "flagged"):
-            last = self._last_clean
-            previous = last if last is not None and last.shape == metres.shape else None
-            pred, m = self.backend.recover(metres, previous)
-            pred, m = pred[0, :h, :w], m[0, :h, :w]
-            depth, mask = repair_frame(raw, pred, m, cap.scale)
+        last = self._last_clean
+        previous = last if last is not None and last.shape == metres.shape else None
+        fix = self.repair == "all" or (flagged and self.repair == "flagged")
+        d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
         self._remember(raw, metres, flagged)
-        seconds = time.perf_counter() - t
-        res = Result(cap, score, flagged, depth, mask, self.period, self.controller.offset, seconds)
+        self._buffer(flagged, cap.slot)
+        return d
+
+    def finish(self, d: Decision) -> Result:
+        """Repair a decided frame (when it is to be repaired) and hand the result to the sink."""
+        raw = d.capture.frame.depth
+        h, w = raw.shape
+        depth, mask = raw, np.zeros(raw.shape, bool)
+        if d.repair:
+            pred, m = self.backend.recover(d.metres, d.previous)
+            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale)
+        seconds = time.perf_counter() - d.started
+        res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds)
         if self.sink is not None:
             self.sink.write(res)
-        self._buffer(flagged, cap.slot)
         return res
 
     def replay(self, flagged: bool, slot: int | None = None, cap: Capture | None = None) -> None:

@@ -1,0 +1,89 @@
+"""Benchmark: ``d2sr recover --all --model auto`` (unet8-temporal where the last clean frame lines up with the
+frame, unet8 elsewhere) against each model alone, from outside, on two sequences:
+
+* ``still``: the outside L515 set of ``held_out.py`` (a sensor that held still; every other frame corrupted by
+  interference written apart from the generator);
+* ``moving``: the simulated robot driving among three fixed sensors of ``d2sr eval recovery`` (a held-out
+  room), every frame in order, as the robot delivered it.
+
+Per model and sequence: ``d2sr recover --all``'s RMSE change, mask F1 and clean pixels changed on the frames
+that differ from their clean version (``held_out.scored``). And do no harm: on the real clean sequences of
+../shared/data (L515 dev0 and dev1, D435), the share of valid pixels ``recover --all`` moves by more than
+5 cm, over the sequence and in its worst frame.
+
+Run:  .venv/bin/python bench/auto_gate.py --data ../shared/data --json docs/results/auto_gate.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.bench import check_output, output_args, write_result
+from held_out import SEED, outside_interference, outside_set, scored
+
+MODELS = ("unet8", "unet8-temporal", "auto")
+CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
+
+
+def moved(folder: Path, scale: float, out: Path, args: list[str]) -> dict:
+    """``d2sr recover --all`` on a clean sequence: pixels moved > 5 cm, in all and in its worst frame."""
+    cmd = [sys.executable, "-m", "d2sr", "recover", str(folder), "--all", "--out", str(out)]
+    cmd += ["--depth-scale", f"{scale:g}", *args]
+    r = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if r.returncode:
+        raise SystemExit(f"{' '.join(cmd)} failed: {r.stderr.strip()}")
+    n = valid = worst = 0.0
+    for f in sorted(folder.glob("*.png")):
+        a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        b = cv2.imread(str(out / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        ok = a > 0
+        k = float((ok & (np.abs(a - b) / scale > 0.05)).sum())
+        n, valid, worst = n + k, valid + float(ok.sum()), max(worst, k / max(float(ok.sum()), 1))
+    return {"moved_5cm": round(n / max(valid, 1), 5), "worst_frame": round(worst, 5)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+
+    from d2sr.eval.models import moving_set
+
+    folder = ["--models", str(args.models)] if args.models else []
+    clean = outside_set(args.data)
+    still = ([outside_interference(f, 4000.0, SEED + i) if i % 2 else f for i, f in enumerate(clean)], clean)
+    ms = moving_set()
+    scales = np.unique(np.asarray(ms.scale))
+    if scales.size != 1:
+        raise SystemExit(f"the moving set has several depth scales: {scales}")
+    sets = {"still": (*still, 4000.0), "moving": (list(ms.frames), list(ms.clean), float(scales[0]))}
+    result: dict = {"models": str(args.models or "shipped")}
+    with tempfile.TemporaryDirectory() as t:
+        for name, (bad, good, scale) in sets.items():
+            hit = sum(bool((b != c).any()) for b, c in zip(bad, good, strict=True))
+            result[name] = {"frames": len(bad), "interfered": hit}
+            for m in MODELS:
+                r = scored(Path(t) / m, name, bad, good, scale, folder, ["--model", m])
+                result[name][m] = {k: r[k] for k in ("rmse_change", "mask_f1", "clean_changed")}
+                print(name, m, result[name][m], flush=True)
+        for sub, scale in CLEAN:
+            result[sub] = {}
+            for m in MODELS:
+                out = Path(t) / m / sub.replace("/", "-")
+                result[sub][m] = moved(args.data / sub, scale, out, [*folder, "--model", m])
+                print(sub, m, result[sub][m], flush=True)
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()
