@@ -2,7 +2,8 @@
 where the last clean frame lines up with the frame (a still sensor), and unet8 everywhere else?
 
 For each interfered frame: the share of pixels returning in both the frame and its last clean frame that
-agree within 5 cm + 2% of depth ("agreement"; 0 when there is no last clean frame), and the squared error
+agree within 5 cm + 2% of depth (``contract.agreement``, what ``--model auto`` gates on; 0 when there is no
+last clean frame), and the squared error
 of unet8's and of unet8-temporal's repair (as ``recover`` writes it). Then, per gate, the RMSE change of
 the mix that takes the temporal repair where agreement >= gate. Two sets: the outside L515 set of
 ``held_out.py`` (a still sensor; last clean frame = the frame before) and the simulated moving robot of
@@ -19,18 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
+from d2sr.contract import agreement
 
 GATES = (0.0, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9, 1.01)
-
-
-def agreement(frame: np.ndarray, previous: np.ndarray | None) -> float:
-    """Share of pixels returning in both that agree within 5 cm + 2% (metres in, 0 with no previous)."""
-    if previous is None:
-        return 0.0
-    ok = (frame > 0) & (previous > 0)
-    if not ok.any():
-        return 0.0
-    return float((np.abs(frame - previous)[ok] <= 0.05 + 0.02 * frame[ok]).mean())
 
 
 def squared_error(frame: np.ndarray, clean: np.ndarray, scale: float) -> float:
