@@ -1,6 +1,7 @@
 """Benchmark: ``d2sr recover --all`` from outside the process, this checkout against another commit, in one
 run: the worst case for speed (real 640x480 L515 frames, every one corrupted by the outside interference
-of ``held_out.py``, so both passes run on every frame). Runs alternate between the two trees so that a
+of ``held_out.py``, so both passes run on every frame); ``--flagged``: without ``--all`` (the detector runs,
+and repairs what it flags). Runs alternate between the two trees so that a
 shared, noisy machine slows both alike; per tree, the median over ``--runs`` of (60 frames - 10 frames) / 50
 is the time a frame takes without start-up. Also checks that both write the same repaired frames and masks.
 
@@ -28,9 +29,9 @@ from held_out import worst_case
 HERE = Path(__file__).resolve().parents[1]
 
 
-def _recover(src: Path, frames: Path, out: Path) -> float:
+def _recover(src: Path, frames: Path, out: Path, options: list[str]) -> float:
     env = dict(os.environ, PYTHONPATH=str(src))
-    cmd = [sys.executable, "-m", "d2sr", "recover", str(frames), "--all", "--depth-scale", "4000"]
+    cmd = [sys.executable, "-m", "d2sr", "recover", str(frames), *options, "--depth-scale", "4000"]
     cmd += ["--out", str(out)]
     t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
@@ -53,10 +54,12 @@ def main() -> None:
     ap.add_argument("--ref", required=True, help="the commit to compare with (git rev)")
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--flagged", action="store_true", help="recover without --all: the detector's path")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
     frames = worst_case(args.data)
+    options = [] if args.flagged else ["--all"]
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         ref = root / "ref"
@@ -73,7 +76,7 @@ def main() -> None:
                 for j, (name, src) in enumerate(trees.items()):
                     for n in (60, 10):
                         out = root / f"out{j}-{n}-{k}"
-                        secs.setdefault((name, n), []).append(_recover(src, root / f"in{n}", out))
+                        secs.setdefault((name, n), []).append(_recover(src, root / f"in{n}", out, options))
                         took = secs[(name, n)][-1]
                         print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
             same = _same(root / "out0-60-0", root / "out1-60-0")
@@ -84,7 +87,7 @@ def main() -> None:
         per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
         fps[name] = round(1 / per, 1)
     result = {
-        "command": "d2sr recover IN --all --depth-scale 4000 --out OUT",
+        "command": f"d2sr recover IN {' '.join(options)} --depth-scale 4000 --out OUT".replace("  ", " "),
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "ref": args.ref,
         "runs": args.runs,

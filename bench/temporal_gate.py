@@ -4,9 +4,10 @@ where the last clean frame lines up with the frame (a still sensor), and unet8 e
 For each interfered frame: the share of pixels returning in both the frame and its last clean frame that
 agree within 5 cm + 2% of depth (``contract.agreement``, what ``--model auto`` gates on; 0 when there is no
 last clean frame), and the squared error of unet8's and of unet8-temporal's repair (as ``recover`` writes
-it). Then, per gate, the RMSE change of the mix that takes the temporal repair where agreement >= gate. Two sets: the outside L515 set of
-``held_out.py`` (a still sensor; last clean frame = the frame before) and the simulated moving robot of
-``d2sr eval recovery`` (its first 60 interfered frames; the true last clean frame, or none).
+it). Then, per gate, the RMSE change of the mix that takes the temporal repair where agreement >= gate.
+Two sets: the outside L515 set of ``held_out.py`` (a still sensor; last clean frame = the frame before) and
+the simulated moving robot of ``d2sr eval recovery`` (its first 60 interfered frames; the true last clean
+frame, or none).
 
 Run:  .venv/bin/python bench/temporal_gate.py --data ../shared/data --json docs/results/temporal_gate.json
 """

@@ -8,7 +8,6 @@ import os
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import nullcontext
-from itertools import islice
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -44,7 +43,7 @@ from d2sr.contract import (
 )
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import InputError
-from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.frames.base import PLAUSIBLE_M, Frame
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.ui import progress_bar
 
@@ -112,13 +111,14 @@ def recover(
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
-    Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed.
+    Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed;
+    --model auto takes it for the frames that line up with that frame (a sensor that held still).
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
     from d2sr.desync import make_controller
     from d2sr.inference import open_backend
-    from d2sr.runtime.loop import Capture, SensorLoop
+    from d2sr.runtime.loop import Capture, Result, SensorLoop
     from d2sr.runtime.viewer import LIVE, RerunLog
 
     if model not in REPAIR_MODELS:
@@ -169,15 +169,10 @@ def recover(
         task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
         pending: deque[Future[None]] = deque()
         frames = prefetch(checked_counts(reader, scale, "frame"))
-        running = deque(
-            (f, pool.submit(loop.finish, loop.decide(Capture(f, scale)))) for f in islice(frames, workers)
-        )
-        while running:
-            f, job = running.popleft()
-            res = job.result()
-            nxt = next(frames, None)
-            if nxt is not None:
-                running.append((nxt, pool.submit(loop.finish, loop.decide(Capture(nxt, scale)))))
+        running: deque[tuple[Frame, Future[Result]]] = deque()
+
+        def done(f: Frame, res: Result) -> None:
+            nonlocal repaired
             if view is not None:
                 view.write(0, res)
             fix = every or res.flagged
@@ -187,6 +182,17 @@ def recover(
                 pending.popleft().result()
             rows.append({"name": f.name, "timestamp_ns": f.timestamp_ns, "repaired": bool(fix)})
             bar.advance(task)
+
+        # The next frame is decided (the detector runs) while the workers repair earlier ones; at most
+        # 2 x workers frames wait, written in input order.
+        for f in frames:
+            running.append((f, pool.submit(loop.finish, loop.decide(Capture(f, scale)))))
+            if len(running) >= 2 * workers:
+                g, job = running.popleft()
+                done(g, job.result())
+        while running:
+            g, job = running.popleft()
+            done(g, job.result())
         for p in pending:
             p.result()
         folder.finish(scale, reader.intrinsics, rows)
