@@ -17,16 +17,13 @@ Run:  .venv/bin/python bench/auto_gate.py --data ../shared/data --json docs/resu
 from __future__ import annotations
 
 import argparse
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from held_out import SEED, outside_interference, outside_set, scored
+from held_out import SEED, d2sr, moved_5cm, outside_interference, outside_set, scored
 
 MODELS = ("unet8", "unet8-temporal", "auto")
 CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
@@ -34,19 +31,9 @@ CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
 
 def moved(folder: Path, scale: float, out: Path, args: list[str]) -> dict:
     """``d2sr recover --all`` on a clean sequence: pixels moved > 5 cm, in all and in its worst frame."""
-    cmd = [sys.executable, "-m", "d2sr", "recover", str(folder), "--all", "--out", str(out)]
-    cmd += ["--depth-scale", f"{scale:g}", *args]
-    r = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if r.returncode:
-        raise SystemExit(f"{' '.join(cmd)} failed: {r.stderr.strip()}")
-    n = valid = worst = 0.0
-    for f in sorted(folder.glob("*.png")):
-        a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
-        b = cv2.imread(str(out / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
-        ok = a > 0
-        k = float((ok & (np.abs(a - b) / scale > 0.05)).sum())
-        n, valid, worst = n + k, valid + float(ok.sum()), max(worst, k / max(float(ok.sum()), 1))
-    return {"moved_5cm": round(n / max(valid, 1), 5), "worst_frame": round(worst, 5)}
+    d2sr("recover", str(folder), "--all", "--out", str(out), "--depth-scale", f"{scale:g}", *args)
+    share, worst = moved_5cm(folder, out, scale)
+    return {"moved_5cm": round(share, 5), "worst_frame": round(worst, 5)}
 
 
 def main() -> None:

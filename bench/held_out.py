@@ -91,7 +91,7 @@ def _write(folder: Path, frames: list[np.ndarray]) -> None:
         cv2.imwrite(str(folder / f"{i:05d}.png"), f)
 
 
-def _d2sr(*args: str) -> None:
+def d2sr(*args: str) -> None:
     r = subprocess.run([sys.executable, "-m", "d2sr", *args], capture_output=True, text=True, check=False)
     if r.returncode:
         raise SystemExit(f"d2sr {' '.join(args)} failed: {r.stderr.strip()}")
@@ -130,9 +130,9 @@ def scored(
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
-    _d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
+    d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
     pred = _flags(tmp / f"{name}.csv")
-    _d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
+    d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
     err_in = err_out = valid = changed = clean_px = 0.0
     for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
@@ -170,17 +170,24 @@ def scored(
 def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: Sequence[str] = ()) -> dict:
     frames = sorted(folder.glob("*.png"))
     s = ["--depth-scale", f"{scale:g}", *models]
-    _d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
-    _d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery)
-    moved = valid = 0.0
-    for f in frames:
-        a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
-        b = cv2.imread(str(tmp / "d435-fixed" / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
-        ok = a > 0
-        moved += float((ok & (np.abs(a - b) / scale > 0.05)).sum())
-        valid += float(ok.sum())
+    d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
+    d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery)
+    share, _ = moved_5cm(folder, tmp / "d435-fixed", scale)
     return {"frames": len(frames), "flagged": round(float(_flags(tmp / "d435.csv").mean()), 4),
-            "moved_5cm": round(moved / max(valid, 1), 5)}  # fmt: skip
+            "moved_5cm": round(share, 5)}  # fmt: skip
+
+
+def moved_5cm(folder: Path, fixed: Path, scale: float) -> tuple[float, float]:
+    """(share of the valid pixels of ``folder``'s frames that ``fixed`` moves by more than 5 cm, the same
+    in its worst frame)."""
+    moved = valid = worst = 0.0
+    for f in sorted(folder.glob("*.png")):
+        a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        b = cv2.imread(str(fixed / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
+        ok = a > 0
+        n = float((ok & (np.abs(a - b) / scale > 0.05)).sum())
+        moved, valid, worst = moved + n, valid + float(ok.sum()), max(worst, n / max(float(ok.sum()), 1))
+    return moved / max(valid, 1), worst
 
 
 def main() -> None:
@@ -214,7 +221,7 @@ def main() -> None:
             t0 = time.perf_counter()
             minutes = ["--minutes", f"{args.minutes:g}"] if args.minutes else []
             adapted = args.keep or tmp / "m"
-            _d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(adapted), *minutes)
+            d2sr("adapt", "--clean", str(first), "--depth-scale", "1000", "--out", str(adapted), *minutes)
             took = (time.perf_counter() - t0) / 60
             rest = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files[100:]]
             result["adapt"] = {"minutes": round(took, 2)} | _scored(

@@ -26,6 +26,11 @@ __all__ = ["BACKENDS", "open_backend"]
 BACKENDS = ("auto", "onnx", "torch")
 
 
+def _has(weights: Path, name: str) -> bool:
+    """The folder holds model ``name`` (ONNX or safetensors)."""
+    return any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors"))
+
+
 def open_backend(
     model: str | None = DEFAULT_RECOVERY,
     backend: str = "auto",
@@ -43,7 +48,7 @@ def open_backend(
     (``runtime.backends.Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
     if model == AUTO_RECOVERY:
         single = open_backend(DEFAULT_RECOVERY, backend, weights, detector, threads, int8, mask_logit, passes)
-        if not any((weights / f"{TEMPORAL_RECOVERY}{e}").is_file() for e in (".onnx", ".safetensors")):
+        if not _has(weights, TEMPORAL_RECOVERY):
             return single
         temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, mask_logit, passes)
         return Gated(single, temporal)
@@ -57,7 +62,7 @@ def open_backend(
     if not names:
         raise InputError("open_backend needs a detector, a recovery model or both")
     for name in names:
-        if not any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors")):
+        if not _has(weights, name):
             hint = f" (shipped: {', '.join(SHIPPED_RECOVERY)}; `make weights` trains the others)"
             raise InputError(f"no such model {name} in {weights}" + (hint if weights == WEIGHTS else ""))
     ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
