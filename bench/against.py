@@ -23,7 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from d2sr.bench import check_output, output_args, write_result
+from d2sr.bench import check_output, cpu, output_args, write_result
 from held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
@@ -91,7 +91,7 @@ def main() -> None:
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "ref": args.ref,
         "runs": args.runs,
-        "cpu": f"{os.cpu_count()} cores",
+        "cpu": cpu(),
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
         "fps": fps,
         "speedup": round(fps["this"] / fps[args.ref], 3),

@@ -11,14 +11,13 @@ Run:  .venv/bin/python bench/recover_parts.py --data ../shared/data \
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import time
 from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import check_output, output_args, write_result
+from d2sr.bench import check_output, cpu, output_args, write_result
 from d2sr.contract import guard, padded, repair_frame
 from d2sr.inference import open_backend
 from held_out import worst_case
@@ -63,7 +62,7 @@ def main() -> None:
         "benchmark": "recover --all worst case, per frame, in process (no PNG reading or writing)",
         "frames": "60 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "model": "unet8 (onnxruntime)",
-        "cpu": f"{os.cpu_count()} cores",
+        "cpu": cpu(),
         "runs": args.runs,
         "median_ms": med,
         "fps_in_process": round(1000 / med["total"], 1),

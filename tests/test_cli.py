@@ -1,4 +1,5 @@
 import json
+import os
 
 import pytest
 
@@ -142,3 +143,4 @@ def test_bench_json(tmp_path):
     assert res.returncode == 0, res.stderr
     data = json.loads(out.read_text())
     assert data["sensors"] == 60 and data["run_s_median"] > 0 and 0 <= data["interference_ratio"] <= 1
+    assert data["cpu"].startswith(f"{len(os.sched_getaffinity(0))} cores, ")  # which machine measured it

@@ -23,6 +23,7 @@ __all__ = [
     "bench_simulate",
     "bench_timing",
     "check_output",
+    "cpu",
     "output_args",
     "write_result",
 ]
@@ -34,6 +35,20 @@ def frame_4000(seed: int, interfered: bool) -> np.ndarray:
 
     frame, _, scale = synth_frame(seed, interfered)
     return np.clip(np.rint(frame.astype(np.float64) * (4000 / scale)), 0, 65535).astype(np.uint16)
+
+
+def cpu() -> str:
+    """The cores this process may use and the processor's name: runs on different machines differ by 3x."""
+    import os
+
+    name = platform.processor()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            name = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), name)
+    except OSError:
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return f"{cores} cores, {name or 'unknown'}"
 
 
 def output_args(ap: argparse.ArgumentParser) -> None:
@@ -99,6 +114,7 @@ def bench_timing(
         "controller": DEFAULT_CONTROLLER,
         "fps": fps,
         "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
+        "cpu": cpu(),
     }
 
 
@@ -343,6 +359,7 @@ def bench_pipeline(
     return {
         "benchmark": "runtime pipeline (onnxruntime, UNet8), in-process medians of repeats",
         "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
+        "cpu": cpu(),
         "frames": frames,
         "repeats": repeats,
         "rows": rows,
