@@ -78,6 +78,7 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
+	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector,
 	# paper-detector and unet16 were trained on data version 3 by the same configs (code of b0d36d6 and
