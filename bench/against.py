@@ -90,7 +90,7 @@ def main() -> None:
         per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
         fps[name] = round(1 / per, 1)
     result = {
-        "command": f"d2sr recover IN {' '.join(options)} --depth-scale 4000 --out OUT".replace("  ", " "),
+        "command": " ".join(["d2sr recover IN", *options, "--depth-scale 4000 --out OUT"]),
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "ref": args.ref,
         "runs": args.runs,

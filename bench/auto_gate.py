@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from held_out import SEED, d2sr, moved_5cm, outside_interference, outside_set, scored
+from held_out import d2sr, every_other, moved_5cm, outside_set, scored
 
 MODELS = ("unet8", "unet8-temporal", "auto")
 CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
@@ -48,7 +48,7 @@ def main() -> None:
 
     folder = ["--models", str(args.models)] if args.models else []
     clean = outside_set(args.data)
-    still = ([outside_interference(f, 4000.0, SEED + i) if i % 2 else f for i, f in enumerate(clean)], clean)
+    still = (every_other(clean, 4000.0), clean)
     ms = moving_set()
     scales = np.unique(np.asarray(ms.scale))
     if scales.size != 1:

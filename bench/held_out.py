@@ -64,6 +64,11 @@ def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarr
     return out.astype(np.uint16)
 
 
+def every_other(clean: list[np.ndarray], scale: float) -> list[np.ndarray]:
+    """The sequence with every other frame (the odd ones) corrupted by ``outside_interference``."""
+    return [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
+
+
 def outside_set(data: Path) -> list[np.ndarray]:
     """The 120 clean L515 frames of the outside set: dev0 after the person has left, and dev1."""
     frames = []
@@ -112,8 +117,7 @@ def _scored(
 ) -> dict:
     """Every other frame corrupted; detect and recover --all (``recovery``: its model option) from outside;
     the figures."""
-    bad = [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
-    return scored(tmp, name, bad, clean, scale, models, recovery)
+    return scored(tmp, name, every_other(clean, scale), clean, scale, models, recovery)
 
 
 def scored(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import os
 import platform
 import statistics
 import time
@@ -39,8 +40,6 @@ def frame_4000(seed: int, interfered: bool) -> np.ndarray:
 
 def cpu() -> str:
     """The cores this process may use and the processor's name: runs on different machines differ by 3x."""
-    import os
-
     name = platform.processor()
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
