@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -68,6 +70,34 @@ def test_sensor_noise_is_reproducible():
     r = Renderer(make_room(1), SMALL, Pose(0.5, 2.0, 1.5, 0.3)).render()
     a = [SensorNoise(L515, r.depth.shape, 3).observe(r) for _ in range(2)]
     assert np.array_equal(a[0], a[1])
+
+
+def test_lone_dropouts_follow_the_fitted_rate_and_come_back_on_weak_pixels():
+    from d2sr.sim.calibrate import pinholes
+    from d2sr.sim.scene import PINHOLE_REPEAT
+
+    # A near bright wall: the return law keeps almost every pixel, so lone holes are the pinhole ones.
+    r = Renderer(Room((3.0, 4.0, 3.0), (0.9,) * 6), SMALL, Pose(0.5, 2.0, 1.5, 0.0)).render()
+    none = SensorNoise(L515.model_copy(update={"pinhole": 0.0}), r.depth.shape, 0)
+    some = SensorNoise(L515.model_copy(update={"pinhole": 0.05}), r.depth.shape, 0)
+    frames = [some.observe(r) for _ in range(40)]
+    assert pinholes(none.observe(r) > 0) < 0.01
+    assert np.median([pinholes(f > 0) for f in frames]) == pytest.approx(0.05, abs=0.015)
+    # A pixel that dropped out alone drops out again at about the repeat rate, not the overall one.
+    lone = [(f == 0) & some.weak for f in frames]
+    again = np.mean([(a & b).sum() / max(a.sum(), 1) for a, b in itertools.pairwise(lone)])
+    assert again == pytest.approx(PINHOLE_REPEAT, abs=0.1)
+
+
+def test_pinholes_counts_holes_with_returning_neighbours_only():
+    from d2sr.sim.calibrate import pinholes
+
+    ok = np.ones((10, 10), bool)
+    ok[5, 5] = False  # a lone hole
+    ok[0, 0] = False  # a corner has 3 neighbours: not lone
+    ok[2:4, 7:9] = False  # a 2x2 hole: each has 5 returning neighbours (counts), as the real captures' do
+    assert pinholes(ok) == pytest.approx(5 / ok.sum())
+    assert pinholes(np.zeros((4, 4), bool)) == 0.0
 
 
 def _frame(shape=(120, 160)) -> np.ndarray:

@@ -188,7 +188,8 @@ def ratio_over_time(series: dict[str, np.ndarray], default: str, title: str) -> 
 
 
 def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
-    """Real vs simulated sensor statistics: zero fraction, flicker, temporal noise against range."""
+    """Real vs simulated sensor statistics: zero fraction, flicker, lone dropouts, reliably returning pixels,
+    temporal noise against range."""
     fig, ax = plt.subplots(1, 5, figsize=(20, 3.8))
     names = [*real, "simulated"]
     allst = [*real.values(), sim]
@@ -196,6 +197,8 @@ def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
     for a, key, title in (
         (ax[0], "zero_frac", "zero fraction per frame"),
         (ax[1], "flicker", "dropout flicker"),
+        (ax[2], "pinholes", "lone dropouts per returning pixel"),
+        (ax[3], "reliable", "pixels returning in >= 90% of frames"),
     ):
         vals = [getattr(s, key) for s in allst]
         a.bar(names, vals, color=colours)

@@ -1,11 +1,12 @@
-"""Calibrate the sensor model against real recordings: per-frame zero fraction, dropout flicker, and
-per-pixel temporal noise against range. ``d2sr calibrate`` runs the fit and writes the plot."""
+"""Calibrate the sensor model against real recordings: per-frame zero fraction, dropout flicker, lone
+dropouts, and per-pixel temporal noise against range. ``d2sr calibrate`` runs the fit and writes the plot."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from d2sr.sim.scene import Pose, Renderer, SensorModel, SensorNoise, make_room
@@ -27,6 +28,7 @@ class SequenceStats:
     frames: int
     rare: float = float("nan")  # share of pixels returning in <= 2% of frames
     reliable: float = float("nan")  # share of pixels returning in >= 90% of frames
+    pinholes: float = float("nan")  # dropouts with >= 5 of 8 neighbours returning, per returning pixel
 
     def to_dict(self) -> dict:
         return {
@@ -37,6 +39,7 @@ class SequenceStats:
             "frames": self.frames,
             "rare": self.rare,
             "reliable": self.reliable,
+            "pinholes": self.pinholes,
         }
 
 
@@ -45,7 +48,7 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
     no return from one frame to the next) and temporal sd against range of pixels returning in >= 50% of
     frames. Memory: a few float64 images, whatever the length."""
     n = 0
-    zero, flick = [], []
+    zero, flick, pin = [], [], []
     prev: np.ndarray | None = None
     count: np.ndarray | None = None
     mean = m2 = np.zeros(0)
@@ -55,6 +58,7 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
         if count is None:
             count, mean, m2 = np.zeros(d.shape), np.zeros(d.shape), np.zeros(d.shape)
         zero.append(1 - ok.mean())
+        pin.append(pinholes(ok))
         if prev is not None:
             flick.append(float((ok != prev).mean()))
         prev = ok
@@ -76,7 +80,16 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
             noise[b] = float(np.median(sd[sel]))
     rate = count / n
     rare, reliable = float((rate <= 0.02).mean()), float((rate >= 0.9).mean())
-    return SequenceStats(float(np.median(zero)), float(np.median(flick)), noise, pixels, n, rare, reliable)
+    zeros, flicker, lone = (float(np.median(v)) for v in (zero, flick, pin))
+    return SequenceStats(zeros, flicker, noise, pixels, n, rare, reliable, lone)
+
+
+def pinholes(ok: np.ndarray) -> float:
+    """Dropouts with at least 5 of their 8 neighbours returning, per returning pixel: the lone holes a
+    recovery model could take for interference if it never saw them on clean frames."""
+    v = ok.astype(np.float32)
+    around = cv2.boxFilter(v, -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT) - v
+    return float((~ok & (around >= 5)).sum()) / max(float(ok.sum()), 1.0)
 
 
 def static_camera(seed: int) -> Renderer:
@@ -111,6 +124,7 @@ def simulated_stats(model: SensorModel, rooms: int = 4, frames: int = 40, seed: 
         rooms * frames,
         float(np.median([s.rare for s in stats])),
         float(np.median([s.reliable for s in stats])),
+        float(np.median([s.pinholes for s in stats])),
     )
 
 
@@ -144,8 +158,9 @@ def calibrate(
     steps: int = 6,
     progress: Callable[[float], None] | None = None,
 ) -> SensorModel:
-    """Fit the return law's ``signal_ref`` to the zero fraction and the speckle correlation ``flicker`` to
-    the flicker rate (coordinate bisection, twice round); the noise line comes from the real noise against
+    """Fit the return law's ``signal_ref`` to the zero fraction, the speckle correlation ``flicker`` to
+    the flicker rate and the lone dropouts' rate ``pinhole`` to ``pinholes`` (coordinate bisection, twice
+    round); the noise line comes from the real noise against
     range by least squares. The law's steepness ``signal_shape`` (2) and the share of dark surfaces were
     set by hand so that the shares of rarely and reliably returning pixels match; fitting them too was
     unstable (room-to-room variation swamps them), so they are checked, not fitted."""
@@ -157,7 +172,7 @@ def calibrate(
         model = model.model_copy(
             update={"noise_per_m": float(max(slope, 0)), "noise_base": float(max(icpt, 0))}
         )
-    total, done = 2 * 2 * (steps + 1), 0
+    total, done = 2 * 3 * (steps + 1), 0
 
     def stat(name: str, field: str) -> Callable[[float], float]:
         def f(v: float) -> float:
@@ -174,11 +189,13 @@ def calibrate(
         model = model.model_copy(update={"signal_ref": ref})
         rho = _bisect(stat("flicker", "flicker"), 0.0, 0.98, real.flicker, steps, log=False)
         model = model.model_copy(update={"flicker": rho})
+        pin = _bisect(stat("pinholes", "pinhole"), 0.0, 0.3, real.pinholes, steps, log=False)
+        model = model.model_copy(update={"pinhole": pin})
     return model
 
 
 #: Statistics the calibration checks against the real captures (besides noise against range).
-STATS = ("zero_frac", "flicker", "rare", "reliable")
+STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes")
 WITHIN = 0.2  # the bar: every simulated statistic within 20% of the real one
 
 
@@ -198,6 +215,7 @@ def combine(stats: list[SequenceStats]) -> SequenceStats:
         sum(s.frames for s in stats),
         float(np.mean([s.rare for s in stats])),
         float(np.mean([s.reliable for s in stats])),
+        float(np.mean([s.pinholes for s in stats])),
     )
 
 

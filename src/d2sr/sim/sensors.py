@@ -40,6 +40,7 @@ def randomized_l515(model: SensorModel, rng: np.random.Generator) -> SensorModel
             "noise_per_m": model.noise_per_m * lu(0.5, 2.0),
             "flicker": float(rng.uniform(0.3, 0.9)),
             "edge_drop": float(rng.uniform(0.2, 0.95)),
+            "pinhole": min(model.pinhole * lu(0.4, 2.5), 0.3),
         }
     )
 
