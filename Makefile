@@ -72,6 +72,8 @@ weights: $(STAMP)
 	for m in unet8:a496b2f unet16:a496b2f unet32:5263f3f; do n=$${m%:*}; mkdir -p runs/$$n-0.2.0; \
 	  test -f runs/$$n-0.2.0/$$n.safetensors || \
 	  git show $${m#*:}:src/d2sr/models/weights/$$n.safetensors > runs/$$n-0.2.0/$$n.safetensors; done
+	mkdir -p runs/unet16-0.4.0 && (test -f runs/unet16-0.4.0/unet16.safetensors || \
+	  git show ebe0a54:src/d2sr/models/weights/unet16.safetensors > runs/unet16-0.4.0/unet16.safetensors)
 	$(BIN)/d2sr train recovery --config configs/unet8-stage1.toml --out runs/unet8-stage1
 	$(BIN)/d2sr train recovery --config configs/unet8-stage2.toml --out runs/unet8-stage2
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
@@ -79,6 +81,8 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
+	$(BIN)/d2sr train recovery --config configs/unet32-stage3.toml --out runs/unet32-stage3
+	$(BIN)/d2sr train recovery --config configs/unet16-v5.toml --out runs/unet16-v5
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector,
 	# paper-detector and unet16 were trained on data version 3 by the same configs (code of b0d36d6 and
