@@ -89,6 +89,32 @@ def test_lone_dropouts_follow_the_fitted_rate_and_come_back_on_weak_pixels():
     assert again == pytest.approx(PINHOLE_REPEAT, abs=0.1)
 
 
+def test_fine_speckle_makes_small_holes_and_zero_leaves_the_field_as_it_was():
+    from d2sr.sim.calibrate import small_holes
+
+    r = Renderer(Room((7.5, 4.0, 3.0), (0.3,) * 6), SMALL, Pose(0.5, 2.0, 1.5, 0.0)).render()  # weak, far
+    plain = L515.model_copy(update={"speckle_fine": 0.0, "pinhole": 0.0})
+    fine = plain.model_copy(update={"speckle_fine": 0.6})
+    a, b = SensorNoise(plain, r.depth.shape, 4), SensorNoise(fine, r.depth.shape, 4)
+    fa, fb = [a.observe(r) for _ in range(8)], [b.observe(r) for _ in range(8)]
+    assert np.mean([small_holes(f > 0) for f in fb]) > 2 * np.mean([small_holes(f > 0) for f in fa])
+    # The same zero share: the fine part changes the shape of the dropouts, not their number.
+    assert np.mean([(f == 0).mean() for f in fb]) == pytest.approx(
+        np.mean([(f == 0).mean() for f in fa]), abs=0.05
+    )
+
+
+def test_small_holes_counts_holes_of_2_to_10_pixels():
+    from d2sr.sim.calibrate import small_holes
+
+    ok = np.ones((20, 20), bool)
+    ok[2, 2] = False  # 1 pixel: not counted
+    ok[5, 5:8] = False  # 3 pixels
+    ok[10:14, 10:14] = False  # 16 pixels: not counted
+    ok[17, 0:2] = False  # 2 pixels
+    assert small_holes(ok) == pytest.approx(5 / ok.sum())
+
+
 def test_pinholes_counts_holes_with_returning_neighbours_only():
     from d2sr.sim.calibrate import pinholes
 
@@ -175,3 +201,11 @@ def test_sensor_defaults_are_the_committed_calibration():
     ]
     for key, value in L515.model_dump().items():
         assert fitted[key] == pytest.approx(value, rel=1e-3), key  # defaults keep 4 digits
+
+
+def test_bisect_finds_the_target_and_stops_at_the_nearer_end_outside_the_range():
+    from d2sr.sim.calibrate import _bisect
+
+    assert _bisect(lambda x: 2 * x, 0.0, 1.0, 1.0, 12, log=False) == pytest.approx(0.5, abs=1e-3)
+    assert _bisect(lambda x: 2 * x, 0.0, 1.0, 5.0, 12, log=False) == 1.0
+    assert _bisect(lambda x: -x, 0.0, 1.0, 0.5, 12, log=False) == 0.0  # decreasing, target above f(lo)

@@ -188,9 +188,9 @@ def ratio_over_time(series: dict[str, np.ndarray], default: str, title: str) -> 
 
 
 def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
-    """Real vs simulated sensor statistics: zero fraction, flicker, lone dropouts, reliably returning pixels,
-    temporal noise against range."""
-    fig, ax = plt.subplots(1, 5, figsize=(20, 3.8))
+    """Real vs simulated sensor statistics: zero fraction, flicker, lone dropouts, small holes, reliably
+    returning pixels, temporal noise against range."""
+    fig, ax = plt.subplots(1, 6, figsize=(24, 3.8))
     names = [*real, "simulated"]
     allst = [*real.values(), sim]
     colours = [f"C{i}" for i in range(len(real))] + ["k"]
@@ -198,7 +198,8 @@ def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
         (ax[0], "zero_frac", "zero fraction per frame"),
         (ax[1], "flicker", "dropout flicker"),
         (ax[2], "pinholes", "lone dropouts per returning pixel"),
-        (ax[3], "reliable", "pixels returning in >= 90% of frames"),
+        (ax[3], "small_holes", "pixels of 2-10 pixel holes per returning pixel"),
+        (ax[4], "reliable", "pixels returning in >= 90% of frames"),
     ):
         vals = [getattr(s, key) for s in allst]
         a.bar(names, vals, color=colours)
@@ -208,11 +209,11 @@ def calibration(real: dict[str, SequenceStats], sim: SequenceStats) -> Figure:
         a.legend(loc="lower right", fontsize=8)
     centres = (BINS[:-1] + BINS[1:]) / 2
     for (name, s), c in zip(zip(names, allst, strict=True), colours, strict=True):
-        ax[4].plot(centres, s.noise * 1000, "o-", color=c, label=name)
-    ax[4].set_xlabel("range (m)")
-    ax[4].set_ylabel("per-pixel temporal sd (mm)")
-    ax[4].set_title("range noise")
-    ax[4].legend(fontsize=8)
+        ax[5].plot(centres, s.noise * 1000, "o-", color=c, label=name)
+    ax[5].set_xlabel("range (m)")
+    ax[5].set_ylabel("per-pixel temporal sd (mm)")
+    ax[5].set_title("range noise")
+    ax[5].legend(fontsize=8)
     fig.tight_layout()
     return fig
 

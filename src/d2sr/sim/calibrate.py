@@ -1,5 +1,6 @@
 """Calibrate the sensor model against real recordings: per-frame zero fraction, dropout flicker, lone
-dropouts, and per-pixel temporal noise against range. ``d2sr calibrate`` runs the fit and writes the plot."""
+dropouts, small holes, and per-pixel temporal noise against range. ``d2sr calibrate`` runs the fit and
+writes the plot."""
 
 from __future__ import annotations
 
@@ -29,6 +30,7 @@ class SequenceStats:
     rare: float = float("nan")  # share of pixels returning in <= 2% of frames
     reliable: float = float("nan")  # share of pixels returning in >= 90% of frames
     pinholes: float = float("nan")  # dropouts with >= 5 of 8 neighbours returning, per returning pixel
+    small_holes: float = float("nan")  # pixels of holes of 2-10 pixels, per returning pixel
 
     def to_dict(self) -> dict:
         return {
@@ -40,6 +42,7 @@ class SequenceStats:
             "rare": self.rare,
             "reliable": self.reliable,
             "pinholes": self.pinholes,
+            "small_holes": self.small_holes,
         }
 
 
@@ -48,7 +51,7 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
     no return from one frame to the next) and temporal sd against range of pixels returning in >= 50% of
     frames. Memory: a few float64 images, whatever the length."""
     n = 0
-    zero, flick, pin = [], [], []
+    zero, flick, pin, small = [], [], [], []
     prev: np.ndarray | None = None
     count: np.ndarray | None = None
     mean = m2 = np.zeros(0)
@@ -59,6 +62,7 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
             count, mean, m2 = np.zeros(d.shape), np.zeros(d.shape), np.zeros(d.shape)
         zero.append(1 - ok.mean())
         pin.append(pinholes(ok))
+        small.append(small_holes(ok))
         if prev is not None:
             flick.append(float((ok != prev).mean()))
         prev = ok
@@ -80,8 +84,8 @@ def sequence_stats(frames: Iterable[np.ndarray], depth_scale: float, min_pixels:
             noise[b] = float(np.median(sd[sel]))
     rate = count / n
     rare, reliable = float((rate <= 0.02).mean()), float((rate >= 0.9).mean())
-    zeros, flicker, lone = (float(np.median(v)) for v in (zero, flick, pin))
-    return SequenceStats(zeros, flicker, noise, pixels, n, rare, reliable, lone)
+    zeros, flicker, lone, few = (float(np.median(v)) for v in (zero, flick, pin, small))
+    return SequenceStats(zeros, flicker, noise, pixels, n, rare, reliable, lone, few)
 
 
 def pinholes(ok: np.ndarray) -> float:
@@ -90,6 +94,14 @@ def pinholes(ok: np.ndarray) -> float:
     v = ok.astype(np.float32)
     around = cv2.boxFilter(v, -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT) - v
     return float((~ok & (around >= 5)).sum()) / max(float(ok.sum()), 1.0)
+
+
+def small_holes(ok: np.ndarray) -> float:
+    """Pixels of dropout holes of 2-10 pixels (4-connected), per returning pixel: the small ragged holes of a
+    far, weak return, which a single scale of dropout speckle does not make."""
+    _, _, stats, _ = cv2.connectedComponentsWithStats((~ok).astype(np.uint8), connectivity=4)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    return float(area[(area >= 2) & (area <= 10)].sum()) / max(float(ok.sum()), 1.0)
 
 
 def static_camera(seed: int) -> Renderer:
@@ -125,6 +137,7 @@ def simulated_stats(model: SensorModel, rooms: int = 4, frames: int = 40, seed: 
         float(np.median([s.rare for s in stats])),
         float(np.median([s.reliable for s in stats])),
         float(np.median([s.pinholes for s in stats])),
+        float(np.median([s.small_holes for s in stats])),
     )
 
 
@@ -138,8 +151,11 @@ def _nanmedian(a: np.ndarray) -> np.ndarray:
 
 
 def _bisect(f: Callable[[float], float], lo: float, hi: float, target: float, steps: int, log: bool) -> float:
-    """x in [lo, hi] with f(x) ~ target for monotone f (increasing or decreasing)."""
-    flo = f(lo)
+    """x in [lo, hi] with f(x) ~ target for monotone f (increasing or decreasing); the nearer end when
+    the target lies outside [f(lo), f(hi)] (another parameter already overshoots it)."""
+    flo, fhi = f(lo), f(hi)
+    if (flo < target) == (fhi < target):
+        return lo if abs(flo - target) <= abs(fhi - target) else hi
     for _ in range(steps):
         mid = float(np.sqrt(lo * hi) if log else (lo + hi) / 2)
         fm = f(mid)
@@ -159,11 +175,12 @@ def calibrate(
     progress: Callable[[float], None] | None = None,
 ) -> SensorModel:
     """Fit the return law's ``signal_ref`` to the zero fraction, the speckle correlation ``flicker`` to
-    the flicker rate and the lone dropouts' rate ``pinhole`` to ``pinholes`` (coordinate bisection, twice
-    round); the noise line comes from the real noise against
-    range by least squares. The law's steepness ``signal_shape`` (2) and the share of dark surfaces were
-    set by hand so that the shares of rarely and reliably returning pixels match; fitting them too was
-    unstable (room-to-room variation swamps them), so they are checked, not fitted."""
+    the flicker rate, the dropout field's fine part ``speckle_fine`` to ``small_holes`` and the lone
+    dropouts' rate ``pinhole`` to ``pinholes`` (coordinate bisection, twice round); the noise line comes
+    from the real noise against range by least squares. The law's steepness ``signal_shape`` (2) and the
+    share of dark surfaces were set by hand so that the shares of rarely and reliably returning pixels
+    match; fitting them too was unstable (room-to-room variation swamps them), so they are checked, not
+    fitted."""
     model = base or SensorModel()
     x, y = (BINS[:-1] + BINS[1:]) / 2, real.noise
     ok = ~np.isnan(y)
@@ -172,7 +189,7 @@ def calibrate(
         model = model.model_copy(
             update={"noise_per_m": float(max(slope, 0)), "noise_base": float(max(icpt, 0))}
         )
-    total, done = 2 * 3 * (steps + 1), 0
+    total, done = 2 * 4 * (steps + 2), 0
 
     def stat(name: str, field: str) -> Callable[[float], float]:
         def f(v: float) -> float:
@@ -189,13 +206,15 @@ def calibrate(
         model = model.model_copy(update={"signal_ref": ref})
         rho = _bisect(stat("flicker", "flicker"), 0.0, 0.98, real.flicker, steps, log=False)
         model = model.model_copy(update={"flicker": rho})
+        fine = _bisect(stat("small_holes", "speckle_fine"), 0.0, 0.9, real.small_holes, steps, log=False)
+        model = model.model_copy(update={"speckle_fine": fine})
         pin = _bisect(stat("pinholes", "pinhole"), 0.0, 0.3, real.pinholes, steps, log=False)
         model = model.model_copy(update={"pinhole": pin})
     return model
 
 
 #: Statistics the calibration checks against the real captures (besides noise against range).
-STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes")
+STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes", "small_holes")
 WITHIN = 0.2  # the bar: every simulated statistic within 20% of the real one
 
 
@@ -216,6 +235,7 @@ def combine(stats: list[SequenceStats]) -> SequenceStats:
         float(np.mean([s.rare for s in stats])),
         float(np.mean([s.reliable for s in stats])),
         float(np.mean([s.pinholes for s in stats])),
+        float(np.mean([s.small_holes for s in stats])),
     )
 
 

@@ -347,6 +347,9 @@ class Renderer:
 #: A pixel of the real L515 that drops out alone does so again in 39% of the next frames and 41% of those
 #: 20 frames later (../shared/data/l515/dev1): weak pixels, fixed per unit, that fail at random.
 PINHOLE_REPEAT = 0.4
+#: Blur (pixels) of the dropout field's fine part. The real L515's far dropouts come at every scale: holes of
+#: 2-10 pixels hold 1.8% of the returning pixels' count, 0.9% with one Gaussian scale (speckle_px).
+FINE_PX = 0.6
 
 
 class SensorModel(Settings):
@@ -358,14 +361,17 @@ class SensorModel(Settings):
     min_range: float = Field(0.25, ge=0, description="no return closer than this (m)")
     noise_base: float = Field(0.003921, ge=0, description="range noise floor, sd in metres")
     noise_per_m: float = Field(0.001782, ge=0, description="range noise sd growth per metre of range")
-    signal_ref: float = Field(0.034478, gt=0, description="signal refl*cos/r^2 at which 63% of pixels return")
+    signal_ref: float = Field(0.036524, gt=0, description="signal refl*cos/r^2 at which 63% of pixels return")
     signal_shape: float = Field(2.0, gt=0, description="steepness of the return probability in signal")
     speckle_px: float = Field(2.0, gt=0, description="size of dropout speckles (Gaussian sigma, pixels)")
-    flicker: float = Field(0.727344, ge=0, lt=1, description="frame-to-frame correlation of speckle")
+    flicker: float = Field(0.681406, ge=0, lt=1, description="frame-to-frame correlation of speckle")
     edge_drop: float = Field(0.7, ge=0, le=1, description="chance a pixel on a depth edge drops out")
     edge_jump: float = Field(0.06, gt=0, description="relative depth jump that counts as an edge")
+    speckle_fine: float = Field(
+        0.274219, ge=0, lt=1, description="share of the dropout field's variance at the pixel scale (FINE_PX)"
+    )
     pinhole: float = Field(
-        0.044531, ge=0, lt=PINHOLE_REPEAT, description="share of returning pixels lost alone per frame"
+        0.0, ge=0, lt=PINHOLE_REPEAT, description="share of returning pixels lost alone per frame"
     )
 
     def return_prob(self, r: Render) -> np.ndarray:
@@ -393,7 +399,12 @@ class SensorNoise:
         g: np.ndarray = self.rng.standard_normal(shape, dtype=np.float32)
         s = self.model.speckle_px
         g = cv2.GaussianBlur(g, (0, 0), s)
-        return g / np.float32(0.5 / (np.sqrt(np.pi) * s))  # unit variance after the blur
+        g /= np.float32(0.5 / (np.sqrt(np.pi) * s))  # unit variance after the blur
+        a = self.model.speckle_fine
+        if a > 0:  # a pixel-scale part: the real sensor's small ragged holes
+            f = cv2.GaussianBlur(self.rng.standard_normal(shape, dtype=np.float32), (0, 0), FINE_PX)
+            g = np.float32(np.sqrt(1 - a)) * g + np.float32(np.sqrt(a)) * f / max(float(f.std()), 1e-6)
+        return g
 
     def observe(self, r: Render) -> np.ndarray:
         """A uint16 frame at ``model.depth_scale`` from a rendered scene."""

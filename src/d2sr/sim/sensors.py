@@ -41,6 +41,7 @@ def randomized_l515(model: SensorModel, rng: np.random.Generator) -> SensorModel
             "flicker": float(rng.uniform(0.3, 0.9)),
             "edge_drop": float(rng.uniform(0.2, 0.95)),
             "pinhole": min(model.pinhole * lu(0.4, 2.5), 0.3),
+            "speckle_fine": min(model.speckle_fine * lu(0.4, 2.5), 0.9),
         }
     )
 
