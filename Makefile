@@ -82,6 +82,7 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
 	$(BIN)/d2sr train recovery --config configs/unet32-stage3.toml --out runs/unet32-stage3
+	$(BIN)/d2sr train recovery --config configs/unet32-stage4.toml --out runs/unet32-stage4
 	$(BIN)/d2sr train recovery --config configs/unet16-v5.toml --out runs/unet16-v5
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector,
