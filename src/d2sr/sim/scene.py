@@ -399,7 +399,7 @@ class SensorNoise:
         g: np.ndarray = self.rng.standard_normal(shape, dtype=np.float32)
         s = self.model.speckle_px
         g = cv2.GaussianBlur(g, (0, 0), s)
-        g /= np.float32(0.5 / (np.sqrt(np.pi) * s))  # unit variance after the blur
+        g = g / np.float32(0.5 / (np.sqrt(np.pi) * s))  # unit variance after the blur
         a = self.model.speckle_fine
         if a > 0:  # a pixel-scale part: the real sensor's small ragged holes
             f = cv2.GaussianBlur(self.rng.standard_normal(shape, dtype=np.float32), (0, 0), FINE_PX)
