@@ -69,11 +69,10 @@ weights: $(STAMP)
 	$(BIN)/d2sr train detector --config configs/detector.toml --out runs/detector
 	$(BIN)/d2sr train detector --config configs/detector-temporal.toml --out runs/detector-temporal
 	$(BIN)/d2sr train detector --config configs/paper-detector.toml --out runs/paper-detector
-	for m in unet8:a496b2f unet16:a496b2f unet32:5263f3f; do n=$${m%:*}; mkdir -p runs/$$n-0.2.0; \
-	  test -f runs/$$n-0.2.0/$$n.safetensors || \
-	  git show $${m#*:}:src/d2sr/models/weights/$$n.safetensors > runs/$$n-0.2.0/$$n.safetensors; done
-	mkdir -p runs/unet16-0.4.0 && (test -f runs/unet16-0.4.0/unet16.safetensors || \
-	  git show ebe0a54:src/d2sr/models/weights/unet16.safetensors > runs/unet16-0.4.0/unet16.safetensors)
+	# Starting points shipped earlier: runs/<model>-<version>/ from the commit that shipped them.
+	for m in unet8-0.2.0:a496b2f unet16-0.2.0:a496b2f unet32-0.2.0:5263f3f unet16-0.4.0:ebe0a54; do \
+	  d=$${m%:*}; n=$${d%-*}; mkdir -p runs/$$d; test -f runs/$$d/$$n.safetensors || \
+	  git show $${m#*:}:src/d2sr/models/weights/$$n.safetensors > runs/$$d/$$n.safetensors; done
 	$(BIN)/d2sr train recovery --config configs/unet8-stage1.toml --out runs/unet8-stage1
 	$(BIN)/d2sr train recovery --config configs/unet8-stage2.toml --out runs/unet8-stage2
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -14,6 +15,16 @@ from d2sr.sim.scene import Pose, Renderer, SensorModel, SensorNoise, make_room
 
 __all__ = ["BINS", "SequenceStats", "calibrate", "sequence_stats", "simulated_stats", "static_camera"]
 
+#: Statistics the calibration checks against the real captures (besides noise against range).
+STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes", "small_holes")
+WITHIN = 0.2  # the bar: every simulated statistic within 20% of the real one
+#: What the fit sets, in order: (statistic, model field, search range, log scale).
+FITTED = (
+    ("zero_frac", "signal_ref", 0.005, 0.2, True),
+    ("flicker", "flicker", 0.0, 0.98, False),
+    ("small_holes", "speckle_fine", 0.0, 0.9, False),
+    ("pinholes", "pinhole", 0.0, 0.3, False),
+)
 #: Range bins (m) of the noise-against-range statistic.
 BINS = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
 
@@ -128,16 +139,18 @@ def simulated_stats(model: SensorModel, rooms: int = 4, frames: int = 40, seed: 
         r = cam.render(0.0)
         noise = SensorNoise(model, r.depth.shape, seed + k)
         stats.append(sequence_stats((noise.observe(r) for _ in range(frames)), model.depth_scale))
+    return _pooled(stats, np.median, _nanmedian(np.stack([s.noise for s in stats])))
+
+
+def _pooled(
+    stats: list[SequenceStats], pool: Callable[[list[float]], Any], noise: np.ndarray
+) -> SequenceStats:
+    """Several sequences' statistics as one: ``pool`` of each of ``STATS``, pixels and frames summed."""
     return SequenceStats(
-        float(np.median([s.zero_frac for s in stats])),
-        float(np.median([s.flicker for s in stats])),
-        _nanmedian(np.stack([s.noise for s in stats])),
-        np.sum([s.pixels for s in stats], axis=0),
-        rooms * frames,
-        float(np.median([s.rare for s in stats])),
-        float(np.median([s.reliable for s in stats])),
-        float(np.median([s.pinholes for s in stats])),
-        float(np.median([s.small_holes for s in stats])),
+        noise=noise,
+        pixels=np.sum([s.pixels for s in stats], axis=0),
+        frames=sum(s.frames for s in stats),
+        **{k: float(pool([getattr(s, k) for s in stats])) for k in STATS},
     )
 
 
@@ -189,7 +202,7 @@ def calibrate(
         model = model.model_copy(
             update={"noise_per_m": float(max(slope, 0)), "noise_base": float(max(icpt, 0))}
         )
-    total, done = 2 * 4 * (steps + 2), 0
+    total, done = 2 * len(FITTED) * (steps + 2), 0
 
     def stat(name: str, field: str) -> Callable[[float], float]:
         def f(v: float) -> float:
@@ -202,20 +215,10 @@ def calibrate(
         return f
 
     for _ in range(2):
-        ref = _bisect(stat("zero_frac", "signal_ref"), 0.005, 0.2, real.zero_frac, steps, log=True)
-        model = model.model_copy(update={"signal_ref": ref})
-        rho = _bisect(stat("flicker", "flicker"), 0.0, 0.98, real.flicker, steps, log=False)
-        model = model.model_copy(update={"flicker": rho})
-        fine = _bisect(stat("small_holes", "speckle_fine"), 0.0, 0.9, real.small_holes, steps, log=False)
-        model = model.model_copy(update={"speckle_fine": fine})
-        pin = _bisect(stat("pinholes", "pinhole"), 0.0, 0.3, real.pinholes, steps, log=False)
-        model = model.model_copy(update={"pinhole": pin})
+        for name, field, lo, hi, log in FITTED:
+            v = _bisect(stat(name, field), lo, hi, getattr(real, name), steps, log)
+            model = model.model_copy(update={field: v})
     return model
-
-
-#: Statistics the calibration checks against the real captures (besides noise against range).
-STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes", "small_holes")
-WITHIN = 0.2  # the bar: every simulated statistic within 20% of the real one
 
 
 def combine(stats: list[SequenceStats]) -> SequenceStats:
@@ -226,17 +229,7 @@ def combine(stats: list[SequenceStats]) -> SequenceStats:
     ok = ~np.isnan(noise)
     n = ok.sum(axis=0)
     mean_noise = np.where(n > 0, np.where(ok, noise, 0).sum(axis=0) / np.maximum(n, 1), np.nan)
-    return SequenceStats(
-        float(np.mean([s.zero_frac for s in stats])),
-        float(np.mean([s.flicker for s in stats])),
-        mean_noise,
-        np.sum([s.pixels for s in stats], axis=0),
-        sum(s.frames for s in stats),
-        float(np.mean([s.rare for s in stats])),
-        float(np.mean([s.reliable for s in stats])),
-        float(np.mean([s.pinholes for s in stats])),
-        float(np.mean([s.small_holes for s in stats])),
-    )
+    return _pooled(stats, np.mean, mean_noise)
 
 
 def verdict(real: SequenceStats, sim: SequenceStats) -> dict:
