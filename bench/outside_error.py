@@ -1,10 +1,13 @@
-"""Benchmark: where the error left on the outside L515 set lies (``held_out.py``'s 60 corrupted frames, in
-process, ``recover --all``'s repair): the squared error left in pixels the mask misses, in pixels it repairs,
-and in clean pixels; the RMSE change with the true mask in place of the predicted one (the same guarded
-predictions: what a perfect mask would give this model); the first pass's mask logits at missed, repaired
-and clean returning pixels; and the RMSE change for each number of passes in ``--passes``.
+"""Benchmark: where the error left on the outside L515 set lies (``held_out.py``'s corrupted frames, in
+process, ``recover --all``'s repair): the squared error left in pixels the mask misses, in pixels it
+repairs and in clean pixels; the RMSE change with the true mask in place of the predicted one (the same
+guarded predictions: what a perfect mask would give this model); the first pass's mask logits at missed,
+repaired and clean returning pixels; the RMSE change for each number of passes in ``--passes``; and with
+``--plot``, the trade-off ``--mask-logit`` walks (RMSE change against clean pixels changed, both passes,
+per threshold).
 
-Run:  .venv/bin/python bench/outside_error.py --data ../shared/data --json docs/results/outside_error.json
+Run:  .venv/bin/python bench/outside_error.py --data ../shared/data --json docs/results/outside_error.json \
+          --plot docs/results/outside_error.png
       .venv/bin/python bench/outside_error.py --models DIR --model unet8-temporal   (given the last frame)
 """
 
@@ -15,13 +18,27 @@ from pathlib import Path
 
 import numpy as np
 
+from d2sr.atomic import check_out
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, repair_frame
+from d2sr.errors import D2SRError
+from d2sr.eval.model_plots import operating_curves
+from d2sr.eval.plots import save
 from d2sr.inference import open_backend
+from d2sr.runtime.backends import Backend
 from held_out import every_other, outside_set
 
 SCALE = 4000.0
 QUANTILES = (5, 25, 50, 75, 95)
+LOGITS = (3.0, 2.0, 1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0, -3.0, -4.0)  # --plot's thresholds
+
+
+def _pairs(data: Path) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(corrupted frame, its clean frame, the clean frame before it) for the frames the interference changed
+    (``held_out.scored``'s: of the 60 it is written on, some are left as they were)."""
+    clean = outside_set(data)
+    bad = every_other(clean, SCALE)
+    return [(bad[i], clean[i], clean[i - 1]) for i in range(1, len(clean), 2) if (bad[i] != clean[i]).any()]
 
 
 def _sq(out: np.ndarray, clean: np.ndarray, where: np.ndarray) -> float:
@@ -31,9 +48,7 @@ def _sq(out: np.ndarray, clean: np.ndarray, where: np.ndarray) -> float:
 def breakdown(weights: Path, model: str, data: Path, passes: list[int]) -> dict:
     """The figures above for one model (a temporal one gets the clean frame before each, as a still sensor's
     last clean frame)."""
-    clean = outside_set(data)
-    bad = every_other(clean, SCALE)
-    pairs = [(bad[i], clean[i], clean[i - 1]) for i in range(1, len(clean), 2)]
+    pairs = _pairs(data)
     net = open_backend(model, "onnx", weights, detector=None)
     before = sum(_sq(b, c, c > 0) for b, c, _ in pairs)
     parts = {"missed": 0.0, "repaired": 0.0, "clean": 0.0}
@@ -54,15 +69,8 @@ def breakdown(weights: Path, model: str, data: Path, passes: list[int]) -> dict:
         logits["repaired"].append(logit[true & kept])
         logits["clean"].append(logit[~true & (b > 0)])
     left = sum(parts.values())
-    by_passes = {}
-    for n in passes:
-        pn = open_backend(model, "onnx", weights, detector=None, passes=n)
-        err = 0.0
-        for b, c, prev in pairs:
-            last = prev.astype(np.float32)[None] / np.float32(SCALE) if pn.frames == 2 else None
-            pred, mask = pn.recover(b.astype(np.float32)[None] / np.float32(SCALE), last)
-            err += _sq(repair_frame(b, pred[0], mask[0], SCALE)[0], c, c > 0)
-        by_passes[str(n)] = round(float(np.sqrt(err / before) - 1), 4)
+    runs = {n: open_backend(model, "onnx", weights, detector=None, passes=n) for n in passes}
+    by_passes = {str(n): _repaired(b, pairs)[0] for n, b in runs.items()}
     return {
         "model": model,
         "frames": len(pairs),
@@ -84,17 +92,65 @@ def breakdown(weights: Path, model: str, data: Path, passes: list[int]) -> dict:
     }
 
 
+def _repaired(net: Backend, pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[float, ...]:
+    """(RMSE change, share of clean pixels changed, mask F1) of ``net``'s repair of the pairs."""
+    before = after = changed = clean_px = tp = fp = fn = 0.0
+    for b, c, prev in pairs:
+        last = prev.astype(np.float32)[None] / np.float32(SCALE) if net.frames == 2 else None
+        pred, mask = net.recover(b.astype(np.float32)[None] / np.float32(SCALE), last)
+        out, kept = repair_frame(b, pred[0], mask[0], SCALE)
+        true = b != c
+        before, after = before + _sq(b, c, c > 0), after + _sq(out, c, c > 0)
+        changed, clean_px = changed + float(((out != b) & ~true).sum()), clean_px + float((~true).sum())
+        tp, fp, fn = tp + (kept & true).sum(), fp + (kept & ~true).sum(), fn + (~kept & true).sum()
+    f1 = 2 * tp / max(2 * tp + fp + fn, 1)
+    return (
+        round(float(np.sqrt(after / before) - 1), 4),
+        round(changed / max(clean_px, 1), 5),
+        round(float(f1), 4),
+    )
+
+
+def curve(weights: Path, model: str, data: Path, own: float) -> dict[str, list[float]]:
+    """``operating_curve``'s figures on the outside set, as recover repairs (both passes), per threshold
+    (``LOGITS`` and the model's ``own``)."""
+    pairs = _pairs(data)
+    logits = sorted({*LOGITS, own}, reverse=True)
+    rows = [
+        _repaired(open_backend(model, "onnx", weights, detector=None, mask_logit=t), pairs) for t in logits
+    ]
+    return {
+        "mask_logit": logits,
+        "rmse_vs_identity": [r[0] for r in rows],
+        "clean_changed": [r[1] for r in rows],
+        "mask_f1": [r[2] for r in rows],
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=WEIGHTS, help="a model folder (default: shipped)")
     ap.add_argument("--model", default="unet8")
     ap.add_argument("--passes", default="1,2,3,4", help="numbers of passes to compare, comma-separated")
+    ap.add_argument("--plot", type=Path, default=None, help="also write the trade-off plot (PNG) here")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
+    if args.plot is not None:
+        try:
+            check_out(args.plot, is_dir=False, overwrite=args.overwrite, option="--plot")
+        except D2SRError as exc:
+            ap.error(str(exc))
     passes = [int(p) for p in args.passes.split(",") if p.strip()]
-    print(write_result(breakdown(args.models, args.model, args.data, passes), args.json))
+    result = breakdown(args.models, args.model, args.data, passes)
+    if args.plot is not None:
+        result["operating_curve"] = curve(args.models, args.model, args.data, result["mask_logit"])
+        fig = operating_curves(
+            {"outside L515 set": result["operating_curve"]}, result["mask_logit"], args.model
+        )
+        save(fig, args.plot)
+    print(write_result(result, args.json))
 
 
 if __name__ == "__main__":
