@@ -85,6 +85,7 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet32-stage4.toml --out runs/unet32-stage4
 	$(BIN)/d2sr train recovery --config configs/unet16-v5.toml --out runs/unet16-v5
 	$(BIN)/d2sr train recovery --config configs/unet16-v6.toml --out runs/unet16-v6
+	$(BIN)/d2sr train recovery --config configs/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector,
 	# paper-detector and unet16 were trained on data version 3 by the same configs (code of b0d36d6 and
