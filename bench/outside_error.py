@@ -21,7 +21,7 @@ import numpy as np
 from d2sr.atomic import check_out
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, repair_frame
-from d2sr.errors import D2SRError
+from d2sr.errors import D2SRError, InputError
 from d2sr.eval.model_plots import operating_curves
 from d2sr.eval.plots import save
 from d2sr.inference import open_backend
@@ -37,6 +37,8 @@ def _pairs(data: Path) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """(corrupted frame, its clean frame, the clean frame before it) for the frames the interference changed
     (``held_out.scored``'s: of the 60 it is written on, some are left as they were)."""
     clean = outside_set(data)
+    if len(clean) < 2:
+        raise InputError(f"{data}/l515: needs the dev0 and dev1 captures (found {len(clean)} frames)")
     bad = every_other(clean, SCALE)
     return [(bad[i], clean[i], clean[i - 1]) for i in range(1, len(clean), 2) if (bad[i] != clean[i]).any()]
 
@@ -142,10 +144,13 @@ def main() -> None:
             check_out(args.plot, is_dir=False, overwrite=args.overwrite, option="--plot")
         except D2SRError as exc:
             ap.error(str(exc))
-    passes = [int(p) for p in args.passes.split(",") if p.strip()]
-    result = breakdown(args.models, args.model, args.data, passes)
-    if args.plot is not None:
-        result["operating_curve"] = curve(args.models, args.model, args.data, result["mask_logit"])
+    try:
+        passes = [int(p) for p in args.passes.split(",") if p.strip()]
+        result = breakdown(args.models, args.model, args.data, passes)
+        if args.plot is not None:
+            result["operating_curve"] = curve(args.models, args.model, args.data, result["mask_logit"])
+    except (D2SRError, ValueError) as exc:
+        ap.error(str(exc))
         fig = operating_curves(
             {"outside L515 set": result["operating_curve"]}, result["mask_logit"], args.model
         )
