@@ -78,6 +78,7 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	$(BIN)/d2sr train recovery --config configs/unet8-v6.toml --out runs/unet8-v6
+	$(BIN)/d2sr train recovery --config configs/unet8-temporal-v6.toml --out runs/unet8-temporal-v6
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
