@@ -25,6 +25,7 @@ from d2sr.errors import D2SRError, InputError
 from d2sr.eval.model_plots import operating_curves
 from d2sr.eval.plots import save
 from d2sr.inference import open_backend
+from d2sr.metrics import RepairSums
 from d2sr.runtime.backends import Backend
 from held_out import every_other, outside_set
 
@@ -95,22 +96,20 @@ def breakdown(weights: Path, model: str, data: Path, passes: list[int]) -> dict:
 
 
 def _repaired(net: Backend, pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[float, ...]:
-    """(RMSE change, share of clean pixels changed, mask F1) of ``net``'s repair of the pairs."""
-    before = after = changed = clean_px = tp = fp = fn = 0.0
+    """(RMSE change, share of clean pixels changed, mask F1) of ``net``'s repair of the pairs, in the sums
+    every evaluation uses (``metrics.RepairSums``)."""
+    before, after = RepairSums(), RepairSums()
     for b, c, prev in pairs:
+        x, y = b.astype(np.float32) / np.float32(SCALE), c.astype(np.float32) / np.float32(SCALE)
         last = prev.astype(np.float32)[None] / np.float32(SCALE) if net.frames == 2 else None
-        pred, mask = net.recover(b.astype(np.float32)[None] / np.float32(SCALE), last)
+        pred, mask = net.recover(x[None], last)
         out, kept = repair_frame(b, pred[0], mask[0], SCALE)
         true = b != c
-        before, after = before + _sq(b, c, c > 0), after + _sq(out, c, c > 0)
-        changed, clean_px = changed + float(((out != b) & ~true).sum()), clean_px + float((~true).sum())
-        tp, fp, fn = tp + (kept & true).sum(), fp + (kept & ~true).sum(), fn + (~kept & true).sum()
-    f1 = 2 * tp / max(2 * tp + fp + fn, 1)
-    return (
-        round(float(np.sqrt(after / before) - 1), 4),
-        round(changed / max(clean_px, 1), 5),
-        round(float(f1), 4),
-    )
+        before.add(x, np.zeros_like(true), x, y, true)
+        after.add(out.astype(np.float32) / np.float32(SCALE), kept, x, y, true)
+    r = after.result()
+    change = r["rmse_cm"] / before.result()["rmse_cm"] - 1
+    return round(change, 4), round(r["clean_changed"], 5), round(r["mask_f1"], 4)
 
 
 def curve(weights: Path, model: str, data: Path, own: float) -> dict[str, list[float]]:
