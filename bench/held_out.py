@@ -64,9 +64,64 @@ def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarr
     return out.astype(np.uint16)
 
 
-def every_other(clean: list[np.ndarray], scale: float) -> list[np.ndarray]:
-    """The sequence with every other frame (the odd ones) corrupted by ``outside_interference``."""
-    return [outside_interference(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
+def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set B (written after a threshold was read off set A, to check it on a set nobody had looked at):
+    corrupt a uint16 frame with one of two more outside models, chosen by the seed. Neither is in
+    ``d2sr.sim``, and neither is ``outside_interference``'s:
+
+    * another scanner's spot tracing a Lissajous figure across the view (its MEMS mirror's two axes at
+      different rates), each hit a mix of the scene's return and the other laser's (nearer than both:
+      ``1 / (1/d + 1/r)``), some hits saturating to no return;
+    * multipath ghost tiles: in blocks of the image (a ToF camera's processing tiles) the depth becomes a mix
+      of the scene and a displaced copy of it, so the wrong values look like the room's own surfaces.
+
+    Only pixels that move by more than 2 cm + 1% count (the truth is what changed): a ghost of a flat wall
+    on itself changes nothing anyone could find."""
+    rng = np.random.default_rng([seed, 0xB0B])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    if rng.random() < 0.5:  # Lissajous trace of another scanner's spot
+        t = np.linspace(0.0, 1.0, 40_000)
+        fa, fb = rng.integers(1, 9, 2)
+        cx, cy = rng.uniform(0.2, 0.8) * w, rng.uniform(0.2, 0.8) * h
+        ax, by = rng.uniform(0.3, 0.9) * w, rng.uniform(0.3, 0.9) * h
+        px = cx + ax * np.sin(2 * np.pi * fa * t + rng.uniform(0, 2 * np.pi))
+        py = cy + by * np.sin(2 * np.pi * fb * t)
+        trace = np.zeros((h, w), np.uint8)
+        pts = np.stack([px, py], 1).round().astype(np.int32)
+        cv2.polylines(trace, [pts], False, 1, thickness=int(rng.integers(2, 10)))
+        where = trace > 0
+        r = rng.uniform(0.4, 3.0)
+        new = 1.0 / (1.0 / np.maximum(d, 1e-3) + 1.0 / r)
+        new = np.where(rng.random((h, w)) < rng.uniform(0.0, 0.5), 0.0, new)  # saturated: no return
+        hit = rng.uniform(0.4, 0.95)
+    else:  # multipath ghost tiles
+        tile = int(rng.integers(8, 33))
+        cells = rng.random((h // tile + 1, w // tile + 1)) < rng.uniform(0.1, 0.5)
+        where = np.kron(cells, np.ones((tile, tile), bool))[:h, :w]
+        dy, dx = (int(v) for v in rng.integers(-80, 81, 2))
+        ghost = np.roll(d, (dy, dx), (0, 1))
+        a = rng.uniform(0.3, 0.7)
+        new = np.where(ghost > 0, (1 - a) * d + a * ghost, (1 - a) * d)
+        hit = rng.uniform(0.6, 1.0)
+    if rng.random() < 0.5:  # only where the views overlap: an ellipse
+        ey, ex = rng.uniform(0, h), rng.uniform(0, w)
+        ry, rx = rng.uniform(0.3, 0.8) * h, rng.uniform(0.3, 0.8) * w
+        y, x = np.mgrid[0:h, 0:w]
+        where &= ((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2 < 1
+    where &= (rng.random((h, w)) < hit) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
+SETS = {"a": outside_interference, "b": crosstalk_interference}
+
+
+def every_other(clean: list[np.ndarray], scale: float, which: str = "a") -> list[np.ndarray]:
+    """The sequence with every other frame (the odd ones) corrupted by set ``which``'s interference
+    (``SETS``)."""
+    corrupt = SETS[which]
+    return [corrupt(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
 
 
 def outside_set(data: Path) -> list[np.ndarray]:
@@ -114,10 +169,11 @@ def _scored(
     scale: float,
     models: Sequence[str],
     recovery: Sequence[str] = (),
+    which: str = "a",
 ) -> dict:
-    """Every other frame corrupted; detect and recover --all (``recovery``: its model option) from outside;
-    the figures."""
-    return scored(tmp, name, every_other(clean, scale), clean, scale, models, recovery)
+    """Every other frame corrupted (set ``which``); detect and recover --all (``recovery``: its model
+    option) from outside; the figures."""
+    return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery)
 
 
 def scored(
@@ -199,6 +255,15 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
     ap.add_argument("--model", default=None, help="recover's --model (default: its own, unet8)")
+    ap.add_argument(
+        "--mask-logit", type=float, default=None, help="recover's --mask-logit (default: the model's)"
+    )
+    ap.add_argument(
+        "--set",
+        choices=sorted(SETS),
+        default="a",
+        help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles)",
+    )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
     ap.add_argument("--keep", type=Path, default=None, help="write the adapted folder here (new) to study it")
@@ -208,11 +273,19 @@ def main() -> None:
     if args.keep is not None and args.keep.exists():
         ap.error(f"--keep {args.keep} exists: give a new folder")
     models = ["--models", str(args.models)] if args.models else []
-    recovery = ["--model", args.model] if args.model else []
-    result: dict = {"models": str(args.models or "shipped"), "model": args.model or "default"}
+    recovery = (["--model", args.model] if args.model else []) + (
+        ["--mask-logit", f"{args.mask_logit:g}"] if args.mask_logit is not None else []
+    )
+    result: dict = {
+        "models": str(args.models or "shipped"),
+        "model": args.model or "default",
+        "set": args.set,
+    }
+    if args.mask_logit is not None:
+        result["mask_logit"] = args.mask_logit
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        result["l515"] = _scored(tmp, "l515", outside_set(args.data), 4000.0, models, recovery)
+        result["l515"] = _scored(tmp, "l515", outside_set(args.data), 4000.0, models, recovery, args.set)
         print("l515", result["l515"], flush=True)
         result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models, recovery)
         print("d435", result["d435"], flush=True)

@@ -27,20 +27,20 @@ from d2sr.eval.plots import save
 from d2sr.inference import open_backend
 from d2sr.metrics import RepairSums
 from d2sr.runtime.backends import Backend
-from held_out import every_other, outside_set
+from held_out import SETS, every_other, outside_set
 
 SCALE = 4000.0
 QUANTILES = (5, 25, 50, 75, 95)
 LOGITS = (3.0, 2.0, 1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0, -3.0, -4.0)  # --plot's thresholds
 
 
-def _pairs(data: Path) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(corrupted frame, its clean frame, the clean frame before it) for the frames the interference changed
-    (``held_out.scored``'s: of the 60 it is written on, some are left as they were)."""
+def _pairs(data: Path, which: str) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(corrupted frame, its clean frame, the clean frame before it) for the frames set ``which``'s
+    interference changed (``held_out.scored``'s: of the 60 it is written on, some are left as they were)."""
     clean = outside_set(data)
     if len(clean) < 2:
         raise InputError(f"{data}/l515: needs the dev0 and dev1 captures (found {len(clean)} frames)")
-    bad = every_other(clean, SCALE)
+    bad = every_other(clean, SCALE, which)
     return [(bad[i], clean[i], clean[i - 1]) for i in range(1, len(clean), 2) if (bad[i] != clean[i]).any()]
 
 
@@ -48,10 +48,10 @@ def _sq(out: np.ndarray, clean: np.ndarray, where: np.ndarray) -> float:
     return float((((out.astype(np.float64) - clean) / SCALE)[where] ** 2).sum())
 
 
-def breakdown(weights: Path, model: str, data: Path, passes: list[int]) -> dict:
+def breakdown(weights: Path, model: str, data: Path, passes: list[int], which: str = "a") -> dict:
     """The figures above for one model (a temporal one gets the clean frame before each, as a still sensor's
     last clean frame)."""
-    pairs = _pairs(data)
+    pairs = _pairs(data, which)
     net = open_backend(model, "onnx", weights, detector=None)
     before = sum(_sq(b, c, c > 0) for b, c, _ in pairs)
     parts = {"missed": 0.0, "repaired": 0.0, "clean": 0.0}
@@ -112,10 +112,10 @@ def _repaired(net: Backend, pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray
     return round(change, 4), round(r["clean_changed"], 5), round(r["mask_f1"], 4)
 
 
-def curve(weights: Path, model: str, data: Path, own: float) -> dict[str, list[float]]:
+def curve(weights: Path, model: str, data: Path, own: float, which: str = "a") -> dict[str, list[float]]:
     """``operating_curve``'s figures on the outside set, as recover repairs (both passes), per threshold
     (``LOGITS`` and the model's ``own``)."""
-    pairs = _pairs(data)
+    pairs = _pairs(data, which)
     logits = sorted({*LOGITS, own}, reverse=True)
     rows = [
         _repaired(open_backend(model, "onnx", weights, detector=None, mask_logit=t), pairs) for t in logits
@@ -133,6 +133,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=WEIGHTS, help="a model folder (default: shipped)")
     ap.add_argument("--model", default="unet8")
+    ap.add_argument("--set", choices=sorted(SETS), default="a", help="held_out.py's outside set")
     ap.add_argument("--passes", default="1,2,3,4", help="numbers of passes to compare, comma-separated")
     ap.add_argument("--plot", type=Path, default=None, help="also write the trade-off plot (PNG) here")
     output_args(ap)
@@ -145,15 +146,17 @@ def main() -> None:
             ap.error(str(exc))
     try:
         passes = [int(p) for p in args.passes.split(",") if p.strip()]
-        result = breakdown(args.models, args.model, args.data, passes)
+        result = breakdown(args.models, args.model, args.data, passes, args.set)
         if args.plot is not None:
-            result["operating_curve"] = curve(args.models, args.model, args.data, result["mask_logit"])
+            result["operating_curve"] = curve(
+                args.models, args.model, args.data, result["mask_logit"], args.set
+            )
     except (D2SRError, ValueError) as exc:
         ap.error(str(exc))
-        fig = operating_curves(
-            {"outside L515 set": result["operating_curve"]}, result["mask_logit"], args.model
-        )
-        save(fig, args.plot)
+    result["set"] = args.set
+    if args.plot is not None:
+        name = f"outside L515 set {args.set}"
+        save(operating_curves({name: result["operating_curve"]}, result["mask_logit"], args.model), args.plot)
     print(write_result(result, args.json))
 
 
