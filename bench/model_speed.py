@@ -1,0 +1,73 @@
+"""Benchmark: ``d2sr recover --all``'s worst case from outside the process (``against.py``'s frames: 640x480
+L515 frames, every one corrupted by ``held_out.py``'s outside interference) for several recover option
+sets in one run on one tree, alternating between them so that a shared, noisy machine slows all alike; per
+option set the median over ``--runs`` of (60 frames - 10 frames) / 50 is the time a frame takes without
+start-up. For weighing a model or threshold against the default on the speed bar (30 fps).
+
+Run:  .venv/bin/python bench/model_speed.py --json docs/results/bench_model_speed.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+from pathlib import Path
+
+import cv2
+
+from against import HERE, _recover
+from d2sr.bench import check_output, cpu, output_args, write_result
+from held_out import worst_case
+
+# name: recover's options after --all (the default first: the one the others are compared with)
+OPTIONS = {
+    "default": [],
+    "auto": ["--model", "auto"],
+    "auto, mask logit -1.5": ["--model", "auto", "--mask-logit", "-1.5"],
+}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--runs", type=int, default=5)
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    if args.runs < 1:
+        ap.error("--runs must be at least 1")
+    frames = worst_case(args.data)
+    secs: dict[tuple[str, int], list[float]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        for n in (10, 60):
+            (root / f"in{n}").mkdir()
+            for name, frame in frames[:n]:
+                cv2.imwrite(str(root / f"in{n}" / name), frame)
+        for k in range(args.runs):
+            for j, (name, options) in enumerate(OPTIONS.items()):
+                for n in (60, 10):
+                    out = root / f"out{j}-{n}-{k}"
+                    took = _recover(HERE / "src", root / f"in{n}", out, ["--all", *options])
+                    secs.setdefault((name, n), []).append(took)
+                    print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
+    fps = {}
+    for name in OPTIONS:
+        per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
+        fps[name] = round(1 / per, 1)
+    result = {
+        "command": "d2sr recover IN --all OPTIONS --depth-scale 4000 --out OUT",
+        "options": {name: " ".join(o) for name, o in OPTIONS.items()},
+        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
+        "runs": args.runs,
+        "cpu": cpu(),
+        "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
+        "fps": fps,
+        "ratio_to_default": {name: round(f / fps["default"], 3) for name, f in fps.items()},
+    }
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()
