@@ -41,6 +41,19 @@ def _recover(src: Path, frames: Path, out: Path, options: list[str]) -> float:
     return time.perf_counter() - t
 
 
+def write_inputs(root: Path, frames: list[tuple[str, np.ndarray]]) -> None:
+    """``root/in10`` and ``root/in60``: the first 10 and 60 frames (name, frame) as PNG files."""
+    for n in (10, 60):
+        (root / f"in{n}").mkdir()
+        for name, frame in frames[:n]:
+            cv2.imwrite(str(root / f"in{n}" / name), frame)
+
+
+def fps(secs60: list[float], secs10: list[float]) -> float:
+    """Frames a second without start-up: the medians' difference over the 50 frames between the runs."""
+    return round(50 / (statistics.median(secs60) - statistics.median(secs10)), 1)
+
+
 def _same(a: Path, b: Path) -> bool:
     for f in sorted(a.glob("*.png")):
         for sub in ("", "masks"):
@@ -69,10 +82,7 @@ def main() -> None:
         git = ["git", "-C", str(HERE), "worktree"]
         subprocess.run([*git, "add", "--detach", str(ref), args.ref], check=True)
         try:
-            for n in (10, 60):
-                (root / f"in{n}").mkdir()
-                for name, frame in frames[:n]:
-                    cv2.imwrite(str(root / f"in{n}" / name), frame)
+            write_inputs(root, frames)
             trees = {"this": HERE / "src", args.ref: ref / "src"}
             secs: dict[tuple[str, int], list[float]] = {}
             for k in range(args.runs):
@@ -85,10 +95,7 @@ def main() -> None:
             same = _same(root / "out0-60-0", root / "out1-60-0")
         finally:
             subprocess.run([*git, "remove", "--force", str(ref)], check=False)
-    fps = {}
-    for name in trees:
-        per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
-        fps[name] = round(1 / per, 1)
+    rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in trees}
     result = {
         "command": " ".join(["d2sr recover IN", *options, "--depth-scale 4000 --out OUT"]),
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
@@ -96,8 +103,8 @@ def main() -> None:
         "runs": args.runs,
         "cpu": cpu(),
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
-        "fps": fps,
-        "speedup": round(fps["this"] / fps[args.ref], 3),
+        "fps": rate,
+        "speedup": round(rate["this"] / rate[args.ref], 3),
         "identical_output": same,
     }
     print(write_result(result, args.json))

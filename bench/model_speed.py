@@ -10,13 +10,10 @@ Run:  .venv/bin/python bench/model_speed.py --json docs/results/bench_model_spee
 from __future__ import annotations
 
 import argparse
-import statistics
 import tempfile
 from pathlib import Path
 
-import cv2
-
-from against import HERE, _recover
+from against import HERE, _recover, fps, write_inputs
 from d2sr.bench import check_output, cpu, output_args, write_result
 from held_out import worst_case
 
@@ -41,10 +38,7 @@ def main() -> None:
     secs: dict[tuple[str, int], list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
-        for n in (10, 60):
-            (root / f"in{n}").mkdir()
-            for name, frame in frames[:n]:
-                cv2.imwrite(str(root / f"in{n}" / name), frame)
+        write_inputs(root, frames)
         for k in range(args.runs):
             for j, (name, options) in enumerate(OPTIONS.items()):
                 for n in (60, 10):
@@ -52,10 +46,7 @@ def main() -> None:
                     took = _recover(HERE / "src", root / f"in{n}", out, ["--all", *options])
                     secs.setdefault((name, n), []).append(took)
                     print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
-    fps = {}
-    for name in OPTIONS:
-        per = (statistics.median(secs[(name, 60)]) - statistics.median(secs[(name, 10)])) / 50
-        fps[name] = round(1 / per, 1)
+    rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in OPTIONS}
     result = {
         "command": "d2sr recover IN --all OPTIONS --depth-scale 4000 --out OUT",
         "options": {name: " ".join(o) for name, o in OPTIONS.items()},
@@ -63,8 +54,8 @@ def main() -> None:
         "runs": args.runs,
         "cpu": cpu(),
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
-        "fps": fps,
-        "ratio_to_default": {name: round(f / fps["default"], 3) for name, f in fps.items()},
+        "fps": rate,
+        "ratio_to_default": {name: round(f / rate["default"], 3) for name, f in rate.items()},
     }
     print(write_result(result, args.json))
 
