@@ -92,7 +92,8 @@ weights: $(STAMP)
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
 # Trials that did not ship (each config holds its rule, written before it ran, and its outcome): the shipped
-# models one more cycle on data versions 5 and 6. They start from `make weights`'s runs.
+# models one more cycle on data versions 5 and 6, unet8-temporal also gated as auto uses it. They start
+# from `make weights`'s runs.
 trials: $(STAMP)
 	test -f runs/unet8-temporal/unet8-temporal.safetensors -a -f runs/unet16-0.4.0/unet16.safetensors || \
 	  { echo "make trials: run make weights first (it trains and extracts their starting points)"; exit 2; }
@@ -101,6 +102,7 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet16-v5.toml --out runs/unet16-v5
 	$(BIN)/d2sr train recovery --config configs/unet16-v6.toml --out runs/unet16-v6
 	$(BIN)/d2sr train recovery --config configs/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
+	$(BIN)/d2sr train recovery --config configs/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.

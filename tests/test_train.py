@@ -16,7 +16,7 @@ from safetensors.torch import load_file
 from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.train.config import TrainConfig
-from d2sr.train.data import Batch, Pool, synth_set
+from d2sr.train.data import Batch, Pool, Source, synth_set
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
@@ -95,6 +95,21 @@ def test_temporal_detector_sees_the_previous_frame_as_delivered(tmp_path):
     assert all(n > 0 for n in seen.values()), seen
     b = pool.batch(rng, 4, None)
     assert b.x.shape == (4, 2, 480, 640) and (b.x[:, 1] > 0).any()
+
+
+def test_gated_temporal_recovery_gets_no_last_frame_that_does_not_line_up():
+    # Frame 0's last clean frame lines up with it (the same wall); frame 1's does not (a wall 2 m farther).
+    frames = [np.full((32, 32), 2000, np.uint16), np.full((32, 32), 3000, np.uint16)]
+    previous = [frames[0].copy(), np.full((32, 32), 5000, np.uint16)]
+    src = Source(frames, frames, None, 1000.0, np.array([True, True]), previous)
+    rng = np.random.default_rng(0)
+    for gate in (False, True):
+        b = Pool([src], frames=2, gate_previous=gate).batch(rng, 200, None)
+        first = b.x[:, 0].mean(axis=(1, 2)) < 2.4  # gain 0.85-1.15: frame 0 below, frame 1 above
+        has_last = (b.x[:, 1] > 0).all(axis=(1, 2))
+        assert first.any() and (~first).any()
+        assert 0.75 < has_last[first].mean() < 1  # 10% start-up frames have none either way
+        assert has_last[~first].any() != gate  # gated: never the wall that is not there any more
 
 
 class _Fixed(torch.nn.Module):

@@ -98,10 +98,12 @@ def threshold(
     if name not in RECOVERY_NAMES:
         raise InputError(f"{weights} is a {name}, not a recovery model")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[weights.parent])  # refused before the work
-    chosen = choose_mask_logit(model, cache, count=validation)
+    card = read_card(weights)
+    # A model trained with gate_previous is chosen for on the frames it was trained for.
+    gate = bool(card.get("training", {}).get("config", {}).get("gate_previous", False))
+    chosen = choose_mask_logit(model, cache, count=validation, gate_previous=gate)
     was = mask_logit(weights)
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    card = read_card(weights)
     training = card.get("training", {}) | {"mask_threshold": chosen}
     with out_dir(out, overwrite, [weights.parent]) as tmp:
         target = tmp / weights.name

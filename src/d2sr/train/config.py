@@ -44,6 +44,12 @@ class TrainConfig(Settings):
         description="recovery: share of interfered frames trained on as recover's second pass sees them "
         "(the frame with the model's own guarded first repair filled in)",
     )
+    gate_previous: bool = Field(
+        False,
+        description="temporal recovery: a last clean frame that does not line up with the frame "
+        "(contract.agreement below LINES_UP) is given as none in training, and the mask threshold is chosen "
+        "on the lined-up frames only: --model auto gives the others to the single-frame model",
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,

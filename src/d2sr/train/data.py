@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import scale_at
+from d2sr.contract import LINES_UP, agreement, scale_at
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe
@@ -88,17 +88,27 @@ def _folders(cfg: TrainConfig) -> list[Source]:
     return out
 
 
+def lines_up(frame: np.ndarray, last: np.ndarray, scale: float) -> bool:
+    """Whether ``--model auto`` would give this frame (depth units, ``scale`` per metre) to the temporal
+    model with ``last`` as its last clean frame (``contract.agreement`` >= ``LINES_UP``)."""
+    s = np.float32(scale)
+    return agreement(frame.astype(np.float32) / s, last.astype(np.float32) / s) >= LINES_UP
+
+
 class Pool:
     """All training frames of a run. A temporal recovery model's second input is the sensor's last clean
     frame; a temporal detector's (``raw_previous``) is the sensor's previous frame as delivered, which may
     be interfered itself or missing (see ``_previous``)."""
 
-    def __init__(self, sources: list[Source], frames: int = 1, raw_previous: bool = False) -> None:
+    def __init__(
+        self, sources: list[Source], frames: int = 1, raw_previous: bool = False, gate_previous: bool = False
+    ) -> None:
         if not sources:
             raise InputError("no training data")
         if frames > 1 and any(s.previous is None for s in sources):
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
         self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
+        self.gate_previous = gate_previous  # TrainConfig.gate_previous
         self.index = [
             (s, i)
             for s, src in enumerate(sources)
@@ -118,7 +128,7 @@ class Pool:
                 shares = np.asarray(ss.meta["mask_share"])
                 skip |= ss.labels & (shares < cfg.min_share)
             sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
-        return cls(sources + _folders(cfg), frames, raw_previous=cfg.task == "detector")
+        return cls(sources + _folders(cfg), frames, cfg.task == "detector", cfg.gate_previous)
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
         """What a temporal detector sees as the previous frame, given the frame and the sensor's last clean
@@ -160,6 +170,8 @@ class Pool:
             ins = [f]
             if self.frames > 1 and src.previous is not None:
                 last = np.asarray(src.previous[i])
+                if self.gate_previous and not lines_up(f, last, scale_at(src.scale, i)):
+                    last = np.zeros_like(last)
                 ins.append(self._previous(rng, f, last) if self.raw_previous else last)
             if crop is not None:
                 h, w = f.shape

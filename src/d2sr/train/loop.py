@@ -230,7 +230,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
             weights = out / f"{cfg.model}.safetensors"
             threshold = None
             if cfg.task == "recovery":
-                threshold = choose_mask_logit(core, cfg.cache, progress, cfg.validation)
+                threshold = choose_mask_logit(core, cfg.cache, progress, cfg.validation, cfg.gate_previous)
                 summary["mask_threshold"] = threshold
             save_model(core, cfg.model, weights, threshold["mask_logit"] if threshold else None)
             atomic_write(out / "loss.json", json.dumps(losses))
@@ -326,15 +326,20 @@ def pick_as_recovered(model: nn.Module, items: Items) -> tuple[float, str, list[
 
 
 def choose_mask_logit(
-    model: nn.Module, cache: Path, progress: bool = True, count: int = VALIDATION_FRAMES
+    model: nn.Module,
+    cache: Path,
+    progress: bool = True,
+    count: int = VALIDATION_FRAMES,
+    gate_previous: bool = False,
 ) -> dict:
     """The recovery model's mask threshold: of the candidate logits, the one with the lowest RMSE on
     generated validation frames (seeds VALIDATION_SEED+, never trained or tested on) among those that change
     at most MAX_CLEAN_CHANGED of the clean pixels by more than 1 cm (``pick_mask_logit``), raised until the
     repair ``recover`` writes keeps that (``pick_as_recovered``). The mask head errs towards missing
     dropouts (a dropout and a natural no-return look alike), and each missed one costs metres. The
-    ``rmse_cm`` and ``clean_changed`` curves are of one pass."""
-    from d2sr.train.data import synth_set
+    ``rmse_cm`` and ``clean_changed`` curves are of one pass. ``gate_previous``: only the frames whose last
+    clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainConfig.gate_previous``)."""
+    from d2sr.train.data import lines_up, synth_set
     from d2sr.train.synth import VALIDATION_SEED
 
     frames = int(getattr(model, "frames", 1))
@@ -344,12 +349,15 @@ def choose_mask_logit(
         ([ss.frames[i]] + ([prev[i]] if prev is not None else []), ss.clean[i], float(ss.scales[i]))
         for i in map(int, np.flatnonzero(ss.labels))
     ]
+    if gate_previous and prev is not None:  # the frames --model auto gives the temporal model
+        items = [it for it in items if lines_up(it[0][0], it[0][1], it[2])]
     logit, rule, sums, figures = pick_as_recovered(model, items)
     rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
     changed = np.array([r.result()["clean_changed"] for r in sums])
     return {
         "mask_logit": logit,
-        "rule": f"{rule}, {count} generated validation frames (seeds {VALIDATION_SEED}+)",
+        "rule": f"{rule}, {count} generated validation frames (seeds {VALIDATION_SEED}+)"
+        + (f", the {len(items)} interfered ones whose last clean frame lines up" if gate_previous else ""),
         "as_recovered": {k: round(float(figures[k]), 5) for k in ("rmse_cm", "mask_f1", "clean_changed")},
         "rmse_cm": {f"{t:g}": round(100 * float(r), 2) for t, r in zip(MASK_LOGITS, rmse, strict=True)},
         "clean_changed": {f"{t:g}": round(float(c), 5) for t, c in zip(MASK_LOGITS, changed, strict=True)},
