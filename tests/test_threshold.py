@@ -60,3 +60,23 @@ def test_threshold_refuses_what_is_not_a_recovery_model(tmp_path):
     res = d2sr("threshold", str(bad), "--out", str(tmp_path / "o"))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow  # generates frames with their last clean frames and runs the model on them
+def test_a_gated_temporal_model_is_chosen_for_on_lined_up_frames_only(tmp_path):
+    import numpy as np
+
+    from d2sr.models.store import load_model
+    from d2sr.train.data import lines_up, synth_set
+    from d2sr.train.loop import choose_mask_logit
+    from d2sr.train.synth import VALIDATION_SEED
+
+    model, _ = load_model(WEIGHTS / "unet8-temporal.safetensors")
+    ss = synth_set(tmp_path, 20, VALIDATION_SEED, progress=False, previous=True)
+    hit = np.flatnonzero(ss.labels)
+    up = sum(lines_up(ss.frames[i], ss.previous[i], float(ss.scales[i])) for i in hit)
+    assert 0 < up < len(hit)  # these seeds hold both kinds
+    gated = choose_mask_logit(model, tmp_path, False, 20, gate_previous=True)
+    plain = choose_mask_logit(model, tmp_path, False, 20)
+    assert f"the {up} interfered ones whose last clean frame lines up" in gated["rule"]
+    assert "lines up" not in plain["rule"] and gated["rmse_cm"] != plain["rmse_cm"]
