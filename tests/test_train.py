@@ -49,6 +49,8 @@ def test_config_rejects_what_cannot_work(tmp_path):
         _cfg(tmp_path, synthetic=0)
     with pytest.raises(ConfigError, match="steps"):
         _cfg(tmp_path, steps=0)
+    with pytest.raises(ConfigError, match="gate_previous is for the temporal"):
+        _cfg(tmp_path, model="unet8", gate_previous=True)
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

@@ -73,7 +73,7 @@ class TrainConfig(Settings):
 
     @model_validator(mode="after")
     def _check(self) -> TrainConfig:
-        from d2sr.contract import DETECTOR_NAMES, PAD, RECOVERY_NAMES
+        from d2sr.contract import DETECTOR_NAMES, PAD, RECOVERY_NAMES, TEMPORAL_RECOVERY
 
         if self.model not in DETECTOR_NAMES + RECOVERY_NAMES:
             raise ValueError(
@@ -90,4 +90,8 @@ class TrainConfig(Settings):
             raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
+        if self.gate_previous and self.model != TEMPORAL_RECOVERY:
+            raise ValueError(
+                f"gate_previous is for the temporal recovery model ({TEMPORAL_RECOVERY}), not {self.model}"
+            )
         return self

@@ -19,6 +19,7 @@ from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.contract import REPAIR_PASSES, refill, repair_frame
+from d2sr.errors import ConfigError
 from d2sr.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
@@ -351,6 +352,8 @@ def choose_mask_logit(
     ]
     if gate_previous and prev is not None:  # the frames --model auto gives the temporal model
         items = [it for it in items if lines_up(it[0][0], it[0][1], it[2])]
+        if not items:
+            raise ConfigError(f"none of the {count} validation frames' last clean frames lines up: give more")
     logit, rule, sums, figures = pick_as_recovered(model, items)
     rmse = np.array([r.result()["rmse_cm"] / 100 for r in sums])
     changed = np.array([r.result()["clean_changed"] for r in sums])
