@@ -4,6 +4,8 @@ apart from the project's generator, on real frames of ../shared/data.
 The outside interference is not in ``d2sr.sim``: phase-wrapping rings (a time-of-flight camera's depth
 folds at its ambiguity range where another camera's modulated light adds in), and sawtooth stripes
 (depth scaled by a ramp that repeats across the image). The generator has neither wrapping nor ramps.
+``--set b`` (written later, to check a threshold read off set A): Lissajous crosstalk and multipath ghost
+tiles (``crosstalk_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -15,6 +17,7 @@ folds at its ambiguity range where another camera's modulated light adds in), an
 Run:  .venv/bin/python bench/held_out.py --data ../shared/data --adapt --json docs/results/held_out.json
       .venv/bin/python bench/held_out.py --data ../shared/data --model unet8-temporal \
           --json docs/results/held_out_temporal.json
+      .venv/bin/python bench/held_out.py --data ../shared/data --set b --json docs/results/held_out_b.json
 """
 
 from __future__ import annotations
