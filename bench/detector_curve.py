@@ -11,12 +11,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import THRESHOLD
 from d2sr.errors import D2SRError
+from d2sr.frames import open_frames
 from d2sr.inference import open_backend
 from d2sr.runtime.backends import Backend
 from held_out import SETS, every_other, outside_set
@@ -32,13 +32,6 @@ def scores(net: Backend, frames: list[np.ndarray], scale: float) -> np.ndarray:
         out.append(float(net.scores(x, prev)[0]))
         prev = x
     return np.array(out)
-
-
-def _read(folder: Path, skip: int = 0) -> list[np.ndarray]:
-    files = sorted(folder.glob("*.png"))[skip:]
-    if not files:
-        raise SystemExit(f"{folder}: no PNG frames")
-    return [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
 
 
 def main() -> None:
@@ -57,9 +50,14 @@ def main() -> None:
         bad = every_other(clean, 4000.0, which)
         hit = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
         sets[f"outside set {which} (recall)"] = scores(net, bad, 4000.0)[hit]
-    l515 = _read(args.data / "l515" / "dev0", 45) + _read(args.data / "l515" / "dev1")
-    sets["clean L515 (false alarms)"] = scores(net, l515, 4000.0)
-    sets["clean D435 (false alarms)"] = scores(net, _read(args.data / "d435"), 1000.0)
+    try:
+        dev0, dev1, d435 = (
+            [f.depth for f in open_frames(args.data / p)] for p in ("l515/dev0", "l515/dev1", "d435")
+        )
+    except D2SRError as exc:
+        ap.error(str(exc))
+    sets["clean L515 (false alarms)"] = scores(net, dev0[45:] + dev1, 4000.0)
+    sets["clean D435 (false alarms)"] = scores(net, d435, 1000.0)
     result = {
         "frames": {k: len(v) for k, v in sets.items()},
         "flagged": {

@@ -235,22 +235,24 @@ def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: S
     s = ["--depth-scale", f"{scale:g}", *models]
     d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
     d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery)
-    share, _ = moved_5cm(folder, tmp / "d435-fixed", scale)
+    share, _, _ = moved_5cm(folder, tmp / "d435-fixed", scale)
     return {"frames": len(frames), "flagged": round(float(_flags(tmp / "d435.csv").mean()), 4),
             "moved_5cm": round(share, 5)}  # fmt: skip
 
 
-def moved_5cm(folder: Path, fixed: Path, scale: float) -> tuple[float, float]:
+def moved_5cm(folder: Path, fixed: Path, scale: float) -> tuple[float, float, float]:
     """(share of the valid pixels of ``folder``'s frames that ``fixed`` moves by more than 5 cm, the same
-    in its worst frame)."""
-    moved = valid = worst = 0.0
+    in its worst frame, every pixel it changes at all, filled no-returns included, as a share of the
+    valid-pixel count)."""
+    moved = valid = worst = touched = 0.0
     for f in sorted(folder.glob("*.png")):
         a = cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64)
         b = cv2.imread(str(fixed / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64)
         ok = a > 0
         n = float((ok & (np.abs(a - b) / scale > 0.05)).sum())
         moved, valid, worst = moved + n, valid + float(ok.sum()), max(worst, n / max(float(ok.sum()), 1))
-    return moved / max(valid, 1), worst
+        touched += float((a != b).sum())
+    return moved / max(valid, 1), worst, touched / max(valid, 1)
 
 
 def main() -> None:

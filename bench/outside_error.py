@@ -34,7 +34,10 @@ QUANTILES = (5, 25, 50, 75, 95)
 LOGITS = (3.0, 2.0, 1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0, -3.0, -4.0)  # --plot's thresholds
 
 
-def _pairs(data: Path, which: str) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+Pairs = list[tuple[np.ndarray, np.ndarray, np.ndarray]]  # (corrupted, clean, clean frame before)
+
+
+def _pairs(data: Path, which: str) -> Pairs:
     """(corrupted frame, its clean frame, the clean frame before it) for the frames set ``which``'s
     interference changed (``held_out.scored``'s: of the 60 it is written on, some are left as they were)."""
     clean = outside_set(data)
@@ -48,10 +51,9 @@ def _sq(out: np.ndarray, clean: np.ndarray, where: np.ndarray) -> float:
     return float((((out.astype(np.float64) - clean) / SCALE)[where] ** 2).sum())
 
 
-def breakdown(weights: Path, model: str, data: Path, passes: list[int], which: str = "a") -> dict:
+def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dict:
     """The figures above for one model (a temporal one gets the clean frame before each, as a still sensor's
     last clean frame)."""
-    pairs = _pairs(data, which)
     net = open_backend(model, "onnx", weights, detector=None)
     before = sum(_sq(b, c, c > 0) for b, c, _ in pairs)
     parts = {"missed": 0.0, "repaired": 0.0, "clean": 0.0}
@@ -95,7 +97,7 @@ def breakdown(weights: Path, model: str, data: Path, passes: list[int], which: s
     }
 
 
-def _repaired(net: Backend, pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[float, ...]:
+def _repaired(net: Backend, pairs: Pairs) -> tuple[float, ...]:
     """(RMSE change, share of clean pixels changed, mask F1) of ``net``'s repair of the pairs, in the sums
     every evaluation uses (``metrics.RepairSums``)."""
     before, after = RepairSums(), RepairSums()
@@ -112,10 +114,9 @@ def _repaired(net: Backend, pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray
     return round(change, 4), round(r["clean_changed"], 5), round(r["mask_f1"], 4)
 
 
-def curve(weights: Path, model: str, data: Path, own: float, which: str = "a") -> dict[str, list[float]]:
+def curve(weights: Path, model: str, pairs: Pairs, own: float) -> dict[str, list[float]]:
     """``operating_curve``'s figures on the outside set, as recover repairs (both passes), per threshold
     (``LOGITS`` and the model's ``own``)."""
-    pairs = _pairs(data, which)
     logits = sorted({*LOGITS, own}, reverse=True)
     rows = [
         _repaired(open_backend(model, "onnx", weights, detector=None, mask_logit=t), pairs) for t in logits
@@ -146,11 +147,10 @@ def main() -> None:
             ap.error(str(exc))
     try:
         passes = [int(p) for p in args.passes.split(",") if p.strip()]
-        result = breakdown(args.models, args.model, args.data, passes, args.set)
+        pairs = _pairs(args.data, args.set)
+        result = breakdown(args.models, args.model, pairs, passes)
         if args.plot is not None:
-            result["operating_curve"] = curve(
-                args.models, args.model, args.data, result["mask_logit"], args.set
-            )
+            result["operating_curve"] = curve(args.models, args.model, pairs, result["mask_logit"])
     except (D2SRError, ValueError) as exc:
         ap.error(str(exc))
     result["set"] = args.set

@@ -109,6 +109,7 @@ class Pool:
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
         self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
         self.gate_previous = gate_previous  # TrainConfig.gate_previous
+        self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
             (s, i)
             for s, src in enumerate(sources)
@@ -151,6 +152,12 @@ class Pool:
         out[hit] = np.clip(np.rint(last[hit] * ratio), 0, 65535).astype(last.dtype)
         return out
 
+    def _lines_up(self, s: int, i: int, frame: np.ndarray, last: np.ndarray) -> bool:
+        key = (s, i)
+        if key not in self._lined_up:
+            self._lined_up[key] = lines_up(frame, last, scale_at(self.sources[s].scale, i))
+        return self._lined_up[key]
+
     def _pick(self, rng: np.random.Generator, n: int, clean_share: float) -> np.ndarray:
         pos, neg = np.flatnonzero(self.labels), np.flatnonzero(~self.labels)
         if not len(pos) or not len(neg):
@@ -170,7 +177,7 @@ class Pool:
             ins = [f]
             if self.frames > 1 and src.previous is not None:
                 last = np.asarray(src.previous[i])
-                if self.gate_previous and not lines_up(f, last, scale_at(src.scale, i)):
+                if self.gate_previous and not self._lines_up(s, i, f, last):
                     last = np.zeros_like(last)
                 ins.append(self._previous(rng, f, last) if self.raw_previous else last)
             if crop is not None:
