@@ -104,6 +104,7 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal-gated-stage2.toml --out runs/unet8-temporal-gated-stage2
+	$(BIN)/d2sr train recovery --config configs/unet8-missweight.toml --out runs/unet8-missweight
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.

@@ -142,6 +142,28 @@ def test_depth_is_learned_only_where_the_ground_truth_has_a_return():
     assert (lg[y[0, 0] > 0] < lg[1, 2]).all()
 
 
+def test_mask_error_weight_pushes_hardest_on_the_costliest_misses():
+    # Three interfered pixels off by 0.05, 0.5 and 3 m (capped at 2), one clean pixel; the mask says 0.5.
+    x = np.array([[[[2.95, 2.5, 0.0, 2.0]]]], np.float32)
+    y = np.full((1, 1, 1, 4), 3.0, np.float32)
+    y[0, 0, 0, 3] = 2.0
+    m = np.array([[[[1, 1, 1, 0]]]], np.float32)
+    b = Batch(x, y, m, np.ones(1, np.float32))
+
+    def logit_grad(k: float) -> np.ndarray:
+        model = _Fixed(x.shape)
+        loss_fn(model, "recovery", b, torch.device("cpu"), dice=0.0, error_weight=k).backward()
+        return model.logit.grad[0, 0, 0].numpy()
+
+    # What the weighting adds to the mask's gradient (the depth terms are the same in both runs).
+    extra = logit_grad(2.0) - logit_grad(0.0)
+    assert extra[2] < extra[1] < extra[0]  # the bigger the error, the harder the push to flag
+    assert abs(extra[:3].sum()) < 1e-6  # the interfered pixels' total weight stays
+    assert extra[3] == 0  # the clean pixel is untouched
+    with pytest.raises(ValueError, match="mask_error_weight"):
+        TrainConfig(task="recovery", model="unet8", mask_error_weight=-1)
+
+
 class _Shorter(torch.nn.Module):
     """Flags every return nearer than 1.5 m and predicts 2 m everywhere."""
 

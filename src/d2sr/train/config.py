@@ -35,6 +35,13 @@ class TrainConfig(Settings):
     init: Path | None = Field(None, description="weights to start from (fine-tuning); see warm_start")
     crop: tuple[int, int] = Field((192, 256), description="recovery trains on crops (height, width)")
     mask_weight: float = Field(3.0, ge=0, description="recovery: weight of the mask head's BCE")
+    mask_error_weight: float = Field(
+        0.0,
+        ge=0,
+        description="recovery: an interfered pixel's mask BCE weighs 1 + this x its depth error in metres "
+        "(capped at 2 m), rescaled to mean 1 over the batch's interfered pixels: a missed pixel costs RMSE "
+        "by its error (0: every pixel alike)",
+    )
     dice: float = Field(1.0, ge=0, description="recovery: weight of the soft-F1 (Dice) term on the mask")
     clean_share: float = Field(0.25, ge=0, le=1, description="recovery: share of clean frames in a batch")
     second_pass: float = Field(

@@ -45,6 +45,7 @@ __all__ = [
 CHECKPOINT = "checkpoint.pt"
 MASK_LOGITS = tuple(float(t) for t in np.arange(3.0, -6.01, -0.25))  # candidate mask thresholds (logits)
 MAX_CLEAN_CHANGED = 0.01  # half the issue's 2% bar: room for real frames to differ from generated ones
+MISS_CAP_M = 2.0  # mask_error_weight: errors beyond this weigh as this (a dropout far away is not worth more)
 
 
 @contextlib.contextmanager
@@ -62,7 +63,13 @@ def _distributed() -> Iterator[tuple[int, int]]:
 
 
 def loss_fn(
-    model: nn.Module, task: str, b: Batch, device: torch.device, mask_weight: float = 3.0, dice: float = 1.0
+    model: nn.Module,
+    task: str,
+    b: Batch,
+    device: torch.device,
+    mask_weight: float = 3.0,
+    dice: float = 1.0,
+    error_weight: float = 0.0,
 ) -> torch.Tensor:
     x = torch.from_numpy(b.x).to(device)
     if task == "detector":
@@ -79,12 +86,27 @@ def loss_fn(
     # The depth head also learns on every truly interfered pixel, whatever the mask head says.
     mv = m * valid
     inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * mv).sum() / mv.sum().clamp(min=1)
-    mask = mask_weight * F.binary_cross_entropy_with_logits(logit, m)
+    miss = _miss_cost(x, y, m, error_weight)
+    mask = mask_weight * F.binary_cross_entropy_with_logits(logit, m, weight=miss)
     if dice:
         # Soft F1 over the batch: BCE alone leaves zeros inside a pattern near 0.5 (a natural no-return
         # and a dropout look alike pixel by pixel); the F1 term pays for deciding them from the context.
         mask = mask + dice * (1 - 2 * (soft * m).sum() / (soft.sum() + m.sum()).clamp(min=1))
     return mask + 10 * depth + inside
+
+
+def _miss_cost(x: torch.Tensor, y: torch.Tensor, m: torch.Tensor, k: float) -> torch.Tensor | None:
+    """Per-pixel weights of the mask's BCE (``TrainConfig.mask_error_weight``): an interfered pixel weighs
+    1 + ``k`` x its depth error (metres, where the truth returns; capped), rescaled so that the interfered
+    pixels of the batch weigh 1 on average; clean pixels weigh 1. A missed pixel costs RMSE by its error,
+    so the mask learns first to catch what costs the most; the mean keeps the clean/interfered balance of
+    an unweighted run. None for k = 0 (every pixel alike)."""
+    if not k:
+        return None
+    err = ((x[:, :1] - y).abs() * (y > 0).to(y.dtype)).clamp(max=MISS_CAP_M)
+    w = (1 + k * err) * m
+    w = w * (m.sum() / w.sum().clamp(min=1e-6))
+    return w + (1 - m)
 
 
 def as_second_pass(
@@ -199,7 +221,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 b = pool.batch(rng, cfg.batch, crop, share)
                 if second:
                     b = as_second_pass(core, b, second, pass_logit, rng, device)
-                loss = loss_fn(model, cfg.task, b, device, cfg.mask_weight, cfg.dice)
+                loss = loss_fn(model, cfg.task, b, device, cfg.mask_weight, cfg.dice, cfg.mask_error_weight)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
