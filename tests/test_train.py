@@ -16,7 +16,7 @@ from safetensors.torch import load_file
 from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.train.config import TrainConfig
-from d2sr.train.data import Batch, Pool, Source, synth_set
+from d2sr.train.data import Batch, Pool, Source, synth_set, warp_interference
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
@@ -112,6 +112,33 @@ def test_gated_temporal_recovery_gets_no_last_frame_that_does_not_line_up():
         assert first.any() and (~first).any()
         assert 0.75 < has_last[first].mean() < 1  # 10% start-up frames have none either way
         assert has_last[~first].any() != gate  # gated: never the wall that is not there any more
+
+
+def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
+    # Vertical stripes of too-short depth on a ramp; the warp must bend them, not move the scene.
+    clean = np.tile(np.linspace(1000, 3000, 96, dtype=np.float32), (64, 1)).astype(np.uint16)
+    mask = np.zeros(clean.shape, bool)
+    mask[:, 10::16] = mask[:, 11::16] = True
+    frame = np.where(mask, clean // 2, clean).astype(np.uint16)
+    rng = np.random.default_rng(1)
+    out, m = warp_interference(rng, frame, clean, mask)
+    assert np.array_equal(m, out != clean)  # the mask is what differs from the scene
+    assert np.array_equal(out[~m], clean[~m])  # the scene stays where no interference lands
+    assert not np.array_equal(m, mask)  # the stripes moved
+    assert abs(m.mean() - mask.mean()) < 0.05  # about as much of the frame is hit
+    assert m.any(axis=0).sum() > mask.any(axis=0).sum()  # a straight stripe now spans more columns
+    frames = [frame]
+    src = Source(frames, [clean], None, 1000.0, np.array([True]))
+
+    def same(b: Batch) -> list[bool]:  # each frame's mask is the pattern as made (or flipped)
+        return [np.array_equal(k, mask) or np.array_equal(k, mask[:, ::-1]) for k in b.m[:, 0] > 0]
+
+    assert all(same(Pool([src]).batch(np.random.default_rng(0), 4, None)))  # no warp: the pattern as made
+    warped = Pool([src], warp=1.0).batch(np.random.default_rng(0), 4, None)
+    assert np.array_equal(warped.m > 0, warped.x != warped.y)
+    assert not any(same(warped))  # at share 1 every interfered frame is warped
+    with pytest.raises(ValueError, match="warp_interference is for recovery"):
+        TrainConfig(task="detector", model="detector", warp_interference=0.5)
 
 
 class _Fixed(torch.nn.Module):

@@ -57,6 +57,13 @@ class TrainConfig(Settings):
         "(contract.agreement below LINES_UP) is given as none in training, and the mask threshold is chosen "
         "on the lined-up frames only: --model auto gives the others to the single-frame model",
     )
+    warp_interference: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="recovery: share of interfered frames whose interference is moved by a smooth random "
+        "displacement before training (train.data.warp_interference): shapes no generator family has",
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,
@@ -97,6 +104,8 @@ class TrainConfig(Settings):
             raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
+        if self.warp_interference and self.task != "recovery":
+            raise ValueError("warp_interference is for recovery models")
         if self.gate_previous and self.model != TEMPORAL_RECOVERY:
             raise ValueError(
                 f"gate_previous is for the temporal recovery model ({TEMPORAL_RECOVERY}), not {self.model}"

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from d2sr.contract import LINES_UP, agreement, scale_at
@@ -95,13 +96,40 @@ def lines_up(frame: np.ndarray, last: np.ndarray, scale: float) -> bool:
     return agreement(frame.astype(np.float32) / s, last.astype(np.float32) / s) >= LINES_UP
 
 
+def warp_interference(
+    rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(frame, mask) with the interference moved by a smooth random displacement (2-16 px over 16-64 px):
+    its bands bend, its blobs stretch, its edges wander, while the scene stays. The values a pattern puts
+    on the scene travel with it, so the mask cannot learn a family's exact shape, only what interference
+    does to depth. The mask is what then differs from ``clean``."""
+    h, w = frame.shape
+    cell = rng.uniform(16, 64)
+    gh, gw = max(int(h / cell), 1) + 2, max(int(w / cell), 1) + 2
+    amp = rng.uniform(2, 16)
+    grid = rng.standard_normal((2, gh, gw)).astype(np.float32)
+    dy, dx = (cv2.resize(g, (w, h), interpolation=cv2.INTER_CUBIC) for g in grid)
+    dy, dx = (amp * d / max(float(np.abs(d).max()), 1e-6) for d in (dy, dx))
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    my, mx = yy + dy, xx + dx
+    moved = cv2.remap(np.ascontiguousarray(frame), mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REFLECT)
+    hit = cv2.remap(mask.astype(np.uint8), mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REFLECT) > 0
+    out = np.where(hit, moved, clean)
+    return out, out != clean
+
+
 class Pool:
     """All training frames of a run. A temporal recovery model's second input is the sensor's last clean
     frame; a temporal detector's (``raw_previous``) is the sensor's previous frame as delivered, which may
     be interfered itself or missing (see ``_previous``)."""
 
     def __init__(
-        self, sources: list[Source], frames: int = 1, raw_previous: bool = False, gate_previous: bool = False
+        self,
+        sources: list[Source],
+        frames: int = 1,
+        raw_previous: bool = False,
+        gate_previous: bool = False,
+        warp: float = 0.0,
     ) -> None:
         if not sources:
             raise InputError("no training data")
@@ -109,6 +137,7 @@ class Pool:
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
         self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
         self.gate_previous = gate_previous  # TrainConfig.gate_previous
+        self.warp = warp  # TrainConfig.warp_interference
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
             (s, i)
@@ -129,7 +158,9 @@ class Pool:
                 shares = np.asarray(ss.meta["mask_share"])
                 skip |= ss.labels & (shares < cfg.min_share)
             sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
-        return cls(sources + _folders(cfg), frames, cfg.task == "detector", cfg.gate_previous)
+        return cls(
+            sources + _folders(cfg), frames, cfg.task == "detector", cfg.gate_previous, cfg.warp_interference
+        )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
         """What a temporal detector sees as the previous frame, given the frame and the sensor's last clean
@@ -186,6 +217,8 @@ class Pool:
                 a, b = int(rng.integers(0, h - ch + 1)), int(rng.integers(0, w - cw + 1))
                 ins = [v[a : a + ch, b : b + cw] for v in ins]
                 c, m = c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
+            if self.warp and src.labels[i] and rng.random() < self.warp:
+                ins[0], m = warp_interference(rng, ins[0], c, m)
             gain = np.float32(rng.uniform(0.85, 1.15) / scale_at(src.scale, i))
             x, y = np.stack([v.astype(np.float32) * gain for v in ins]), c.astype(np.float32) * gain
             if len(ins) > 1 and not self.raw_previous and rng.random() < 0.1:
