@@ -137,8 +137,29 @@ def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
     warped = Pool([src], warp=1.0).batch(np.random.default_rng(0), 4, None)
     assert np.array_equal(warped.m > 0, warped.x != warped.y)
     assert not any(same(warped))  # at share 1 every interfered frame is warped
-    with pytest.raises(ValueError, match="warp_interference is for recovery"):
+    with pytest.raises(ValueError, match="warp_interference and stack_interference are for recovery"):
         TrainConfig(task="detector", model="detector", warp_interference=0.5)
+
+
+def test_stacked_interference_lays_another_frames_pattern_over_the_scene():
+    # Frame 0: a wall at 2 m with one column halved; frame 1: a wall at 4 m with its left half at 3/4 depth.
+    c0, c1 = np.full((16, 16), 2000, np.uint16), np.full((16, 16), 4000, np.uint16)
+    f0, f1 = c0.copy(), c1.copy()
+    f0[:, 12] = 1000
+    f1[:, :8] = 3000
+    src = Source([f0, f1], [c0, c1], None, 1000.0, np.array([True, True]))
+    plain = Pool([src]).batch(np.random.default_rng(0), 40, None)
+    stacked = Pool([src], stack=1.0).batch(np.random.default_rng(0), 40, None)
+    assert np.array_equal(stacked.m > 0, stacked.x != stacked.y)  # the mask is what differs from the scene
+    assert stacked.m.mean() > plain.m.mean()  # more of each frame is hit
+    # Each pixel is the scene times a ratio of one of the two patterns: 1/2 (frame 0's), 3/4 (frame 1's).
+    ratio = np.round(stacked.x / stacked.y, 3)
+    assert set(np.unique(ratio)) <= {0.5, 0.75, 1.0}
+    # Frame 0 (the 2 m wall: 1.7-2.3 m after the gain) mostly gets frame 1's pattern, the heavier one (8
+    # columns hit against 1: drawn 8 times in 9); laying a frame's pattern on itself changes nothing.
+    first = stacked.y[:, 0, 0, 0] < 3
+    assert 5 <= first.sum() <= 35
+    assert ((ratio[first] == 0.75).sum(axis=(1, 2, 3)) >= 7 * 16).mean() > 0.6
 
 
 class _Fixed(torch.nn.Module):

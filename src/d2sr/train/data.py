@@ -20,6 +20,8 @@ from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "Source", "synth_set"]
 
+STACK_MAX = 3  # stack_interference: at most this many further patterns on a frame
+
 
 @dataclass
 class Batch:
@@ -130,6 +132,7 @@ class Pool:
         raw_previous: bool = False,
         gate_previous: bool = False,
         warp: float = 0.0,
+        stack: float = 0.0,
     ) -> None:
         if not sources:
             raise InputError("no training data")
@@ -138,6 +141,8 @@ class Pool:
         self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
         self.gate_previous = gate_previous  # TrainConfig.gate_previous
         self.warp = warp  # TrainConfig.warp_interference
+        self.stack = stack  # TrainConfig.stack_interference
+        self._shares: np.ndarray | None = None  # each drawable frame's share of pixels hit (stack's weights)
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
             (s, i)
@@ -159,7 +164,12 @@ class Pool:
                 skip |= ss.labels & (shares < cfg.min_share)
             sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
         return cls(
-            sources + _folders(cfg), frames, cfg.task == "detector", cfg.gate_previous, cfg.warp_interference
+            sources + _folders(cfg),
+            frames,
+            cfg.task == "detector",
+            cfg.gate_previous,
+            cfg.warp_interference,
+            cfg.stack_interference,
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -183,6 +193,35 @@ class Pool:
         out[hit] = np.clip(np.rint(last[hit] * ratio), 0, 65535).astype(last.dtype)
         return out
 
+    def _stacked(
+        self, rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``frame`` with another interfered frame's pattern laid over it too (its mask and depth ratio to its
+        own clean frame: a further sensor), that frame drawn in proportion to its share of pixels hit, so
+        that heavily hit frames, rare among generated ones, are met. Returns (frame, mask)."""
+        if self._shares is None:
+            self._shares = np.array(
+                [
+                    np.mean(np.asarray(self.sources[s].frames[i]) != np.asarray(self.sources[s].clean[i]))
+                    if self.labels[k]
+                    else 0.0
+                    for k, (s, i) in enumerate(self.index)
+                ]
+            )
+        w = self._shares
+        if w.sum() <= 0:
+            return frame, mask
+        s, j = self.index[int(rng.choice(len(w), p=w / w.sum()))]
+        f2, c2 = np.asarray(self.sources[s].frames[j]), np.asarray(self.sources[s].clean[j])
+        if f2.shape != frame.shape:
+            return frame, mask
+        hit = (f2 != c2) & (c2 > 0) & (clean > 0) & ~mask
+        out = frame.copy()
+        out[hit] = np.clip(np.rint(clean[hit] * (f2[hit].astype(np.float32) / c2[hit])), 0, 65535).astype(
+            frame.dtype
+        )
+        return out, mask | (out != clean)
+
     def _lines_up(self, s: int, i: int, frame: np.ndarray, last: np.ndarray) -> bool:
         key = (s, i)
         if key not in self._lined_up:
@@ -205,6 +244,10 @@ class Pool:
             src = self.sources[s]
             f, c = np.asarray(src.frames[i]), np.asarray(src.clean[i])
             m = src.masks[i] if src.masks is not None else f != c
+            for _ in range(STACK_MAX if self.stack and src.labels[i] else 0):  # each further one as likely
+                if rng.random() >= self.stack:
+                    break
+                f, m = self._stacked(rng, f, c, m)
             ins = [f]
             if self.frames > 1 and src.previous is not None:
                 last = np.asarray(src.previous[i])
