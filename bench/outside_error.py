@@ -2,7 +2,9 @@
 process, ``recover --all``'s repair): the squared error left in pixels the mask misses, in pixels it
 repairs and in clean pixels; the RMSE change with the true mask in place of the predicted one (the same
 guarded predictions: what a perfect mask would give this model); the first pass's mask logits at missed,
-repaired and clean returning pixels; the RMSE change for each number of passes in ``--passes``; and with
+repaired and clean returning pixels; by the share of a frame's pixels hit (``HIT_BUCKETS``), the frames, the
+mask's recall and the share of the missed pixels' error; the RMSE change for each number of passes in
+``--passes``; and with
 ``--plot``, the trade-off ``--mask-logit`` walks (RMSE change against clean pixels changed, both passes,
 per threshold).
 
@@ -14,6 +16,7 @@ Run:  .venv/bin/python bench/outside_error.py --data ../shared/data --json docs/
 from __future__ import annotations
 
 import argparse
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +34,7 @@ from held_out import SETS, every_other, outside_set
 
 SCALE = 4000.0
 QUANTILES = (5, 25, 50, 75, 95)
+HIT_BUCKETS = (0.0, 0.02, 0.1, 0.3, 1.0)  # share of a frame's returning pixels the interference changed
 LOGITS = (3.0, 2.0, 1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0, -3.0, -4.0)  # --plot's thresholds
 
 
@@ -59,6 +63,7 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
     parts = {"missed": 0.0, "repaired": 0.0, "clean": 0.0}
     ceiling = 0.0
     logits: dict[str, list[np.ndarray]] = {"missed": [], "repaired": [], "clean": []}
+    frames = []  # (share of the frame hit, hit pixels repaired, hit pixels, missed pixels' squared error)
     for b, c, prev in pairs:
         metres = b.astype(np.float32)[None] / np.float32(SCALE)
         last = prev.astype(np.float32)[None] / np.float32(SCALE) if net.frames == 2 else None
@@ -68,6 +73,8 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
         parts["missed"] += _sq(out, c, ok & true & ~kept)
         parts["repaired"] += _sq(out, c, ok & true & kept)
         parts["clean"] += _sq(out, c, ok & ~true)
+        hit = ok & true
+        frames.append((hit.sum() / max(ok.sum(), 1), (hit & kept).sum(), hit.sum(), _sq(out, c, hit & ~kept)))
         ceiling += _sq(repair_frame(b, pred[0], true, SCALE)[0], c, ok)
         logit = net.raw(metres, last)[0][0]
         logits["missed"].append(logit[true & ~kept])
@@ -93,8 +100,24 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
             )
             for k, v in logits.items()
         },
+        "by_frame_hit": _by_frame_hit(np.array(frames, np.float64)),
         "rmse_change_by_passes": by_passes,
     }
+
+
+def _by_frame_hit(rows: np.ndarray) -> dict[str, dict[str, float]]:
+    """Per ``HIT_BUCKETS`` range of a frame's share of pixels hit: frames, the mask's recall over their hit
+    pixels, and their share of the error left in missed pixels."""
+    out = {}
+    missed = max(float(rows[:, 3].sum()), 1e-12)
+    for lo, hi in pairwise(HIT_BUCKETS):
+        r = rows[(rows[:, 0] >= lo) & ((rows[:, 0] < hi) | (hi == HIT_BUCKETS[-1]))]
+        out[f"{lo:g}-{hi:g}"] = {
+            "frames": len(r),
+            "recall": round(float(r[:, 1].sum() / max(r[:, 2].sum(), 1)), 4),
+            "missed_error_share": round(float(r[:, 3].sum()) / missed, 4),
+        }
+    return out
 
 
 def _repaired(net: Backend, pairs: Pairs) -> tuple[float, ...]:
