@@ -98,6 +98,17 @@ def lines_up(frame: np.ndarray, last: np.ndarray, scale: float) -> bool:
     return agreement(frame.astype(np.float32) / s, last.astype(np.float32) / s) >= LINES_UP
 
 
+def lay_pattern(frame: np.ndarray, clean: np.ndarray, onto: np.ndarray) -> np.ndarray:
+    """``onto`` (same shape and dtype) with ``frame``'s interference laid over it: each pixel ``frame``
+    changed from ``clean`` (a return there) takes the same depth ratio on ``onto`` (a dropout stays one)."""
+    hit = (frame != clean) & (clean > 0)
+    out = onto.copy()
+    out[hit] = np.clip(np.rint(onto[hit] * (frame[hit].astype(np.float32) / clean[hit])), 0, 65535).astype(
+        onto.dtype
+    )
+    return out
+
+
 def warp_interference(
     rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -187,11 +198,7 @@ class Pool:
         f, c = np.asarray(self.sources[s].frames[j]), np.asarray(self.sources[s].clean[j])
         if f.shape != last.shape:
             return last
-        hit = (f != c) & (c > 0)
-        ratio = f[hit].astype(np.float32) / c[hit]
-        out = last.copy()
-        out[hit] = np.clip(np.rint(last[hit] * ratio), 0, 65535).astype(last.dtype)
-        return out
+        return lay_pattern(f, c, last)
 
     def _stacked(
         self, rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray
@@ -215,11 +222,7 @@ class Pool:
         f2, c2 = np.asarray(self.sources[s].frames[j]), np.asarray(self.sources[s].clean[j])
         if f2.shape != frame.shape:
             return frame, mask
-        hit = (f2 != c2) & (c2 > 0) & (clean > 0) & ~mask
-        out = frame.copy()
-        out[hit] = np.clip(np.rint(clean[hit] * (f2[hit].astype(np.float32) / c2[hit])), 0, 65535).astype(
-            frame.dtype
-        )
+        out = np.where(mask, frame, lay_pattern(f2, c2, clean))  # the frame's own pattern stays on top
         return out, mask | (out != clean)
 
     def _lines_up(self, s: int, i: int, frame: np.ndarray, last: np.ndarray) -> bool:
