@@ -5,7 +5,8 @@ The outside interference is not in ``d2sr.sim``: phase-wrapping rings (a time-of
 folds at its ambiguity range where another camera's modulated light adds in), and sawtooth stripes
 (depth scaled by a ramp that repeats across the image). The generator has neither wrapping nor ramps.
 ``--set b`` (written later, to check a threshold read off set A): Lissajous crosstalk and multipath ghost
-tiles (``crosstalk_interference``).
+tiles (``crosstalk_interference``). ``--set c`` (written after both had judged eight trials, to judge what was
+chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -18,6 +19,7 @@ Run:  .venv/bin/python bench/held_out.py --data ../shared/data --adapt --json do
       .venv/bin/python bench/held_out.py --data ../shared/data --model unet8-temporal \
           --json docs/results/held_out_temporal.json
       .venv/bin/python bench/held_out.py --data ../shared/data --set b --json docs/results/held_out_b.json
+      .venv/bin/python bench/held_out.py --data ../shared/data --set c --json docs/results/held_out_c.json
 """
 
 from __future__ import annotations
@@ -117,7 +119,54 @@ def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
     return out.astype(np.uint16)
 
 
-SETS = {"a": outside_interference, "b": crosstalk_interference}
+def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set C (written 2026-11-25, after sets A and B had judged eight trials, before any model ran on it: it
+    judges what was chosen on them, and nothing is chosen on it): one of two more outside models, chosen by
+    the seed, neither in ``d2sr.sim`` nor in sets A and B:
+
+    * a range-gated phantom: another pulsed sensor's echo lands in this one's gate only where the scene lies
+      in one shell of depth, so the hit region follows the room's surfaces (not a shape in the image); the
+      hit pixels read a phantom surface at one range nearer than the shell (with jitter), or no return;
+    * scan-line echo bursts: a burst of thin, nearly parallel lines (another scanner's lines, at its own
+      angle), broken into segments, whose pixels read a delayed echo: too far, by a fixed offset or a factor.
+
+    Hits are spatially clustered (a smoothed random field), and, as in set B, only pixels that move by more
+    than 2 cm + 1% count."""
+    rng = np.random.default_rng([seed, 0xC0C])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    valid = d > 0
+    if rng.random() < 0.5 and valid.any():  # range-gated phantom
+        qa = rng.uniform(0.0, 0.7)
+        lo, hi = np.quantile(d[valid], [qa, min(qa + rng.uniform(0.15, 0.5), 1.0)])
+        where = (d >= lo) & (d <= hi)
+        r0 = rng.uniform(0.3, 0.9) * lo
+        new = r0 + rng.normal(0.0, rng.uniform(0.01, 0.05), (h, w))
+        new = np.where(rng.random((h, w)) < rng.uniform(0.0, 0.3), 0.0, np.maximum(new, 0.05))
+    else:  # scan-line echo bursts
+        ang = rng.uniform(-0.2, 0.2) + (np.pi / 2 if rng.random() < 0.3 else 0.0)
+        across = -x * np.sin(ang) + y * np.cos(ang)  # distance across the lines
+        along = x * np.cos(ang) + y * np.sin(ang)
+        c0 = across[int(rng.integers(h // 10, h - h // 10)), int(rng.integers(w // 10, w - w // 10))]
+        width = rng.uniform(40, 220)
+        spacing, thick = rng.uniform(3, 16), rng.uniform(1, 4)
+        line = (np.abs(across - c0) < width / 2) & ((across % spacing) < thick)
+        seg = rng.uniform(15, 200)  # segments along each line, on or off at random
+        on = rng.random(4096) < rng.uniform(0.4, 0.9)
+        key = np.floor(across / spacing).astype(np.int64) * 7919 + np.floor(along / seg).astype(np.int64)
+        where = line & on[key % on.size]
+        new = d + rng.uniform(0.15, 1.2) if rng.random() < 0.5 else d * rng.uniform(1.15, 2.0)
+        new = np.where(rng.random((h, w)) < rng.uniform(0.0, 0.2), 0.0, new)
+    field = cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), rng.uniform(2.0, 12.0))
+    field = (field - field.mean()) / max(float(field.std()), 1e-6)
+    where &= field > rng.normal(-0.5, 0.6)  # clustered partial fill
+    where &= valid & (np.abs(new - d) > 0.02 + 0.01 * d)
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
+SETS = {"a": outside_interference, "b": crosstalk_interference, "c": echo_interference}
 
 
 def every_other(clean: list[np.ndarray], scale: float, which: str = "a") -> list[np.ndarray]:
@@ -267,7 +316,8 @@ def main() -> None:
         "--set",
         choices=sorted(SETS),
         default="a",
-        help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles)",
+        help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
+        "c (range-gated phantom, scan-line echo bursts)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
