@@ -16,7 +16,7 @@ from safetensors.torch import load_file
 from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.train.config import TrainConfig
-from d2sr.train.data import Batch, Pool, Source, synth_set, warp_interference
+from d2sr.train.data import Batch, Pool, Source, mirror_pattern, synth_set, warp_interference
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from d2sr.train.synth import synth_frame
 from helpers import d2sr
@@ -137,7 +137,7 @@ def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
     warped = Pool([src], warp=1.0).batch(np.random.default_rng(0), 4, None)
     assert np.array_equal(warped.m > 0, warped.x != warped.y)
     assert not any(same(warped))  # at share 1 every interfered frame is warped
-    with pytest.raises(ValueError, match="warp_interference and stack_interference are for recovery"):
+    with pytest.raises(ValueError, match="warp_interference, stack_interference and mirror_interference are"):
         TrainConfig(task="detector", model="detector", warp_interference=0.5)
 
 
@@ -160,6 +160,30 @@ def test_stacked_interference_lays_another_frames_pattern_over_the_scene():
     first = stacked.y[:, 0, 0, 0] < 3
     assert 5 <= first.sum() <= 35
     assert ((ratio[first] == 0.75).sum(axis=(1, 2, 3)) >= 7 * 16).mean() > 0.6
+
+
+def test_mirrored_interference_reads_too_far_by_the_factor_it_read_too_short():
+    clean = np.full((8, 8), 2000, np.uint16)
+    clean[0] = 0  # no return: a spurious one stays as it is
+    frame = clean.copy()
+    frame[1], frame[2], frame[3], frame[0, :2] = 1000, 0, 2500, 700  # too short, dropout, too far, spurious
+    out = mirror_pattern(frame, clean)
+    assert (out[1] == 4000).all() and (out[2] == 0).all() and (out[3] == 1600).all()
+    assert (out[0, :2] == 700).all() and np.array_equal(out[4:], clean[4:])
+    assert np.array_equal(out != clean, frame != clean)  # the same pixels hit
+    near = np.full((4, 4), 60000, np.uint16)
+    assert (mirror_pattern(near // 2, near) == 65535).all()  # beyond the unit's range: its top
+    src = Source([frame, clean], [clean, clean], None, 1000.0, np.array([True, False]))
+    b = Pool([src], mirror=1.0).batch(np.random.default_rng(0), 20, None, clean_share=0.5)
+    hit = b.label == 1
+    assert hit.any() and (~hit).any()
+    # Every interfered frame is mirrored at share 1: its too-short row now reads twice the scene's depth.
+    rows = b.x[hit][:, 0, 1]
+    assert np.allclose(rows / b.y[hit][:, 0, 1], 2.0, atol=1e-3)
+    assert np.array_equal(b.m > 0, b.x != b.y)
+    assert np.array_equal(b.x[~hit], b.y[~hit])  # clean frames untouched
+    with pytest.raises(ValueError, match="mirror_interference are for recovery"):
+        TrainConfig(task="detector", model="detector", mirror_interference=0.5)
 
 
 class _Fixed(torch.nn.Module):

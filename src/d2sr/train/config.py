@@ -72,6 +72,14 @@ class TrainConfig(Settings):
         "(its mask and depth ratio, as a further sensor's), drawn in proportion to its share of pixels hit, "
         "and again for each further one (at most 3): heavily hit frames, rare among generated ones",
     )
+    mirror_interference: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="recovery: share of interfered frames whose hit returns take the inverse of their depth "
+        "ratio (train.data.mirror_pattern): too short becomes too far by the same factor and back, so every "
+        "shape the generator draws also reads as a delayed echo",
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,
@@ -112,8 +120,12 @@ class TrainConfig(Settings):
             raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
-        if (self.warp_interference or self.stack_interference) and self.task != "recovery":
-            raise ValueError("warp_interference and stack_interference are for recovery models")
+        if (self.warp_interference or self.stack_interference or self.mirror_interference) and (
+            self.task != "recovery"
+        ):
+            raise ValueError(
+                "warp_interference, stack_interference and mirror_interference are for recovery models"
+            )
         if self.gate_previous and self.model != TEMPORAL_RECOVERY:
             raise ValueError(
                 f"gate_previous is for the temporal recovery model ({TEMPORAL_RECOVERY}), not {self.model}"

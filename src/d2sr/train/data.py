@@ -109,6 +109,17 @@ def lay_pattern(frame: np.ndarray, clean: np.ndarray, onto: np.ndarray) -> np.nd
     return out
 
 
+def mirror_pattern(frame: np.ndarray, clean: np.ndarray) -> np.ndarray:
+    """``frame`` with each hit return's depth ratio to ``clean`` inverted (``clean**2 / frame``): a pixel
+    read 0.6x too short reads 1/0.6x too far, and the other way round. Dropouts, spurious returns where
+    ``clean`` has none, and the pattern's shape stay; values beyond the unit's range clip at its top."""
+    hit = (frame != clean) & (clean > 0) & (frame > 0)
+    out = frame.copy()
+    c = clean[hit].astype(np.float64)
+    out[hit] = np.clip(np.rint(c * c / frame[hit]), 1, np.iinfo(frame.dtype).max).astype(frame.dtype)
+    return out
+
+
 def warp_interference(
     rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -144,6 +155,7 @@ class Pool:
         gate_previous: bool = False,
         warp: float = 0.0,
         stack: float = 0.0,
+        mirror: float = 0.0,
     ) -> None:
         if not sources:
             raise InputError("no training data")
@@ -153,6 +165,7 @@ class Pool:
         self.gate_previous = gate_previous  # TrainConfig.gate_previous
         self.warp = warp  # TrainConfig.warp_interference
         self.stack = stack  # TrainConfig.stack_interference
+        self.mirror = mirror  # TrainConfig.mirror_interference
         self._shares: np.ndarray | None = None  # each drawable frame's share of pixels hit (stack's weights)
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
@@ -181,6 +194,7 @@ class Pool:
             cfg.gate_previous,
             cfg.warp_interference,
             cfg.stack_interference,
+            cfg.mirror_interference,
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -251,6 +265,8 @@ class Pool:
                 if rng.random() >= self.stack:
                     break
                 f, m = self._stacked(rng, f, c, m)
+            if self.mirror and src.labels[i] and rng.random() < self.mirror:
+                f = mirror_pattern(f, c)  # the same pixels differ from c: the mask stands
             ins = [f]
             if self.frames > 1 and src.previous is not None:
                 last = np.asarray(src.previous[i])
