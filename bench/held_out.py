@@ -39,11 +39,14 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 
 SEED = 5_000_000
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C}  # each set's stream of random numbers
+# Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
+KINDS = {"a": ("rings", "sawtooth"), "b": ("lissajous", "ghost tiles"), "c": ("phantom", "echo bursts")}
 
 
 def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     """Corrupt a uint16 frame with one of the two outside models (chosen by the seed)."""
-    rng = np.random.default_rng([seed, 0x0E7])
+    rng = np.random.default_rng([seed, SALTS["a"]])
     h, w = frame.shape
     d = frame.astype(np.float64) / scale
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -82,7 +85,7 @@ def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
 
     Only pixels that move by more than 2 cm + 1% count (the truth is what changed): a ghost of a flat wall
     on itself changes nothing anyone could find."""
-    rng = np.random.default_rng([seed, 0xB0B])
+    rng = np.random.default_rng([seed, SALTS["b"]])
     h, w = frame.shape
     d = frame.astype(np.float64) / scale
     if rng.random() < 0.5:  # Lissajous trace of another scanner's spot
@@ -132,7 +135,7 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
 
     Hits are spatially clustered (a smoothed random field), and, as in set B, only pixels that move by more
     than 2 cm + 1% count."""
-    rng = np.random.default_rng([seed, 0xC0C])
+    rng = np.random.default_rng([seed, SALTS["c"]])
     h, w = frame.shape
     d = frame.astype(np.float64) / scale
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -167,6 +170,11 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
 
 
 SETS = {"a": outside_interference, "b": crosstalk_interference, "c": echo_interference}
+
+
+def kind(which: str, seed: int) -> str:
+    """The model of set ``which`` that corrupts the frame of ``seed``: the set's function's first draw."""
+    return KINDS[which][0 if np.random.default_rng([seed, SALTS[which]]).random() < 0.5 else 1]
 
 
 def every_other(clean: list[np.ndarray], scale: float, which: str = "a") -> list[np.ndarray]:
@@ -225,7 +233,8 @@ def _scored(
 ) -> dict:
     """Every other frame corrupted (set ``which``); detect and recover --all (``recovery``: its model
     option) from outside; the figures."""
-    return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery)
+    kinds = [kind(which, SEED + i) if i % 2 else "" for i in range(len(clean))]
+    return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery, kinds)
 
 
 def scored(
@@ -236,9 +245,12 @@ def scored(
     scale: float,
     models: Sequence[str] = (),
     recovery: Sequence[str] = (),
+    kinds: Sequence[str] = (),
 ) -> dict:
     """A sequence as delivered (``bad``) and without interference (``clean``), written to ``tmp/name``:
-    ``d2sr detect`` and ``d2sr recover --all`` from outside, scored on the frames that differ."""
+    ``d2sr detect`` and ``d2sr recover --all`` from outside, scored on the frames that differ. With
+    ``kinds`` (each frame's interference model), the detector's recall, the mask's and the RMSE change also
+    per model (``by_kind``)."""
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
@@ -247,20 +259,30 @@ def scored(
     d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
     err_in = err_out = valid = changed = clean_px = 0.0
+    per: dict[str, list[float]] = {}  # kind: frames, flagged, pixels hit, found, error before, after
     for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
         out = cv2.imread(str(tmp / f"{name}-fixed" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED)
         mask = cv2.imread(str(tmp / f"{name}-fixed" / "masks" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED) > 0
         true = b != c
         ok = c > 0
         if truth[i]:
-            err_in += float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
-            err_out += float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+            e_in = float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+            e_out = float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+            err_in, err_out = err_in + e_in, err_out + e_out
             valid += float(ok.sum())
             tp += int((mask & true).sum())
             fp += int((mask & ~true).sum())
             fn += int((~mask & true).sum())
             changed += float(((out != b) & ~true).sum())
             clean_px += float((~true).sum())
+            if kinds:
+                k = per.setdefault(kinds[i], [0.0] * 6)
+                k[0] += 1
+                k[1] += float(pred[i])
+                k[2] += float(true.sum())
+                k[3] += float((mask & true).sum())
+                k[4] += e_in
+                k[5] += e_out
     p = tp / max(tp + fp, 1)
     r = tp / max(tp + fn, 1)
     dp = float((pred & truth).sum()) / max(float(pred.sum()), 1)
@@ -276,7 +298,12 @@ def scored(
         "mask_recall": round(r, 4),
         "mask_f1": round(2 * p * r / max(p + r, 1e-12), 4),
         "clean_changed": round(changed / max(clean_px, 1), 5),
-    }
+    } | ({"by_kind": {
+        name: {"frames": int(k[0]), "detector_recall": round(k[1] / k[0], 4),
+               "mask_recall": round(k[3] / max(k[2], 1), 4),
+               "rmse_change": round(float(np.sqrt(k[5] / max(k[4], 1e-12)) - 1), 4)}
+        for name, k in sorted(per.items())
+    }} if per else {})  # fmt: skip
 
 
 def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: Sequence[str] = ()) -> dict:
