@@ -6,7 +6,9 @@ folds at its ambiguity range where another camera's modulated light adds in), an
 (depth scaled by a ramp that repeats across the image). The generator has neither wrapping nor ramps.
 ``--set b`` (written later, to check a threshold read off set A): Lissajous crosstalk and multipath ghost
 tiles (``crosstalk_interference``). ``--set c`` (written after both had judged eight trials, to judge what was
-chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``).
+chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``). ``--set d`` (sealed
+when written: no model runs on it until a choice made on sets A-C needs confirming, its rule committed
+first): emitter bloom and phase-unwrapping errors (``bloom_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -39,9 +41,14 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 
 SEED = 5_000_000
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C}  # each set's stream of random numbers
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D}  # each set's stream of random numbers
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
-KINDS = {"a": ("rings", "sawtooth"), "b": ("lissajous", "ghost tiles"), "c": ("phantom", "echo bursts")}
+KINDS = {
+    "a": ("rings", "sawtooth"),
+    "b": ("lissajous", "ghost tiles"),
+    "c": ("phantom", "echo bursts"),
+    "d": ("bloom", "unwrapping"),
+}
 
 
 def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
@@ -169,7 +176,56 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return out.astype(np.uint16)
 
 
-SETS = {"a": outside_interference, "b": crosstalk_interference, "c": echo_interference}
+def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set D (written 2026-11-26, sealed: no model runs on it until a choice made on sets A-C needs a
+    confirmation, with its rule committed first): one of two more outside models, chosen by the seed,
+    neither in ``d2sr.sim`` nor in sets A-C:
+
+    * emitter bloom: another sensor's emitter in view saturates a disk (no return), ringed by a halo whose
+      returns read too short by a share that fades with distance, with a few rays reaching further;
+    * phase-unwrapping errors: a time-of-flight camera unwraps some patches (cells of a random Voronoi
+      tiling, inside a region or over the frame) one ambiguity interval off, nearer or farther by patch.
+
+    As in sets B and C, only pixels that move by more than 2 cm + 1% count."""
+    rng = np.random.default_rng([seed, SALTS["d"]])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    if rng.random() < 0.5:  # emitter bloom
+        cx, cy = rng.uniform(0.1, 0.9) * w, rng.uniform(0.1, 0.9) * h
+        r = np.hypot(x - cx, y - cy)
+        r0 = rng.uniform(5, 40)
+        reach = r0 * rng.uniform(2, 6)
+        theta = np.arctan2(y - cy, x - cx)
+        rays = np.zeros((h, w))
+        for a in rng.uniform(-np.pi, np.pi, int(rng.integers(0, 7))):
+            rays = np.maximum(rays, np.exp(-((np.angle(np.exp(1j * (theta - a))) * r / 3.0) ** 2)))
+        fade = np.exp(-(((r - r0) / (reach - r0)) ** 2) * (1 - 0.8 * rays))
+        new = np.where(r < r0, 0.0, d * (1 - rng.uniform(0.3, 0.8) * fade))
+        where = (r < r0) | (fade > 0.05)
+    else:  # phase-unwrapping errors by patch
+        n = int(rng.integers(8, 60))
+        sites = np.stack([rng.uniform(0, h, n), rng.uniform(0, w, n)], 1)
+        cell = np.argmin((y[..., None] - sites[:, 0]) ** 2 + (x[..., None] - sites[:, 1]) ** 2, axis=-1)
+        wrong = rng.random(n) < rng.uniform(0.15, 0.5)
+        step = np.where(rng.random(n) < 0.5, -1.0, 1.0) * rng.uniform(0.3, 1.5)
+        where = wrong[cell]
+        if rng.random() < 0.6:  # only where the views overlap: a half-plane
+            ang = rng.uniform(0, 2 * np.pi)
+            where &= x * np.cos(ang) + y * np.sin(ang) > rng.uniform(-0.3, 0.6) * max(h, w)
+        new = np.maximum(d + step[cell], 0.0)
+        where &= rng.random((h, w)) < rng.uniform(0.6, 1.0)
+    where &= (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
+SETS = {
+    "a": outside_interference,
+    "b": crosstalk_interference,
+    "c": echo_interference,
+    "d": bloom_interference,
+}
 
 
 def kind(which: str, seed: int) -> str:
@@ -344,7 +400,7 @@ def main() -> None:
         choices=sorted(SETS),
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
-        "c (range-gated phantom, scan-line echo bursts)",
+        "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors; sealed)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
