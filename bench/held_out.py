@@ -226,6 +226,7 @@ SETS = {
     "c": echo_interference,
     "d": bloom_interference,
 }
+SEALED = {"d"}  # sets that only an explicit --set runs (none of the scripts that go over every set)
 
 
 def kind(which: str, seed: int) -> str:
