@@ -114,6 +114,26 @@ def test_gated_temporal_recovery_gets_no_last_frame_that_does_not_line_up():
         assert has_last[~first].any() != gate  # gated: never the wall that is not there any more
 
 
+def test_clean_previous_detector_sees_its_last_clean_frame_or_itself():
+    # Frame 0 (hit: one column halved) has a last clean frame that lines up; frame 1's (a wall 2 m
+    # farther) does not, so it is given itself.
+    f0, c0 = np.full((32, 32), 2000, np.uint16), np.full((32, 32), 2000, np.uint16)
+    f0[:, 5] = 1000
+    f1 = np.full((32, 32), 3000, np.uint16)
+    previous = [c0.copy(), np.full((32, 32), 5000, np.uint16)]
+    src = Source([f0, f1], [c0, f1], None, 1000.0, np.array([True, False]), previous)
+    pool = Pool([src], frames=2, raw_previous=True, clean_previous=True)
+    b = pool.batch(np.random.default_rng(0), 200, None)
+    hit = b.label == 1
+    itself = np.all(b.x[:, 1] == b.x[:, 0], axis=(1, 2))
+    assert itself[~hit].all()  # not lined up: the frame itself, never the wall that is not there
+    assert 0.05 < itself[hit].mean() < 0.3  # 15% without a sequence
+    # Otherwise the clean wall, unhit: never an interfered previous frame.
+    assert (b.x[hit & ~itself, 1] == b.y[hit & ~itself, 0]).all()
+    with pytest.raises(ValueError, match="clean_previous is for the temporal detector"):
+        TrainConfig(task="detector", model="detector", clean_previous=True)
+
+
 def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
     # Vertical stripes of too-short depth on a ramp; the warp must bend them, not move the scene.
     clean = np.tile(np.linspace(1000, 3000, 96, dtype=np.float32), (64, 1)).astype(np.uint16)

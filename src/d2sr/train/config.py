@@ -57,6 +57,12 @@ class TrainConfig(Settings):
         "(contract.agreement below LINES_UP) is given as none in training, and the mask threshold is chosen "
         "on the lined-up frames only: --model auto gives the others to the single-frame model",
     )
+    clean_previous: bool = Field(
+        False,
+        description="temporal detector: its second input is the sensor's last clean frame where it lines up "
+        "with the frame (contract.agreement >= LINES_UP), else the frame itself; never an interfered one, so "
+        "a difference from it means this frame is hit",
+    )
     warp_interference: float = Field(
         0.0,
         ge=0,
@@ -126,6 +132,8 @@ class TrainConfig(Settings):
             raise ValueError(
                 "warp_interference, stack_interference and mirror_interference are for recovery models"
             )
+        if self.clean_previous and self.model != "detector-temporal":
+            raise ValueError(f"clean_previous is for the temporal detector, not {self.model}")
         if self.gate_previous and self.model != TEMPORAL_RECOVERY:
             raise ValueError(
                 f"gate_previous is for the temporal recovery model ({TEMPORAL_RECOVERY}), not {self.model}"

@@ -156,6 +156,7 @@ class Pool:
         warp: float = 0.0,
         stack: float = 0.0,
         mirror: float = 0.0,
+        clean_previous: bool = False,
     ) -> None:
         if not sources:
             raise InputError("no training data")
@@ -166,6 +167,7 @@ class Pool:
         self.warp = warp  # TrainConfig.warp_interference
         self.stack = stack  # TrainConfig.stack_interference
         self.mirror = mirror  # TrainConfig.mirror_interference
+        self.clean_previous = clean_previous  # TrainConfig.clean_previous
         self._shares: np.ndarray | None = None  # each drawable frame's share of pixels hit (stack's weights)
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
@@ -195,6 +197,7 @@ class Pool:
             cfg.warp_interference,
             cfg.stack_interference,
             cfg.mirror_interference,
+            cfg.clean_previous,
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -272,7 +275,12 @@ class Pool:
                 last = np.asarray(src.previous[i])
                 if self.gate_previous and not self._lines_up(s, i, f, last):
                     last = np.zeros_like(last)
-                ins.append(self._previous(rng, f, last) if self.raw_previous else last)
+                if (
+                    self.clean_previous
+                ):  # the last clean frame where it lines up (15%: no sequence), else the frame
+                    ins.append(last if rng.random() >= 0.15 and self._lines_up(s, i, f, last) else f)
+                else:
+                    ins.append(self._previous(rng, f, last) if self.raw_previous else last)
             if crop is not None:
                 h, w = f.shape
                 ch, cw = min(crop[0], h), min(crop[1], w)
