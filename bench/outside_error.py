@@ -3,7 +3,9 @@ process, ``recover --all``'s repair): the squared error left in pixels the mask 
 repairs and in clean pixels; the RMSE change with the true mask in place of the predicted one (the same
 guarded predictions: what a perfect mask would give this model); the first pass's mask logits at missed,
 repaired and clean returning pixels; by the share of a frame's pixels hit (``HIT_BUCKETS``), the frames, the
-mask's recall and the share of the missed pixels' error; the RMSE change for each number of passes in
+mask's recall and the share of the missed pixels' error; the same by what the interference did to a pixel
+(``ERROR_KINDS``: no return, too short or too far by its ratio to the truth); the RMSE change for each number
+of passes in
 ``--passes``; and with
 ``--plot``, the trade-off ``--mask-logit`` walks (RMSE change against clean pixels changed, both passes,
 per threshold).
@@ -35,6 +37,15 @@ from held_out import SETS, every_other, outside_set
 SCALE = 4000.0
 QUANTILES = (5, 25, 50, 75, 95)
 HIT_BUCKETS = (0.0, 0.02, 0.1, 0.3, 1.0)  # share of a frame's returning pixels the interference changed
+# What the interference did to a returning pixel: (name, lowest, highest ratio of its value to the truth).
+ERROR_KINDS = (
+    ("no return", 0.0, 0.0),
+    ("too short, under 0.5x", 1e-9, 0.5),
+    ("too short, 0.5-0.8x", 0.5, 0.8),
+    ("too short, 0.8-1x", 0.8, 1.0),
+    ("too far, 1-1.25x", 1.0, 1.25),
+    ("too far, over 1.25x", 1.25, np.inf),
+)
 LOGITS = (3.0, 2.0, 1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0, -3.0, -4.0)  # --plot's thresholds
 
 
@@ -64,6 +75,7 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
     ceiling = 0.0
     logits: dict[str, list[np.ndarray]] = {"missed": [], "repaired": [], "clean": []}
     frames = []  # (share of the frame hit, hit pixels repaired, hit pixels, missed pixels' squared error)
+    kinds = np.zeros((len(ERROR_KINDS), 3))  # per ERROR_KINDS: hit pixels, repaired, missed squared error
     for b, c, prev in pairs:
         metres = b.astype(np.float32)[None] / np.float32(SCALE)
         last = prev.astype(np.float32)[None] / np.float32(SCALE) if net.frames == 2 else None
@@ -76,6 +88,10 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
         hit = ok & true
         frames.append((hit.sum() / max(ok.sum(), 1), (hit & kept).sum(), hit.sum(), _sq(out, c, hit & ~kept)))
         ceiling += _sq(repair_frame(b, pred[0], true, SCALE)[0], c, ok)
+        ratio = b / np.maximum(c, 1).astype(np.float64)
+        for k, (_, lo, hi) in enumerate(ERROR_KINDS):
+            at = hit & ((ratio == 0) if hi == 0 else (ratio > lo) & (ratio <= hi))
+            kinds[k] += (at.sum(), (at & kept).sum(), _sq(out, c, at & ~kept))
         logit = net.raw(metres, last)[0][0]
         logits["missed"].append(logit[true & ~kept])
         logits["repaired"].append(logit[true & kept])
@@ -101,6 +117,14 @@ def breakdown(weights: Path, model: str, pairs: Pairs, passes: list[int]) -> dic
             for k, v in logits.items()
         },
         "by_frame_hit": _by_frame_hit(np.array(frames, np.float64)),
+        "by_error": {
+            name: {
+                "pixels_share": round(float(n / max(kinds[:, 0].sum(), 1)), 4),
+                "recall": round(float(found / max(n, 1)), 4),
+                "missed_error_share": round(float(err / max(kinds[:, 2].sum(), 1e-12)), 4),
+            }
+            for (name, _, _), (n, found, err) in zip(ERROR_KINDS, kinds, strict=True)
+        },
         "rmse_change_by_passes": by_passes,
     }
 
