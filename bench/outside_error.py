@@ -23,7 +23,6 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.atomic import check_out
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, repair_frame
 from d2sr.errors import D2SRError, InputError
@@ -183,15 +182,9 @@ def main() -> None:
     ap.add_argument("--model", default="unet8")
     ap.add_argument("--set", choices=sorted(SETS), default="a", help="held_out.py's outside set")
     ap.add_argument("--passes", default="1,2,3,4", help="numbers of passes to compare, comma-separated")
-    ap.add_argument("--plot", type=Path, default=None, help="also write the trade-off plot (PNG) here")
-    output_args(ap)
+    output_args(ap, plot="also write the trade-off plot (PNG) here")
     args = ap.parse_args()
     check_output(ap, args)
-    if args.plot is not None:
-        try:
-            check_out(args.plot, is_dir=False, overwrite=args.overwrite, option="--plot")
-        except D2SRError as exc:
-            ap.error(str(exc))
     try:
         passes = [int(p) for p in args.passes.split(",") if p.strip()]
         pairs = _pairs(args.data, args.set)

@@ -13,9 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from d2sr.atomic import check_out
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.errors import D2SRError
 from d2sr.eval.plots import plt, save  # Agg, set there
 from held_out import SEALED, SETS
 
@@ -95,15 +93,9 @@ def plot(summary: dict, path: Path) -> Path:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--plot", type=Path, default=None, help="also write the plot (PNG) here")
-    output_args(ap)
+    output_args(ap, plot="also write the plot (PNG) here")
     args = ap.parse_args()
     check_output(ap, args)
-    if args.plot is not None:
-        try:
-            check_out(args.plot, is_dir=False, overwrite=args.overwrite, option="--plot")
-        except D2SRError as exc:
-            ap.error(str(exc))
     summary = gather(sorted(set(SETS) - SEALED))
     print(table(summary))
     if args.plot is not None:

@@ -164,3 +164,24 @@ def test_outputs_get_ordinary_permissions(tmp_path):
     os.umask(mask)
     assert (tmp_path / "o").stat().st_mode & 0o777 == 0o777 & ~mask
     assert np.all([(tmp_path / "o" / "a").is_file()])
+
+
+def test_benchmark_scripts_refuse_an_existing_json_or_plot_without_overwrite(tmp_path):
+    import argparse
+
+    from d2sr.bench import check_output, output_args
+
+    ap = argparse.ArgumentParser()
+    output_args(ap, plot="the plot")
+    old = tmp_path / "old.png"
+    old.write_bytes(b"a user's file")
+    for argv in (["--plot", str(old)], ["--json", str(old)]):
+        with pytest.raises(SystemExit) as exc:
+            check_output(ap, ap.parse_args(argv))
+        assert exc.value.code == 2
+    check_output(ap, ap.parse_args(["--plot", str(old), "--overwrite"]))  # asked for: allowed
+    check_output(ap, ap.parse_args(["--plot", str(tmp_path / "new.png")]))
+    assert old.read_bytes() == b"a user's file"  # checking writes nothing
+    plain = argparse.ArgumentParser()
+    output_args(plain)
+    assert not hasattr(plain.parse_args([]), "plot")  # --plot only where a script makes one

@@ -50,22 +50,27 @@ def cpu() -> str:
     return f"{cores} cores, {name or 'unknown'}"
 
 
-def output_args(ap: argparse.ArgumentParser) -> None:
-    """The benchmark scripts' --json FILE and --overwrite (the output policy of every d2sr command)."""
+def output_args(ap: argparse.ArgumentParser, plot: str | None = None) -> None:
+    """The benchmark scripts' --json FILE and --overwrite (the output policy of every d2sr command); with
+    ``plot`` (its help), also --plot FILE (a PNG)."""
     ap.add_argument("--json", type=Path, default=None, help="write the result to this JSON file")
-    ap.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --json (or --plot) file")
+    if plot is not None:
+        ap.add_argument("--plot", type=Path, default=None, help=plot)
 
 
 def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse, before the benchmark runs, a --json that would replace a file without --overwrite."""
+    """Refuse, before the benchmark runs, a --json or --plot that would replace a file without --overwrite."""
     from d2sr.atomic import check_out
     from d2sr.errors import D2SRError
 
-    if args.json is not None:
-        try:
-            check_out(args.json, is_dir=False, overwrite=args.overwrite, option="--json")
-        except D2SRError as exc:
-            ap.error(str(exc))
+    for option in ("json", "plot"):
+        path = getattr(args, option, None)
+        if path is not None:
+            try:
+                check_out(path, is_dir=False, overwrite=args.overwrite, option=f"--{option}")
+            except D2SRError as exc:
+                ap.error(str(exc))
 
 
 def write_result(result: dict, path: Path | None) -> str:
