@@ -108,6 +108,7 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-warp.toml --out runs/unet8-warp
 	$(BIN)/d2sr train recovery --config configs/unet8-stack.toml --out runs/unet8-stack
 	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
+	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover

@@ -157,7 +157,7 @@ def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
     warped = Pool([src], warp=1.0).batch(np.random.default_rng(0), 4, None)
     assert np.array_equal(warped.m > 0, warped.x != warped.y)
     assert not any(same(warped))  # at share 1 every interfered frame is warped
-    with pytest.raises(ValueError, match="warp_interference, stack_interference and mirror_interference are"):
+    with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
         TrainConfig(task="detector", model="detector", warp_interference=0.5)
 
 
@@ -202,8 +202,33 @@ def test_mirrored_interference_reads_too_far_by_the_factor_it_read_too_short():
     assert np.allclose(rows / b.y[hit][:, 0, 1], 2.0, atol=1e-3)
     assert np.array_equal(b.m > 0, b.x != b.y)
     assert np.array_equal(b.x[~hit], b.y[~hit])  # clean frames untouched
-    with pytest.raises(ValueError, match="mirror_interference are for recovery"):
+    with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
         TrainConfig(task="detector", model="detector", mirror_interference=0.5)
+
+
+def test_shell_interference_follows_the_scenes_depth_not_a_shape():
+    from d2sr.sim.families import shell_interference
+
+    # Four walls side by side at 1, 2, 3 and 4 m: a shell of depth takes whole walls, never part of one.
+    d = np.repeat(np.array([1.0, 2.0, 3.0, 4.0], np.float32), 16)[None].repeat(32, 0)
+    spans = []
+    for seed in range(20):
+        new, where = shell_interference(d, np.random.default_rng(seed))
+        assert np.array_equal(new[~where], d[~where])  # only the pattern's pixels change
+        walls = {float(v) for v in np.unique(d[where])}
+        spans.append(len(walls))
+        assert walls <= {1.0, 2.0, 3.0, 4.0} and (not walls or max(walls) - min(walls) <= len(walls) - 1)
+    assert 1 <= np.median(spans) < 4  # a shell, not the whole frame
+    clean = (d * 1000).astype(np.uint16)
+    frame = clean.copy()
+    frame[:, 0] = 500  # the frame's own pattern: the first column, which must stay as it is
+    src = Source([frame], [clean], None, 1000.0, np.array([True]))
+    b = Pool([src], shell=1.0).batch(np.random.default_rng(0), 8, None)
+    assert np.array_equal(b.m > 0, b.x != b.y)
+    assert (b.m.sum(axis=(1, 2, 3)) > 32).mean() > 0.5  # most frames gain a shell's pixels
+    assert (np.round(b.x / np.maximum(b.y, 1e-6), 2) == 0.5).any()  # the own pattern (0.5x) survives
+    with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
+        TrainConfig(task="detector", model="detector", shell_interference=0.5)
 
 
 class _Fixed(torch.nn.Module):

@@ -31,7 +31,7 @@ from d2sr.config import Settings
 from d2sr.errors import InputError
 from d2sr.sim.interference import Interferer
 
-__all__ = ["FAMILIES", "WideConfig", "shape", "wide_interference"]
+__all__ = ["FAMILIES", "WideConfig", "shape", "shell_interference", "wide_interference"]
 
 FAMILIES = ("band", "streak", "bar", "blob", "speckle", "region", "grating", "physical")
 
@@ -237,6 +237,25 @@ def _errors(d: np.ndarray, where: np.ndarray, rng: np.random.Generator) -> np.nd
     gets = where & ~has & (rng.random((h, w)) < rng.uniform(0, 0.6))
     out[gets] = spur[gets]
     return out
+
+
+def shell_interference(d: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(new depths in metres, where they apply) for a pattern confined to one shell of the scene's depth: a
+    gated sensor meets another's light only at some ranges, so the hit region follows the room's surfaces
+    rather than a shape in the image. Thinned and valued as ``wide_interference``'s patterns are (the same
+    error model). ``d``: the clean frame in metres (0: no return)."""
+    h, w = d.shape
+    valid = d > 0
+    if not valid.any():
+        return d.copy(), np.zeros(d.shape, bool)
+    qa = rng.uniform(0.0, 0.8)
+    lo, hi = np.quantile(d[valid], [qa, min(qa + rng.uniform(0.1, 0.5), 1.0)])
+    where = valid & (d >= lo) & (d <= hi)
+    hit = rng.uniform(0.25, 1.0)
+    if hit < 0.98:
+        thin = _smooth_field(h, w, rng.uniform(0.5, 3.0), rng)
+        where &= thin < np.quantile(thin, hit)
+    return _errors(d, where, rng), where
 
 
 def wide_interference(

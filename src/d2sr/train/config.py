@@ -86,6 +86,13 @@ class TrainConfig(Settings):
         "ratio (train.data.mirror_pattern): too short becomes too far by the same factor and back, so every "
         "shape the generator draws also reads as a delayed echo",
     )
+    shell_interference: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="recovery: share of interfered frames that also get a pattern confined to one shell of "
+        "the scene's depth (sim.families.shell_interference): hit regions that follow the room's surfaces",
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,
@@ -126,12 +133,9 @@ class TrainConfig(Settings):
             raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
-        if (self.warp_interference or self.stack_interference or self.mirror_interference) and (
-            self.task != "recovery"
-        ):
-            raise ValueError(
-                "warp_interference, stack_interference and mirror_interference are for recovery models"
-            )
+        augments = (self.warp_interference, self.stack_interference, self.mirror_interference)
+        if any((*augments, self.shell_interference)) and self.task != "recovery":
+            raise ValueError("the *_interference settings are for recovery models")
         if self.clean_previous and self.model != "detector-temporal":
             raise ValueError(f"clean_previous is for the temporal detector, not {self.model}")
         if self.gate_previous and self.model != TEMPORAL_RECOVERY:

@@ -14,6 +14,7 @@ from d2sr.contract import LINES_UP, agreement, scale_at
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe
+from d2sr.sim.families import shell_interference
 from d2sr.train.config import TrainConfig
 from d2sr.train.synth import VERSION, SynthSet, generate
 from d2sr.ui import warn
@@ -157,6 +158,7 @@ class Pool:
         stack: float = 0.0,
         mirror: float = 0.0,
         clean_previous: bool = False,
+        shell: float = 0.0,
     ) -> None:
         if not sources:
             raise InputError("no training data")
@@ -168,6 +170,7 @@ class Pool:
         self.stack = stack  # TrainConfig.stack_interference
         self.mirror = mirror  # TrainConfig.mirror_interference
         self.clean_previous = clean_previous  # TrainConfig.clean_previous
+        self.shell = shell  # TrainConfig.shell_interference
         self._shares: np.ndarray | None = None  # each drawable frame's share of pixels hit (stack's weights)
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
@@ -198,6 +201,7 @@ class Pool:
             cfg.stack_interference,
             cfg.mirror_interference,
             cfg.clean_previous,
+            cfg.shell_interference,
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -240,6 +244,17 @@ class Pool:
         if f2.shape != frame.shape:
             return frame, mask
         out = np.where(mask, frame, lay_pattern(f2, c2, clean))  # the frame's own pattern stays on top
+        return out, mask | (out != clean)
+
+    @staticmethod
+    def _shell(
+        rng: np.random.Generator, frame: np.ndarray, clean: np.ndarray, mask: np.ndarray, scale: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``frame`` (units) with a depth-shell pattern added where it is not hit yet (its own pattern stays
+        on top); returns (frame, mask)."""
+        new, where = shell_interference(clean.astype(np.float32) / np.float32(scale), rng)
+        units = np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0).astype(frame.dtype)
+        out = np.where(where & ~mask, units, frame)
         return out, mask | (out != clean)
 
     def _lines_up(self, s: int, i: int, frame: np.ndarray, last: np.ndarray) -> bool:
@@ -289,6 +304,8 @@ class Pool:
                 c, m = c[a : a + ch, b : b + cw], m[a : a + ch, b : b + cw]
             if self.warp and src.labels[i] and rng.random() < self.warp:
                 ins[0], m = warp_interference(rng, ins[0], c, m)
+            if self.shell and src.labels[i] and rng.random() < self.shell:
+                ins[0], m = self._shell(rng, ins[0], c, m, scale_at(src.scale, i))
             gain = np.float32(rng.uniform(0.85, 1.15) / scale_at(src.scale, i))
             x, y = np.stack([v.astype(np.float32) * gain for v in ins]), c.astype(np.float32) * gain
             if len(ins) > 1 and not self.raw_previous and rng.random() < 0.1:
