@@ -77,6 +77,8 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-stage2.toml --out runs/unet8-stage2
 	$(BIN)/d2sr train recovery --config configs/unet8.toml --out runs/unet8
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
+	# The shipped unet8 (since 2026-11-26): runs/unet8 trained on with depth-shell patterns (data version 6).
+	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
@@ -87,8 +89,8 @@ weights: $(STAMP)
 	# paper-detector and unet16 were trained on data version 3 by the same configs (code of b0d36d6 and
 	# ebe0a54); on version 4 the detector flags 16-19% of the clean L515 frames and the Azure Kinect frames,
 	# and unet16 scores worse (CHANGELOG 0.6.0, 0.7.0): those runs stay in runs/ to compare with.
-	for m in unet8 unet8-temporal; do \
-	  cp runs/$$m/$$m.safetensors runs/$$m/$$m.card.json runs/$$m/$$m.md $(SHIP)/; done
+	for m in unet8-shell/unet8 unet8-temporal/unet8-temporal; do \
+	  cp runs/$$m.safetensors runs/$$m.card.json runs/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
 # Trials that did not ship (each config holds its rule, written before it ran, and its outcome): the shipped
@@ -108,7 +110,6 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-warp.toml --out runs/unet8-warp
 	$(BIN)/d2sr train recovery --config configs/unet8-stack.toml --out runs/unet8-stack
 	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
-	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover

@@ -7,8 +7,8 @@ folds at its ambiguity range where another camera's modulated light adds in), an
 ``--set b`` (written later, to check a threshold read off set A): Lissajous crosstalk and multipath ghost
 tiles (``crosstalk_interference``). ``--set c`` (written after both had judged eight trials, to judge what was
 chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``). ``--set d`` (sealed
-when written: no model runs on it until a choice made on sets A-C needs confirming, its rule committed
-first): emitter bloom and phase-unwrapping errors (``bloom_interference``).
+when written, opened 2026-11-26 to confirm unet8-shell, a choice made on sets A and B): emitter bloom and
+phase-unwrapping errors (``bloom_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -177,8 +177,8 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
 
 
 def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
-    """Set D (written 2026-11-26, sealed: no model runs on it until a choice made on sets A-C needs a
-    confirmation, with its rule committed first): one of two more outside models, chosen by the seed,
+    """Set D (written 2026-11-26 and sealed until a choice made on sets A-C needed confirming, with its rule
+    committed first: opened the same day for unet8-shell): one of two more outside models, chosen by the seed,
     neither in ``d2sr.sim`` nor in sets A-C:
 
     * emitter bloom: another sensor's emitter in view saturates a disk (no return), ringed by a halo whose
@@ -226,7 +226,7 @@ SETS = {
     "c": echo_interference,
     "d": bloom_interference,
 }
-SEALED = {"d"}  # sets that only an explicit --set runs (none of the scripts that go over every set)
+SEALED: set[str] = set()  # sets only an explicit --set runs (set D was, until the unet8-shell decision)
 
 
 def kind(which: str, seed: int) -> str:
@@ -401,7 +401,7 @@ def main() -> None:
         choices=sorted(SETS),
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
-        "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors; sealed)",
+        "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
