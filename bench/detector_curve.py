@@ -19,7 +19,7 @@ from d2sr.errors import D2SRError
 from d2sr.frames import open_frames
 from d2sr.inference import open_backend
 from d2sr.runtime.backends import Backend
-from held_out import SEALED, SETS, every_other, outside_set
+from held_out import every_other, open_sets, outside_set
 
 THRESHOLDS = (0.9, 0.7, THRESHOLD, 0.4, 0.3, 0.2, 0.1, 0.05)
 
@@ -46,7 +46,7 @@ def main() -> None:
         ap.error(str(exc))
     clean = outside_set(args.data)
     sets: dict[str, np.ndarray] = {}
-    for which in sorted(set(SETS) - SEALED):
+    for which in open_sets():
         bad = every_other(clean, 4000.0, which)
         hit = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
         sets[f"outside set {which} (recall)"] = scores(net, bad, 4000.0)[hit]

@@ -229,6 +229,11 @@ SETS = {
 SEALED: set[str] = set()  # sets only an explicit --set runs (set D was, until the unet8-shell decision)
 
 
+def open_sets() -> list[str]:
+    """The sets the scripts that go over every set take: all but the sealed ones."""
+    return sorted(set(SETS) - SEALED)
+
+
 def kind(which: str, seed: int) -> str:
     """The model of set ``which`` that corrupts the frame of ``seed``: the set's function's first draw."""
     return KINDS[which][0 if np.random.default_rng([seed, SALTS[which]]).random() < 0.5 else 1]

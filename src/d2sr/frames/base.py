@@ -92,6 +92,11 @@ def to_metres(depth: np.ndarray, depth_scale: float) -> np.ndarray:
     return depth.astype(np.float32) / np.float32(depth_scale)
 
 
+def to_units(metres: np.ndarray, depth_scale: float) -> np.ndarray:
+    """uint16 depth units from metres: a return stays a return (at least one unit), 0 stays no return."""
+    return np.where(metres > 0, np.clip(np.rint(metres * depth_scale), 1, 65535), 0).astype(np.uint16)
+
+
 PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres (the upper end: --max-range)
 #: Units per metre depth sensors store, and what they are called.
 KNOWN_SCALES = {

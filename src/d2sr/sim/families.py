@@ -29,6 +29,7 @@ from pydantic import Field, model_validator
 
 from d2sr.config import Settings
 from d2sr.errors import InputError
+from d2sr.frames.base import to_units
 from d2sr.sim.interference import Interferer
 
 __all__ = ["FAMILIES", "WideConfig", "shape", "shell_interference", "wide_interference"]
@@ -290,7 +291,7 @@ def wide_interference(
                 thin = _smooth_field(h, w, rng.uniform(0.5, 3.0), rng)
                 where &= thin < np.quantile(thin, hit)
             out = np.where(where, _errors(out, where, rng), out)
-        frame = np.where(out > 0, np.clip(np.rint(out * depth_scale), 1, 65535), 0).astype(np.uint16)
+        frame = to_units(out, depth_scale)
         mask = frame != depth
         if mask.any():
             return frame, mask, sorted(set(drawn))

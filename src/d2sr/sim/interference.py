@@ -23,6 +23,7 @@ from pydantic import Field, model_validator
 
 from d2sr.config import Settings
 from d2sr.errors import InputError
+from d2sr.frames.base import to_units
 
 __all__ = ["KINDS", "InterferenceConfig", "Interferer", "corrupt", "interfere"]
 
@@ -168,7 +169,7 @@ def corrupt(
     out[short] = d[short] * factor[short]
     out[far] = d[far] + cfg.far_add[0] + (cfg.far_add[1] - cfg.far_add[0]) * smooth[far]
     out[spur] = 0.3 + 2.0 * smooth[spur]
-    frame = np.where(out > 0, np.clip(np.rint(out * depth_scale), 1, 65535), 0).astype(np.uint16)
+    frame = to_units(out, depth_scale)
     return frame, frame != depth
 
 

@@ -133,8 +133,8 @@ class TrainConfig(Settings):
             raise ValueError(f"leave_out takes families among {', '.join(FAMILIES)}, got {self.leave_out}")
         if self.crop[0] % PAD or self.crop[1] % PAD:
             raise ValueError(f"crop must be multiples of {PAD}, got {self.crop}")
-        augments = (self.warp_interference, self.stack_interference, self.mirror_interference)
-        if any((*augments, self.shell_interference)) and self.task != "recovery":
+        augments = ("warp", "stack", "mirror", "shell")
+        if self.task != "recovery" and any(getattr(self, f"{a}_interference") for a in augments):
             raise ValueError("the *_interference settings are for recovery models")
         if self.clean_previous and self.model != "detector-temporal":
             raise ValueError(f"clean_previous is for the temporal detector, not {self.model}")

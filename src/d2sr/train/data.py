@@ -13,7 +13,7 @@ import numpy as np
 from d2sr.contract import LINES_UP, agreement, scale_at
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
-from d2sr.frames.base import Frame, check_depth, probe
+from d2sr.frames.base import Frame, check_depth, probe, to_units
 from d2sr.sim.families import shell_interference
 from d2sr.train.config import TrainConfig
 from d2sr.train.synth import VERSION, SynthSet, generate
@@ -195,13 +195,13 @@ class Pool:
         return cls(
             sources + _folders(cfg),
             frames,
-            cfg.task == "detector",
-            cfg.gate_previous,
-            cfg.warp_interference,
-            cfg.stack_interference,
-            cfg.mirror_interference,
-            cfg.clean_previous,
-            cfg.shell_interference,
+            raw_previous=cfg.task == "detector",
+            gate_previous=cfg.gate_previous,
+            warp=cfg.warp_interference,
+            stack=cfg.stack_interference,
+            mirror=cfg.mirror_interference,
+            clean_previous=cfg.clean_previous,
+            shell=cfg.shell_interference,
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -253,8 +253,7 @@ class Pool:
         """``frame`` (units) with a depth-shell pattern added where it is not hit yet (its own pattern stays
         on top); returns (frame, mask)."""
         new, where = shell_interference(clean.astype(np.float32) / np.float32(scale), rng)
-        units = np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0).astype(frame.dtype)
-        out = np.where(where & ~mask, units, frame)
+        out = np.where(where & ~mask, to_units(new, scale), frame)
         return out, mask | (out != clean)
 
     def _lines_up(self, s: int, i: int, frame: np.ndarray, last: np.ndarray) -> bool:
@@ -290,9 +289,7 @@ class Pool:
                 last = np.asarray(src.previous[i])
                 if self.gate_previous and not self._lines_up(s, i, f, last):
                     last = np.zeros_like(last)
-                if (
-                    self.clean_previous
-                ):  # the last clean frame where it lines up (15%: no sequence), else the frame
+                if self.clean_previous:  # the last clean frame where it lines up, else (and 15%) the frame
                     ins.append(last if rng.random() >= 0.15 and self._lines_up(s, i, f, last) else f)
                 else:
                     ins.append(self._previous(rng, f, last) if self.raw_previous else last)
