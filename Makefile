@@ -120,7 +120,7 @@ thresholds: $(STAMP)
 	for m in unet8 unet8-temporal; do \
 	  $(BIN)/d2sr threshold $(SHIP)/$$m.safetensors --out runs/$$m-threshold --overwrite || exit 1; \
 	  cp runs/$$m-threshold/$$m.safetensors runs/$$m-threshold/$$m.card.json runs/$$m-threshold/$$m.md \
-	    runs/$$m-threshold/$$m.onnx $(SHIP)/; done
+	    runs/$$m-threshold/$$m*.onnx $(SHIP)/; done
 
 # Held-out metrics of the shipped models (generated test set + real L515 with simulated interference);
 # --card also writes them into the shipped models' cards.

@@ -102,11 +102,12 @@ def test_corrupt_missing_and_mismatched_weights(tmp_path):
         load_model(wrong)
 
 
-@pytest.mark.parametrize("name", ["detector", "unet8", "unet8-temporal", MASK_DETECTOR])
+@pytest.mark.parametrize("name", ["detector", "detector-temporal", "unet8", "unet8-temporal", MASK_DETECTOR])
 def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
-    from d2sr.export import export
+    from d2sr.contract import code_path
+    from d2sr.export import export, parity
 
     torch.manual_seed(3)
     w = tmp_path / f"{name}.safetensors"
@@ -116,18 +117,75 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     save_model(net, name, w, mask_logit=None if detector else -1.5)
     res = export(w, tmp_path / f"{name}.onnx")
     assert res["max_abs_diff"] < 1e-3
-    sess = ort.InferenceSession(str(tmp_path / f"{name}.onnx"), providers=["CPUExecutionProvider"])
+    # A temporal UNet's encoder of the last clean frame is a file of its own; no other model has one.
+    assert code_path(tmp_path / f"{name}.onnx").is_file() == (name == "unet8-temporal")
     x = torch.cat([_depth(3, 64, 96, seed=5 + k) for k in range(frames)], dim=1)  # another batch and size
-    got = sess.run(None, {"depth": x.numpy()})
     model, _ = load_model(w)
-    with torch.inference_mode():
-        ref = model(x)
-    ref = (torch.sigmoid(ref),) if detector else ref
-    for r, g in zip(ref, got, strict=True):
-        np.testing.assert_allclose(r.numpy(), g, atol=1e-3)
+    assert parity(model, detector, tmp_path / f"{name}.onnx", x)["max_abs_diff"] < 1e-3
+    sess = ort.InferenceSession(str(tmp_path / f"{name}.onnx"), providers=["CPUExecutionProvider"])
     meta = sess.get_modelmeta().custom_metadata_map
     assert meta["model"] == name and int(meta["stride"]) == model.stride and int(meta["frames"]) == frames
     assert float(meta["mask_logit"]) == (0.0 if detector else -1.5)
+
+
+@pytest.mark.parametrize("name", ["detector-temporal", "unet8-temporal"])
+def test_streaming_form_is_the_model(name):
+    # The earlier frame's share of the first layers, computed apart and added back, is the same function.
+    from d2sr.models.streaming import streaming
+
+    torch.manual_seed(4)
+    net = build(name).eval()
+    stream = streaming(net)
+    assert stream is not None and streaming(build("unet8")) is None
+    x = torch.cat([_depth(2, 64, 96, seed=7), _depth(2, 64, 96, seed=8)], dim=1)
+    with torch.inference_mode():
+        ref = net(x)
+        if name == "unet8-temporal":
+            got = stream(x[:, :1], x[:, 1:], stream.encode(x[:, 1:]))
+        else:
+            score, mine = stream(x[:, :1], stream.encode(x[:, 1:]))
+            ref, got = (torch.sigmoid(ref),), (score,)
+            torch.testing.assert_close(mine, stream.encode(x[:, :1]))  # the code it hands to the next frame
+    for r, g in zip(ref, got, strict=True):
+        torch.testing.assert_close(r, g, atol=1e-4, rtol=1e-4)
+
+
+def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):
+    # Codes are looked up by the earlier frame's value: a frame changed in place, or another frame, is
+    # encoded again; a missing encoder file or a two-frame file of the old layout is a clear error.
+    from d2sr.contract import code_path
+    from d2sr.export import _onnx, export
+    from d2sr.models.detector import Scored
+    from d2sr.runtime.backends import OnnxBackend
+
+    torch.manual_seed(5)
+    for name in ("detector-temporal", "unet8-temporal"):
+        save_model(build(name).eval(), name, tmp_path / f"{name}.safetensors")
+        export(tmp_path / f"{name}.safetensors", tmp_path / f"{name}.onnx")
+    model, _ = load_model(tmp_path / "unet8-temporal.safetensors")
+    det, _ = load_model(tmp_path / "detector-temporal.safetensors")
+    net = OnnxBackend(tmp_path / "detector-temporal.onnx", tmp_path / "unet8-temporal.onnx")
+    cur, prev = _depth(1, 64, 96, seed=9)[:, 0].numpy(), _depth(1, 64, 96, seed=10)[:, 0].numpy()
+    for change in (False, False, True):  # the second time from the cache; then changed in place
+        if change:
+            prev[:, 10:30] = 0.7
+        with torch.inference_mode():
+            want = model(torch.from_numpy(np.stack([cur, prev], 1)))
+            score = torch.sigmoid(det(torch.from_numpy(np.stack([cur, prev], 1))))
+        np.testing.assert_allclose(net.raw(cur, prev)[1], want[1][:, 0].numpy(), atol=1e-4)
+        np.testing.assert_allclose(net.scores(cur, prev), score.numpy(), atol=1e-5)
+    with torch.inference_mode():  # no earlier frame: the frame alone; no last clean frame: zeros
+        alone = torch.sigmoid(det(torch.from_numpy(np.stack([cur, cur], 1))))
+        blank = model(torch.from_numpy(np.stack([cur, np.zeros_like(cur)], 1)))
+    np.testing.assert_allclose(net.scores(cur, None), alone.numpy(), atol=1e-5)
+    np.testing.assert_allclose(net.raw(cur, None)[1], blank[1][:, 0].numpy(), atol=1e-4)
+    code_path(tmp_path / "unet8-temporal.onnx").unlink()
+    with pytest.raises(InputError, match=r"unet8-temporal\.code\.onnx: no such model file"):
+        OnnxBackend(None, tmp_path / "unet8-temporal.onnx")
+    old = tmp_path / "old.onnx"  # the earlier layout: the frame pair in one input
+    _onnx(Scored(det).eval(), (torch.rand(1, 2, 64, 96),), old, ["depth"], ["score"], {"frames": "2"})
+    with pytest.raises(InputError, match="exported by an earlier d2sr; export it again"):
+        OnnxBackend(old, None)
 
 
 def test_exported_unet_folds_pixels_with_a_convolution(tmp_path, monkeypatch):

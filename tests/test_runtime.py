@@ -322,7 +322,7 @@ def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
     from d2sr.quantize import int8_path, quantize
 
     torch.manual_seed(0)
-    for name in ("detector", "unet8"):
+    for name in ("detector", "unet8", "unet8-temporal"):
         save_model(build(name).eval(), name, tmp_path / f"{name}.safetensors")
         export(tmp_path / f"{name}.safetensors", tmp_path / f"{name}.onnx")
         q = quantize(tmp_path / f"{name}.onnx", frames=2)
@@ -339,6 +339,11 @@ def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
     assert res.depth.shape == (96, 128) and 0 <= res.score <= 1
     with pytest.raises(InputError, match="onnxruntime"):
         open_backend("unet8", "torch", tmp_path, int8=True)
+    # A streaming temporal UNet: calibrated on the inputs the runtime feeds it, its encoder kept beside it.
+    assert (tmp_path / "unet8-temporal.int8.code.onnx").is_file()
+    temporal = open_backend("unet8-temporal", "onnx", tmp_path, detector=None, int8=True)
+    x = np.full((1, 96, 128), 2.0, np.float32)
+    assert temporal.raw(x, x)[1].shape == (1, 96, 128)
 
 
 def test_detector_gets_the_previous_frame_whatever_its_flag():

@@ -42,6 +42,7 @@ __all__ = [
     "check_passes",
     "check_probability",
     "check_size",
+    "code_path",
     "detector_input",
     "guard",
     "model_input",
@@ -101,6 +102,12 @@ MODEL_HELP = (
     f"Recovery model: {', '.join(REPAIR_MODELS)} (shipped: {', '.join(SHIPPED_RECOVERY)}; auto: "
     f"{TEMPORAL_RECOVERY} where the last clean frame lines up with the frame, {DEFAULT_RECOVERY} elsewhere)."
 )
+
+
+def code_path(onnx: Path) -> Path:
+    """Where an exported temporal UNet's encoder of the last clean frame lies, beside the model
+    (``d2sr.models.streaming``): unet8-temporal.onnx -> unet8-temporal.code.onnx."""
+    return onnx.with_name(onnx.name.removesuffix(".onnx") + ".code.onnx")
 
 
 def check_probability(value: float, option: str) -> float:
@@ -204,9 +211,11 @@ def agreement(metres: np.ndarray, previous: np.ndarray | None) -> float:
     if previous.shape != metres.shape:
         raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
     ok = (metres > 0) & (previous > 0)
-    if not ok.any():
+    n = np.count_nonzero(ok)
+    if not n:
         return 0.0
-    return float((np.abs(metres - previous)[ok] <= AGREE_M + AGREE_REL * metres[ok]).mean())
+    agree = np.abs(metres - previous) <= AGREE_M + AGREE_REL * metres  # whole arrays: no gathers
+    return np.count_nonzero(agree & ok) / n
 
 
 def check_passes(passes: int) -> int:

@@ -1,9 +1,14 @@
-"""ONNX export (one file per model, dynamic batch, height and width) with a parity check against torch.
-Kept apart from inference: the edge runtime loads the files with onnxruntime and never imports torch."""
+"""ONNX export (dynamic batch, height and width) with a parity check against torch. Kept apart from
+inference: the edge runtime loads the files with onnxruntime and never imports torch.
+
+One file per model, except that two-frame models are exported in their streaming form
+(``d2sr.models.streaming``): the temporal detector hands out each frame's code for the next one, and the
+temporal UNet's encoder of the last clean frame is a second file beside it (``contract.code_path``)."""
 
 from __future__ import annotations
 
 import warnings
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -11,59 +16,80 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR
+from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, code_path
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
 from d2sr.models.store import load_model, mask_logit, threshold
+from d2sr.models.streaming import Encoder, StreamingDetector, StreamingUNet, streaming
 
 __all__ = ["export", "parity"]
 
 OPSET = 17
 
 
-def _wrapped(model: nn.Module, name: str) -> tuple[nn.Module, list[str]]:
-    if name in (*DETECTOR_NAMES, MASK_DETECTOR):
-        return Scored(model).eval(), ["score"]
-    return model, ["mask_logit", "pred_depth"]
+def _onnx(net: nn.Module, args: tuple, path: Path, inputs: list[str], outputs: list[str], meta: dict) -> None:
+    """Write ``net`` to ``path`` with every axis but the channels dynamic, and ``meta`` as its metadata."""
+    import onnx
+
+    axes = {k: {0: "batch", 2: f"{k}_height", 3: f"{k}_width"} for k in inputs} | {
+        o: {0: "batch"} for o in outputs
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        torch.onnx.export(
+            net,
+            args,
+            str(path),
+            input_names=inputs,
+            output_names=outputs,
+            dynamic_axes=axes,
+            opset_version=OPSET,
+            dynamo=False,
+        )
+    proto = onnx.load(str(path))
+    for k, v in meta.items():
+        entry = proto.metadata_props.add()
+        entry.key, entry.value = k, v
+    onnx.save(proto, str(path))
 
 
 def export(weights: Path, out: Path, check: bool = True) -> dict:
-    """Export ``weights`` to ``out`` (.onnx); with ``check``, compare onnxruntime with torch on a random
-    frame and refuse (InputError, nothing written) when they disagree. Returns the parity figures."""
+    """Export ``weights`` to ``out`` (.onnx; a temporal UNet also to ``code_path(out)``); with ``check``,
+    compare onnxruntime with torch on random frames and refuse (InputError, nothing written) when they
+    disagree. Returns the parity figures."""
     model, name = load_model(weights)
-    net, outputs = _wrapped(model, name)
+    detector = name in (*DETECTOR_NAMES, MASK_DETECTOR)
     h = int(getattr(model, "height", 0) or 480)
     x = torch.rand(2, int(getattr(model, "frames", 1)), h, 640) * 5
-    axes = {"depth": {0: "batch", 2: "height", 3: "width"}} | {o: {0: "batch"} for o in outputs}
-    with atomic_file(out) as tmp:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            torch.onnx.export(
-                net,
-                (x,),
-                str(tmp),
-                input_names=["depth"],
-                output_names=outputs,
-                dynamic_axes=axes,
-                opset_version=OPSET,
-                dynamo=False,
+    stream = streaming(model)
+    meta = {
+        "model": name,
+        "stride": str(getattr(model, "stride", 1)),
+        "height": str(getattr(model, "height", "") or ""),
+        "frames": str(getattr(model, "frames", 1)),
+        "mask_logit": repr(mask_logit(weights)),
+        "threshold": repr(threshold(weights)),
+    }
+    if stream is not None:
+        meta["code_stride"] = str(stream.code_stride)
+    with ExitStack() as stack:
+        tmp = stack.enter_context(atomic_file(out))
+        encoder = None
+        with torch.inference_mode():
+            code = stream.encode(x[:, 1:]) if stream is not None else None
+        if isinstance(stream, StreamingDetector):
+            _onnx(stream, (x[:, :1], code), tmp, ["depth", "code"], ["score", "depth_code"], meta)
+        elif isinstance(stream, StreamingUNet):
+            encoder = stack.enter_context(atomic_file(code_path(out)))
+            _onnx(Encoder(stream), (x[:, 1:],), encoder, ["previous"], ["code"], meta)
+            args = (x[:, :1], x[:, 1:], code)
+            _onnx(stream, args, tmp, ["depth", "previous", "code"], ["mask_logit", "pred_depth"], meta)
+        else:
+            net, outputs = (
+                (Scored(model).eval(), ["score"]) if detector else (model, ["mask_logit", "pred_depth"])
             )
-        import onnx
-
-        proto = onnx.load(str(tmp))
-        meta = {
-            "model": name,
-            "stride": str(getattr(model, "stride", 1)),
-            "height": str(getattr(model, "height", "") or ""),
-            "frames": str(getattr(model, "frames", 1)),
-            "mask_logit": repr(mask_logit(weights)),
-            "threshold": repr(threshold(weights)),
-        }
-        for k, v in meta.items():
-            entry = proto.metadata_props.add()
-            entry.key, entry.value = k, v
-        onnx.save(proto, str(tmp))
-        result = parity(net, tmp, x) if check else {}
+            _onnx(net, (x,), tmp, ["depth"], outputs, meta)
+        result = parity(model, detector, tmp, x, encoder) if check else {}
         if check and result["max_abs_diff"] > 1e-3:
             raise InputError(
                 f"{out}: onnxruntime differs from torch by {result['max_abs_diff']:.2e}; not written"
@@ -71,17 +97,26 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
     return {"model": name, "file": str(out)} | result
 
 
-def parity(net: nn.Module, onnx_file: Path, x: torch.Tensor) -> dict:
-    """Largest absolute difference between torch and onnxruntime outputs on ``x`` (batch 2 and batch 1)."""
-    import onnxruntime as ort
+def parity(
+    model: nn.Module, detector: bool, onnx_file: Path, x: torch.Tensor, encoder: Path | None = None
+) -> dict:
+    """Largest absolute difference between the torch model and the exported file(s) as the runtime runs
+    them (``OnnxBackend``), on ``x`` (metres, (N, frames, H, W)) at batch 2 and batch 1."""
+    from d2sr.runtime.backends import OnnxBackend
 
-    sess = ort.InferenceSession(str(onnx_file), providers=["CPUExecutionProvider"])
+    backend = OnnxBackend(onnx_file, None) if detector else OnnxBackend(None, onnx_file, encoder=encoder)
     worst = 0.0
     for batch in (x, x[:1]):
+        metres = batch[:, 0].numpy()
+        previous = batch[:, 1].numpy() if batch.shape[1] > 1 else None
         with torch.inference_mode():
-            ref = net(batch)
+            ref = torch.sigmoid(model(batch)) if detector else model(batch)
         ref = ref if isinstance(ref, tuple) else (ref,)
-        got = sess.run(None, {"depth": batch.numpy()})
+        if detector:
+            got: tuple[np.ndarray, ...] = (backend.scores(metres, previous),)
+        else:
+            logit, pred = backend.raw(metres, previous)
+            got = (logit[:, None], pred[:, None])
         for r, g in zip(ref, got, strict=True):
             worst = max(worst, float(np.abs(r.numpy() - g).max()))
     return {"max_abs_diff": worst}

@@ -4,12 +4,15 @@ Torch-free. Its accuracy cost is measured by ``measure`` (``bench/quantize.py``)
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Iterator
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 
 from d2sr.atomic import atomic_file
+from d2sr.contract import code_path
 from d2sr.errors import InputError
 from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
 
@@ -20,14 +23,24 @@ def int8_path(onnx: Path) -> Path:
     return onnx.with_name(onnx.stem + ".int8.onnx")
 
 
-def _calibration(frames: int, channels: int) -> Iterator[dict[str, np.ndarray]]:
-    """Generated validation frames; a temporal model (2 channels) also gets each one's last clean frame."""
+def _calibration(onnx: Path, frames: int) -> Iterator[dict[str, np.ndarray]]:
+    """Generated validation frames as the runtime feeds them to ``onnx`` (a temporal model: with each one's
+    last clean frame; a streaming one: with its code, from the fp32 files)."""
+    from d2sr.runtime.backends import OnnxBackend
     from d2sr.train.synth import synth_sequence_frame
 
+    detector = "score" in _outputs(onnx)
+    net = OnnxBackend(onnx, None) if detector else OnnxBackend(None, onnx)
     for i in range(frames):
-        s = synth_sequence_frame(CALIBRATION_SEED + i, bool(i % 2), previous=channels > 1)
-        x = np.stack([s.frame] + ([s.previous] if s.previous is not None else [])).astype(np.float32)
-        yield {"depth": (x / np.float32(s.scale))[None]}
+        s = synth_sequence_frame(CALIBRATION_SEED + i, bool(i % 2), previous=True)
+        x, prev = (np.asarray(f, np.float32)[None] / np.float32(s.scale) for f in (s.frame, s.previous))
+        yield net.detector_feeds(x, prev) if detector else net.recovery_feeds(x, prev)
+
+
+def _outputs(onnx: Path) -> list[str]:
+    import onnx as onnx_lib
+
+    return [o.name for o in onnx_lib.load(str(onnx), load_external_data=False).graph.output]
 
 
 def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
@@ -39,20 +52,19 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
     if not onnx.is_file():
         raise InputError(f"{onnx}: no such model file (d2sr export writes it)")
 
-    import onnx as onnx_lib
-
-    meta = {p.key: p.value for p in onnx_lib.load(str(onnx), load_external_data=False).metadata_props}
-    channels = int(meta.get("frames", 1))
-
     class Reader(CalibrationDataReader):
         def __init__(self) -> None:
-            self.it = _calibration(frames, channels)
+            self.it = _calibration(onnx, frames)
 
         def get_next(self) -> dict[str, np.ndarray] | None:
             return next(self.it, None)
 
     target = out or int8_path(onnx)
-    with atomic_file(target) as tmp:
+    encoder = code_path(onnx)  # a streaming temporal UNet's encoder: kept in fp32 beside the int8 model
+    with ExitStack() as stack:
+        tmp = stack.enter_context(atomic_file(target))
+        if encoder.is_file():
+            shutil.copyfile(encoder, stack.enter_context(atomic_file(code_path(target))))
         quantize_static(
             str(onnx),
             str(tmp),

@@ -14,7 +14,7 @@ from rich.progress import TaskID
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
-from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
+from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability, code_path
 from d2sr.errors import ConfigError, InputError
 from d2sr.train.config import VALIDATION_FRAMES
 from d2sr.ui import console, warn
@@ -140,7 +140,9 @@ def export(
     Example: d2sr export runs/unet8/unet8.safetensors --out out/onnx
     """
     from d2sr.export import export as run
-    from d2sr.quantize import quantize
+    from d2sr.models.store import load_model
+    from d2sr.models.streaming import StreamingUNet, streaming
+    from d2sr.quantize import int8_path, quantize
 
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
@@ -148,10 +150,12 @@ def export(
     if out is None and not weights:
         out = Path("out/onnx")  # the shipped folder changes only when asked: --out src/d2sr/models/weights
     targets = [(out or w.parent) / (w.stem + ".onnx") for w in files]
-    for t in targets:
-        check_out(t, is_dir=False, overwrite=overwrite, inputs=files)
-        if int8:
-            check_out(t.with_suffix(".int8.onnx"), is_dir=False, overwrite=overwrite)
+    for w, t in zip(files, targets, strict=True):
+        written = [t, *([int8_path(t)] if int8 else [])]
+        if isinstance(streaming(load_model(w)[0]), StreamingUNet):  # its encoder is a file of its own
+            written += [code_path(f) for f in written]
+        for f in written:
+            check_out(f, is_dir=False, overwrite=overwrite, inputs=files)
     for w, target in zip(files, targets, strict=True):
         r = run(w, target)
         console.print(f"{w.name} -> {target} (max |onnx - torch| = {r['max_abs_diff']:.1e})")

@@ -5,6 +5,8 @@ opens either. Both work in metres (``d2sr.contract``)."""
 from __future__ import annotations
 
 import os
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -18,6 +20,7 @@ from d2sr.contract import (
     agreement,
     check_passes,
     check_size,
+    code_path,
     detector_input,
     model_input,
     recover_passes,
@@ -64,6 +67,36 @@ class _Props:
     frames: int
     mask_logit: float
     threshold: float
+    code_stride: int  # a streaming two-frame model's (d2sr.models.streaming); 0 for the others
+
+
+def _loaded(session: Any, what: str) -> Any:
+    if session is None:
+        raise InputError(f"no {what} loaded")
+    return session
+
+
+class _Codes:
+    """The frames a streaming model encoded last and their codes, looked up by value for the frames that
+    follow (a stream's previous frame; its last clean one). Shared by the threads that repair at once."""
+
+    def __init__(self, size: int = 2) -> None:
+        self._items: list[tuple[np.ndarray, np.ndarray]] = []
+        self._lock = threading.Lock()
+        self._size = size
+
+    def get(self, frame: np.ndarray, make: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        with self._lock:
+            for f, code in self._items:
+                if f.shape == frame.shape and np.array_equal(f, frame):
+                    return code
+        code = make(frame)
+        self.put(frame, code)
+        return code
+
+    def put(self, frame: np.ndarray, code: np.ndarray) -> None:
+        with self._lock:
+            self._items = [(frame.copy(), code), *self._items[: self._size - 1]]
 
 
 class OnnxBackend:
@@ -78,7 +111,10 @@ class OnnxBackend:
         threads: int | None = None,
         mask_logit: float | None = None,
         passes: int = REPAIR_PASSES,
+        encoder: Path | None = None,
     ) -> None:
+        """``encoder``: a streaming temporal UNet's encoder file (default: ``contract.code_path`` of
+        ``recovery``)."""
         self.passes = check_passes(passes)
         try:
             import onnxruntime as ort
@@ -105,6 +141,14 @@ class OnnxBackend:
         self._meta = {
             k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
         }
+        paths = [f for f in (detector, recovery) if f is not None]
+        for p, path in zip(self._meta.values(), paths, strict=True):
+            if p.frames > 1 and not p.code_stride:
+                raise InputError(f"{path}: a two-frame model exported by an earlier d2sr; export it again")
+        self.enc = None
+        if recovery is not None and self._meta["recovery"].code_stride:
+            self.enc = session(encoder or code_path(Path(recovery)))
+        self._det_codes, self._rec_codes = _Codes(), _Codes()
         if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
             self._meta["recovery"].mask_logit = mask_logit
         self.threshold = self._meta["detector"].threshold if "detector" in self._meta else THRESHOLD
@@ -118,29 +162,69 @@ class OnnxBackend:
             frames=int(meta.get("frames", 1)),
             mask_logit=float(meta.get("mask_logit", 0.0)),
             threshold=float(meta.get("threshold", THRESHOLD)),
+            code_stride=int(meta.get("code_stride", 0)),
         )
 
     @property
     def frames(self) -> int:
         return self._meta["recovery"].frames if "recovery" in self._meta else 1
 
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
-        if self.det is None:
-            raise InputError("no detector loaded")
+    def detector_feeds(self, metres: np.ndarray, previous: np.ndarray | None) -> dict[str, np.ndarray]:
+        """The detector's inputs for (N, H, W) metres; a streaming one's code of the previous frame (the frame
+        itself when there is none: scored alone) comes from the cache or is computed here."""
+        det = _loaded(self.det, "detector")
         h, w = metres.shape[1:]
         p = self._meta["detector"]
         check_size(h, w, p.stride, p.height, "the detector")
-        scores: np.ndarray = self.det.run(None, {"depth": detector_input(metres, previous, p.frames)})[0]
+        if not p.code_stride:
+            return {"depth": detector_input(metres, previous, p.frames)}
+        if previous is not None and previous.shape != metres.shape:
+            raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
+
+        def encode(frame: np.ndarray) -> np.ndarray:  # what the frame hands out when it is scored
+            code: np.ndarray = det.run(None, {"depth": frame[:, None], "code": self._zeros(det, frame, p)})[1]
+            return code
+
+        code = self._det_codes.get(metres if previous is None else previous, encode)
+        return {"depth": metres[:, None].astype(np.float32, copy=False), "code": code}
+
+    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        feeds = self.detector_feeds(metres, previous)
+        out = _loaded(self.det, "detector").run(None, feeds)
+        if len(out) > 1:  # streaming: this frame's code, for the frame after it
+            self._det_codes.put(metres, out[1])
+        scores: np.ndarray = out[0]
         return scores
 
-    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(mask logits, predicted depth), before any threshold."""
-        if self.rec is None:
-            raise InputError("no recovery model loaded")
+    @staticmethod
+    def _zeros(session: Any, frame: np.ndarray, p: _Props) -> np.ndarray:
+        """A code of zeros of the right shape for ``frame`` (N, H, W)."""
+        n, h, w = frame.shape
+        c, s = session.get_inputs()[-1].shape[1], p.code_stride
+        return np.zeros((n, c, h // s, w // s), np.float32)
+
+    def recovery_feeds(self, metres: np.ndarray, previous: np.ndarray | None) -> dict[str, np.ndarray]:
+        """The recovery model's inputs; a streaming one's code of the last clean frame (zeros when there is
+        none) comes from the cache or its encoder."""
+        _loaded(self.rec, "recovery model")
         h, w = metres.shape[1:]
         p = self._meta["recovery"]
         check_size(h, w, p.stride, p.height, "the recovery model")
-        logit, pred = self.rec.run(None, {"depth": model_input(metres, previous, self.frames)})
+        x = model_input(metres, previous, self.frames)  # checks the shapes; no last clean frame reads as 0
+        if self.enc is None:
+            return {"depth": x}
+        enc = self.enc
+
+        def encode(frame: np.ndarray) -> np.ndarray:
+            code: np.ndarray = enc.run(None, {"previous": frame[:, None]})[0]
+            return code
+
+        return {"depth": x[:, :1], "previous": x[:, 1:], "code": self._rec_codes.get(x[:, 1], encode)}
+
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(mask logits, predicted depth), before any threshold."""
+        feeds = self.recovery_feeds(metres, previous)
+        logit, pred = _loaded(self.rec, "recovery model").run(None, feeds)
         return logit[:, 0], pred[:, 0]
 
     @property

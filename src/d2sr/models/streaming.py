@@ -1,0 +1,128 @@
+"""The form two-frame models are exported in for streams (``d2sr.export``): the part of the first
+convolution that reads the earlier frame is linear in it, so it is computed once per frame, handed out as
+an output (``code``) and fed back in with the frames that follow. The same function as the full model,
+within float rounding (the sums are taken in another order).
+
+- Temporal detector: a frame is scored with its previous frame and alone (``FastDetector.forward``); the
+  previous frame's share of the stem is the code that frame handed out when it was scored itself. One
+  half-size stem per frame instead of two full ones, and no full-resolution copies of the frame pair.
+- Temporal UNet: the last clean frame's share of the first convolution and of the head's first layer stays
+  the same for every frame (and both passes) until the next clean frame.
+
+Both take ``depth`` (N, 1, H, W) and the earlier frame's ``code``. The detector also hands out
+``depth_code``, the code of the frame it scored, for the frame after it. The UNet's code comes from
+``encode``, exported as a file of its own (``contract.code_path``): onnxruntime computes every output of a
+graph whether asked for or not, and a clean frame is encoded only when it becomes the last clean one.
+"""
+
+from __future__ import annotations
+
+from typing import cast
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from d2sr.models.detector import FastDetector, features
+from d2sr.models.unet import UNet, push_pull, space_to_depth
+
+__all__ = ["Encoder", "StreamingDetector", "StreamingUNet", "streaming"]
+
+
+class StreamingDetector(nn.Module):
+    """(depth, code of the previous frame) -> (probability interfered, code of depth)."""
+
+    def __init__(self, det: FastDetector) -> None:
+        super().__init__()
+        if det.frames != 2:
+            raise ValueError("only a two-frame detector has a streaming form")
+        self.det = det
+        self.stem = cast(nn.Conv2d, det.body[0])
+        self.rest = cast(nn.Sequential, det.body[1:])
+        self.code_channels = self.stem.out_channels
+        self.code_stride = 4
+
+    def encode(self, depth: torch.Tensor) -> torch.Tensor:
+        return F.conv2d(features(depth), self.stem.weight[:, 2:], stride=4)
+
+    def forward(self, depth: torch.Tensor, code: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        stem = self.stem
+        x = features(depth)
+        own = F.conv2d(x, stem.weight[:, :2], stem.bias, stride=4)
+        mine = F.conv2d(x, stem.weight[:, 2:], stride=4)
+        # Pair (with the previous frame) and alone (the frame as its own previous one) in one batch.
+        f = self.rest(torch.cat([own + code, own + mine], dim=0))
+        pooled = torch.cat([f.amax(dim=(2, 3)), f.mean(dim=(2, 3))], dim=1)
+        pair, single = self.det.head(pooled)[:, 0].chunk(2)
+        return torch.sigmoid(torch.minimum(pair, single)), mine
+
+
+class StreamingUNet(nn.Module):
+    """(depth, last clean frame, its code) -> (mask logits, depth in metres)."""
+
+    def __init__(self, net: UNet) -> None:
+        super().__init__()
+        if net.frames != 2:
+            raise ValueError("only a two-frame UNet has a streaming form")
+        self.net = net
+        self.n = 2 * net.s2d * net.s2d  # one frame's channels after space-to-depth
+        block = cast(nn.Sequential, net.down[0])
+        self.first, self.after = cast(nn.Conv2d, block[0]), cast(nn.Sequential, block[1:])
+        self.hidden = cast(nn.Conv2d, net.head[0])
+        self.code_channels = self.first.out_channels + self.hidden.out_channels
+        self.code_stride = net.s2d
+
+    def _s2d(self, depth: torch.Tensor) -> torch.Tensor:
+        x = features(depth)
+        return space_to_depth(x, self.net.s2d, 2) if self.net.s2d > 1 else x
+
+    def encode(self, depth: torch.Tensor) -> torch.Tensor:
+        """A frame's share of the first convolution and of the head's first layer, as the last clean one."""
+        x, n, first, hidden = self._s2d(depth), self.n, self.first, self.hidden
+        return torch.cat([F.conv2d(x, first.weight[:, n:], padding=1), F.conv2d(x, hidden.weight[:, -n:])], 1)
+
+    def forward(
+        self, depth: torch.Tensor, previous: torch.Tensor, code: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        net, n = self.net, self.n
+        x = self._s2d(depth)
+        first, hidden = self.first, self.hidden
+        c0 = first.out_channels
+        h = self.after(F.conv2d(x, first.weight[:, :n], first.bias, padding=1) + code[:, :c0])
+        skips = [h]
+        for k in range(1, net.levels):
+            h = net.down[k](F.max_pool2d(h, 2))
+            skips.append(h)
+        for k in range(net.levels - 2, -1, -1):
+            h = F.interpolate(h, scale_factor=2.0, mode="nearest")
+            h = net.up[k](torch.cat([h, skips[k]], dim=1))
+        w = hidden.weight
+        mid = F.conv2d(torch.cat([h, x], 1), w[:, : int(w.shape[1]) - n], hidden.bias) + code[:, c0:]
+        out = net.head[2](net.head[1](mid))
+        if net.s2d > 1:
+            out = F.pixel_shuffle(out, net.s2d)
+        logit, delta = out[:, :1], out[:, 1:2] * 4.0
+        trust = (depth > 0).to(depth.dtype) * (1 - torch.sigmoid(logit))
+        gate = torch.sigmoid(out[:, 2:3]) * (previous > 0).to(previous.dtype)
+        base = gate * previous + (1 - gate) * push_pull(depth, trust)
+        return logit, base + delta
+
+
+class Encoder(nn.Module):
+    """``StreamingUNet.encode`` as a module of its own, for export."""
+
+    def __init__(self, net: StreamingUNet) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, previous: torch.Tensor) -> torch.Tensor:
+        return self.net.encode(previous)
+
+
+def streaming(model: nn.Module) -> StreamingDetector | StreamingUNet | None:
+    """The streaming form of a two-frame model; None for any other."""
+    if isinstance(model, FastDetector) and model.frames == 2:
+        return StreamingDetector(model).eval()
+    if isinstance(model, UNet) and model.frames == 2:
+        return StreamingUNet(model).eval()
+    return None
