@@ -111,6 +111,7 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-stack.toml --out runs/unet8-stack
 	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
 	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
+	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.

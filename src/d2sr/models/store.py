@@ -13,7 +13,8 @@ from torch import nn
 from d2sr.atomic import atomic_file, atomic_write
 from d2sr.contract import THRESHOLD
 from d2sr.errors import InputError
-from d2sr.models.registry import build
+from d2sr.models.registry import MODELS, build
+from d2sr.models.unet import UNet
 
 __all__ = [
     "load_model",
@@ -96,15 +97,28 @@ def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
     """Start ``model`` from another model's weights (fine-tuning, or a variant that adds inputs or outputs).
     Tensors of the same name and shape are copied; where a shape grew, the old values fill the leading slice
     and the new part starts at zero (a new input channel is ignored at first, a new output reads 0).
-    Returns counts of copied, grown and untouched tensors."""
+    A narrower UNet of the same layout is widened instead (``models.widen``): the model starts as the same
+    function. Returns counts of copied, grown, widened and untouched tensors."""
+    from d2sr.models.widen import can_widen, widen
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such weights file to start from")
     try:
         old = load_file(str(path))
+        name = _meta(path).get("model")
     except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
         raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
-    counts = {"copied": 0, "grown": 0, "untouched": 0}
+    counts = {"copied": 0, "grown": 0, "widened": 0, "untouched": 0}
+    narrow = build(name) if name in MODELS else None
+    if isinstance(narrow, UNet) and isinstance(model, UNet) and can_widen(narrow, model):
+        try:
+            narrow.load_state_dict(old)
+        except RuntimeError as exc:
+            raise InputError(f"{path}: weights do not fit {name} ({str(exc).splitlines()[0]})") from None
+        widen(narrow, model)
+        counts["widened"] = len(model.state_dict())
+        return counts
     state = model.state_dict()
     with torch.no_grad():
         for name, t in state.items():
