@@ -304,3 +304,28 @@ def test_mask_detector_scores_the_share_of_returns_its_model_would_repair():
         torch.testing.assert_close(got, want, atol=1e-4, rtol=0)
     # the cut decides which pixels count: well above every logit, none do
     assert torch.sigmoid(MaskDetector(Fixed(25), cut=13.0)(depth)).max() < 0.001
+
+
+def test_a_narrow_unet_widens_to_the_same_function(tmp_path):
+    # unet16 started as unet8 (models.widen): the same outputs before the noise that parts the copies,
+    # and warm_start does it for a narrower UNet of the same layout (never for another layout).
+    from d2sr.models.widen import can_widen, widen
+
+    torch.manual_seed(6)
+    narrow, wide = build("unet8").eval(), build("unet16").eval()
+    x = _depth(2, 64, 96, seed=11)
+    widen(narrow, wide, noise=0.0)
+    with torch.inference_mode():
+        for a, b in zip(narrow(x), wide(x), strict=True):
+            torch.testing.assert_close(a, b, atol=1e-4, rtol=1e-4)
+    save_model(narrow, "unet8", tmp_path / "unet8.safetensors")
+    again = build("unet16").eval()
+    assert warm_start(again, tmp_path / "unet8.safetensors")["widened"] == len(again.state_dict())
+    with torch.inference_mode():  # the noise: near the same function, the copies no longer equal
+        a, b = narrow(x)[1], again(x)[1]
+        assert 0 < float((a - b).abs().max()) < 0.1
+    first = again.down[0][0].weight
+    assert not torch.equal(first[:8], first[8:])
+    assert not can_widen(build("unet8"), build("unet8-temporal")) and not can_widen(wide, narrow)
+    with pytest.raises(ValueError, match="one layout"):
+        widen(build("unet8"), build("unet8-temporal"))

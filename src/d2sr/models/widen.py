@@ -62,9 +62,7 @@ def widen(narrow: UNet, wide: UNet, noise: float = 1e-3, seed: int = 0) -> None:
     """Set ``wide``'s weights so that it computes ``narrow``'s function (``can_widen`` must hold), then add
     Gaussian noise of ``noise`` x each weight tensor's standard deviation to the trunk's weights."""
     if not can_widen(narrow, wide):
-        raise ValueError(
-            "widen needs two UNets of the same layout, the second a multiple of the first's width"
-        )
+        raise ValueError("widen needs two UNets of one layout, the second a multiple of the first's width")
     f = wide.width // narrow.width
     widths = [narrow.width * 2**k for k in range(narrow.levels)]
     cin = _c(narrow.down[0], 0).in_channels
