@@ -112,6 +112,7 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
 	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
+	$(BIN)/d2sr train recovery --config configs/unet32-wide.toml --out runs/unet32-wide
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.
