@@ -53,3 +53,13 @@ def test_recovery_metrics_identity_and_true_mask_ceiling():
     assert rows["m"]["mask_f1"] == 1 and rows["m"]["clean_changed"] == 0
     assert rows["nearest (true mask)"]["rmse_vs_identity"] < -0.5
     assert rows["median (predicted mask)"]["mask_f1"] == 1
+
+
+def test_a_real_folder_without_the_captures_is_said_not_skipped_silently(tmp_path, monkeypatch):
+    # `--real ../shared/data` (the parent) once dropped the real L515 set from the figures without a word.
+    from d2sr import ui
+    from d2sr.eval.learned import _real_sets
+
+    monkeypatch.setattr(ui, "_pending", [])
+    assert _real_sets(tmp_path) == []
+    assert len(ui._pending) == 1 and "no dev0/ capture here" in ui._pending[0]

@@ -25,6 +25,7 @@ from d2sr.eval.models import (
 from d2sr.eval.plots import save
 from d2sr.models.inference import TorchBackend
 from d2sr.models.store import write_card
+from d2sr.ui import warn
 
 __all__ = [
     "CURVE_LOGITS",
@@ -51,12 +52,21 @@ def _quiet(_description: str, _total: int) -> Callable[[], None]:
     return lambda: None
 
 
+def _real_sets(real: Path) -> list:
+    """The real L515 set when ``real`` holds the captures; said aloud when it does not (a parent folder
+    given by mistake would otherwise drop the real set from the figures without a word)."""
+    if (real / "dev0").is_dir():
+        return [l515_set(real)]
+    warn(f"{real}: no dev0/ capture here, so no real L515 set in these figures (--real ../shared/data/l515)")
+    return []
+
+
 def evaluate_detectors(
     names: list[str], weights: Path, real: Path, cache: Path, threshold: float, progress: Progress = _quiet
 ) -> dict[str, dict]:
     """``<model>/<set>`` -> precision, recall, false alarms and PR curve, for each detector whose weights
     exist, on the generated test set and (when ``real`` holds dev0/) the real L515 set."""
-    sets = [generated_set(cache)] + ([l515_set(real)] if (real / "dev0").is_dir() else [])
+    sets = [generated_set(cache), *_real_sets(real)]
     results: dict[str, dict] = {}
     for name in names:
         path = weights / f"{name}.safetensors"
@@ -129,7 +139,7 @@ def evaluate_recovery(
         logit, pred = nets[first].raw(x[None], None if prev is None else prev[None])
         return logit[0], pred[0]
 
-    sets = ([l515_set(real)] if (real / "dev0").is_dir() else []) + [generated_set(cache), moving_set()]
+    sets = [*_real_sets(real), generated_set(cache), moving_set()]
     tables: dict[str, dict] = {}
     curves: dict[str, dict] = {}
     for ts in sets:
