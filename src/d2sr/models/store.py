@@ -15,6 +15,7 @@ from d2sr.contract import THRESHOLD
 from d2sr.errors import InputError
 from d2sr.models.registry import MODELS, build
 from d2sr.models.unet import UNet
+from d2sr.models.widen import can_widen, widen
 
 __all__ = [
     "load_model",
@@ -99,8 +100,6 @@ def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
     and the new part starts at zero (a new input channel is ignored at first, a new output reads 0).
     A narrower UNet of the same layout is widened instead (``models.widen``): the model starts as the same
     function. Returns counts of copied, grown, widened and untouched tensors."""
-    from d2sr.models.widen import can_widen, widen
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such weights file to start from")

@@ -210,16 +210,22 @@ class OnnxBackend:
         h, w = metres.shape[1:]
         p = self._meta["recovery"]
         check_size(h, w, p.stride, p.height, "the recovery model")
-        x = model_input(metres, previous, self.frames)  # checks the shapes; no last clean frame reads as 0
         if self.enc is None:
-            return {"depth": x}
+            return {"depth": model_input(metres, previous, self.frames)}
+        # Streaming: the frames as two inputs, never stacked into one full-resolution copy per pass.
+        if previous is None:
+            previous = np.zeros_like(metres)  # no last clean frame reads as 0
+        elif previous.shape != metres.shape:
+            raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
+        last = previous.astype(np.float32, copy=False)
         enc = self.enc
 
         def encode(frame: np.ndarray) -> np.ndarray:
             code: np.ndarray = enc.run(None, {"previous": frame[:, None]})[0]
             return code
 
-        return {"depth": x[:, :1], "previous": x[:, 1:], "code": self._rec_codes.get(x[:, 1], encode)}
+        depth = metres[:, None].astype(np.float32, copy=False)
+        return {"depth": depth, "previous": last[:, None], "code": self._rec_codes.get(last, encode)}
 
     def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(mask logits, predicted depth), before any threshold."""
