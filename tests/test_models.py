@@ -141,7 +141,7 @@ def test_streaming_form_is_the_model(name):
     with torch.inference_mode():
         ref = net(x)
         if name == "unet8-temporal":
-            got = stream(x[:, :1], x[:, 1:], stream.encode(x[:, 1:]))
+            got = stream(x[:, :1], x[:, 1:], *stream.encode(x[:, 1:]))
         else:
             score, mine = stream(x[:, :1], stream.encode(x[:, 1:]))
             ref, got = (torch.sigmoid(ref),), (score,)
@@ -186,6 +186,16 @@ def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):
     _onnx(Scored(det).eval(), (torch.rand(1, 2, 64, 96),), old, ["depth"], ["score"], {"frames": "2"})
     with pytest.raises(InputError, match="exported by an earlier d2sr; export it again"):
         OnnxBackend(old, None)
+
+    class OneCode(torch.nn.Module):  # the first streaming layout: both codes of a UNet in one input
+        def forward(self, depth, previous, code):
+            return depth + code[:, :1], previous
+
+    d = torch.rand(1, 1, 64, 96)
+    meta = {"frames": "2", "code_stride": "4"}
+    _onnx(OneCode(), (d, d, torch.rand(1, 72, 64, 96)), old, ["depth", "previous", "code"], ["a", "b"], meta)
+    with pytest.raises(InputError, match="exported by an earlier d2sr; export it again"):
+        OnnxBackend(None, old)
 
 
 def test_exported_unet_folds_pixels_with_a_convolution(tmp_path, monkeypatch):

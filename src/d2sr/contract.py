@@ -104,6 +104,12 @@ MODEL_HELP = (
 )
 
 
+# The inputs of two-frame models in their streaming form (``d2sr.models.streaming``), by kind, and the
+# outputs of a temporal UNet's encoder: a file with other inputs came from an earlier d2sr.
+STREAM_INPUTS = {"detector": ("depth", "code"), "recovery": ("depth", "previous", "code", "head_code")}
+STREAM_CODES = ("code", "head_code")
+
+
 def code_path(onnx: Path) -> Path:
     """Where an exported temporal UNet's encoder of the last clean frame lies, beside the model
     (``d2sr.models.streaming``): unet8-temporal.onnx -> unet8-temporal.code.onnx."""

@@ -16,7 +16,7 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, code_path
+from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, STREAM_CODES, STREAM_INPUTS, code_path
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
 from d2sr.models.store import load_model, mask_logit, threshold
@@ -75,15 +75,17 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
     with ExitStack() as stack:
         tmp = stack.enter_context(atomic_file(out))
         encoder = None
-        with torch.inference_mode():
-            code = stream.encode(x[:, 1:]) if stream is not None else None
         if isinstance(stream, StreamingDetector):
-            _onnx(stream, (x[:, :1], code), tmp, ["depth", "code"], ["score", "depth_code"], meta)
+            with torch.inference_mode():
+                code = stream.encode(x[:, 1:])
+            inputs = list(STREAM_INPUTS["detector"])
+            _onnx(stream, (x[:, :1], code), tmp, inputs, ["score", "depth_code"], meta)
         elif isinstance(stream, StreamingUNet):
             encoder = stack.enter_context(atomic_file(code_path(out)))
-            _onnx(Encoder(stream), (x[:, 1:],), encoder, ["previous"], ["code"], meta)
-            args = (x[:, :1], x[:, 1:], code)
-            _onnx(stream, args, tmp, ["depth", "previous", "code"], ["mask_logit", "pred_depth"], meta)
+            _onnx(Encoder(stream), (x[:, 1:],), encoder, ["previous"], list(STREAM_CODES), meta)
+            with torch.inference_mode():
+                args = (x[:, :1], x[:, 1:], *stream.encode(x[:, 1:]))
+            _onnx(stream, args, tmp, list(STREAM_INPUTS["recovery"]), ["mask_logit", "pred_depth"], meta)
         else:
             net, outputs = (
                 (Scored(model).eval(), ["score"]) if detector else (model, ["mask_logit", "pred_depth"])

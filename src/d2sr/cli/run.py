@@ -39,6 +39,7 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Reader
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.loop import REPAIR
+from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.ui import NA, console, progress_bar
 
 __all__ = ["demo", "run", "stats_table", "view"]
@@ -109,6 +110,7 @@ def run(
     if rerun is not None and rerun != LIVE:
         inputs = [Path(source)] if is_recording else []
         check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=inputs, option="--rerun")
+    reuse_freed_memory()
     net = open_backend(
         model if repair != "none" else None,
         backend,

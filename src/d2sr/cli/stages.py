@@ -45,6 +45,7 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame
 from d2sr.frames.layout import REPAIRED, FrameFolder
+from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.ui import progress_bar
 
 __all__ = ["detect", "recover"]
@@ -71,6 +72,7 @@ def detect(
     if threshold is not None:
         check_probability(threshold, "--threshold")
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
+    reuse_freed_memory()
     net = open_backend(None, backend, weights)
     cut = threshold if threshold is not None else net.threshold
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
@@ -138,6 +140,7 @@ def recover(
     cores = os.cpu_count() or 1
     workers = min(cores, 4)
     threads = cores // workers if workers > 1 else None  # None: the backend's own choice
+    reuse_freed_memory()
     net = open_backend(
         model, backend, weights, DETECTOR if detect else None, threads, mask_logit=mask_logit, passes=passes
     )

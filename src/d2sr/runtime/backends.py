@@ -9,13 +9,14 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 
 from d2sr.contract import (
     LINES_UP,
     REPAIR_PASSES,
+    STREAM_INPUTS,
     THRESHOLD,
     agreement,
     check_passes,
@@ -76,16 +77,19 @@ def _loaded(session: Any, what: str) -> Any:
     return session
 
 
-class _Codes:
+Code = TypeVar("Code")
+
+
+class _Codes(Generic[Code]):
     """The frames a streaming model encoded last and their codes, looked up by value for the frames that
     follow (a stream's previous frame; its last clean one). Shared by the threads that repair at once."""
 
     def __init__(self, size: int = 2) -> None:
-        self._items: list[tuple[np.ndarray, np.ndarray]] = []
+        self._items: list[tuple[np.ndarray, Code]] = []
         self._lock = threading.Lock()
         self._size = size
 
-    def get(self, frame: np.ndarray, make: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    def get(self, frame: np.ndarray, make: Callable[[np.ndarray], Code]) -> Code:
         with self._lock:
             for f, code in self._items:
                 if f.shape == frame.shape and np.array_equal(f, frame):
@@ -94,7 +98,7 @@ class _Codes:
         self.put(frame, code)
         return code
 
-    def put(self, frame: np.ndarray, code: np.ndarray) -> None:
+    def put(self, frame: np.ndarray, code: Code) -> None:
         with self._lock:
             self._items = [(frame.copy(), code), *self._items[: self._size - 1]]
 
@@ -141,14 +145,16 @@ class OnnxBackend:
         self._meta = {
             k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
         }
-        paths = [f for f in (detector, recovery) if f is not None]
-        for p, path in zip(self._meta.values(), paths, strict=True):
-            if p.frames > 1 and not p.code_stride:
+        for kind, path, s in (("detector", detector, self.det), ("recovery", recovery, self.rec)):
+            if s is None or self._meta[kind].frames == 1:
+                continue
+            if tuple(i.name for i in s.get_inputs()) != STREAM_INPUTS[kind]:
                 raise InputError(f"{path}: a two-frame model exported by an earlier d2sr; export it again")
         self.enc = None
         if recovery is not None and self._meta["recovery"].code_stride:
             self.enc = session(encoder or code_path(Path(recovery)))
-        self._det_codes, self._rec_codes = _Codes(), _Codes()
+        self._det_codes: _Codes[np.ndarray] = _Codes()
+        self._rec_codes: _Codes[tuple[np.ndarray, np.ndarray]] = _Codes()
         if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
             self._meta["recovery"].mask_logit = mask_logit
         self.threshold = self._meta["detector"].threshold if "detector" in self._meta else THRESHOLD
@@ -220,12 +226,13 @@ class OnnxBackend:
         last = previous.astype(np.float32, copy=False)
         enc = self.enc
 
-        def encode(frame: np.ndarray) -> np.ndarray:
-            code: np.ndarray = enc.run(None, {"previous": frame[:, None]})[0]
-            return code
+        def encode(frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            code, head = enc.run(None, {"previous": frame[:, None]})
+            return code, head
 
+        code, head = self._rec_codes.get(last, encode)
         depth = metres[:, None].astype(np.float32, copy=False)
-        return {"depth": depth, "previous": last[:, None], "code": self._rec_codes.get(last, encode)}
+        return {"depth": depth, "previous": last[:, None], "code": code, "head_code": head}
 
     def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(mask logits, predicted depth), before any threshold."""
