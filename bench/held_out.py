@@ -8,7 +8,9 @@ folds at its ambiguity range where another camera's modulated light adds in), an
 tiles (``crosstalk_interference``). ``--set c`` (written after both had judged eight trials, to judge what was
 chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``). ``--set d`` (sealed
 when written, opened 2026-11-26 to confirm unet8-shell, a choice made on sets A and B): emitter bloom and
-phase-unwrapping errors (``bloom_interference``).
+phase-unwrapping errors (``bloom_interference``). ``--set e`` (written and sealed 2026-11-26, before any
+model ran on it, to confirm choices made on sets A-D; ``docs/decisions.md``): moire beats and row tearing
+(``beat_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -41,13 +43,14 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 
 SEED = 5_000_000
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D}  # each set's stream of random numbers
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E}  # each set's stream of random numbers
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
     "a": ("rings", "sawtooth"),
     "b": ("lissajous", "ghost tiles"),
     "c": ("phantom", "echo bursts"),
     "d": ("bloom", "unwrapping"),
+    "e": ("moire beat", "row tearing"),
 }
 
 
@@ -220,13 +223,57 @@ def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
     return out.astype(np.uint16)
 
 
+def beat_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set E (written 2026-11-26 and sealed before any model ran on it, for choices made on sets A-D): one of
+    two more outside models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-D:
+
+    * a moire beat: two modulation frequencies beat where the views overlap, and the depth swings nearer
+      and farther by a sinusoid (a grating whose period drifts across the view, at any angle) under a soft
+      envelope; where the swing peaks the return saturates (no return);
+    * row tearing: in a few bands of rows the readout is taken from a delayed pulse, so each band reads the
+      scene shifted sideways and scaled (plausible surfaces in the wrong place), with some dropouts.
+
+    As in sets B-D, only pixels that move by more than 2 cm + 1% count."""
+    rng = np.random.default_rng([seed, SALTS["e"]])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    if rng.random() < 0.5:  # moire beat
+        ang = rng.uniform(0, np.pi)
+        u = (x * np.cos(ang) + y * np.sin(ang)) / max(h, w)  # about 0..1.4 across the view
+        period = rng.uniform(0.03, 0.2) * (1 + rng.uniform(-0.5, 0.5) * u)  # drifts across the view
+        phase = 2 * np.pi * u / period + rng.uniform(0, 2 * np.pi)
+        cx, cy = rng.uniform(0.1, 0.9) * w, rng.uniform(0.1, 0.9) * h
+        sx, sy = rng.uniform(0.2, 0.7) * w, rng.uniform(0.2, 0.7) * h
+        envelope = np.exp(-0.5 * (((x - cx) / sx) ** 2 + ((y - cy) / sy) ** 2))
+        swing = rng.uniform(0.05, 0.6) * envelope * np.sin(phase)
+        new = np.maximum(d + swing, 0.0)
+        peak = np.abs(np.sin(phase)) * envelope > rng.uniform(0.8, 1.01)
+        new = np.where(peak & (rng.random((h, w)) < 0.7), 0.0, new)
+        where = envelope > 0.1
+    else:  # row tearing
+        where = np.zeros((h, w), bool)
+        new = d.copy()
+        for _ in range(int(rng.integers(1, 7))):
+            top = int(rng.integers(0, h - 4))
+            rows = slice(top, min(top + int(rng.integers(4, 41)), h))
+            shift = int(rng.integers(10, 151)) * (1 if rng.random() < 0.5 else -1)
+            band = np.roll(d[rows], shift, axis=1) * rng.uniform(0.5, 1.0)
+            new[rows] = np.where(rng.random(band.shape) < rng.uniform(0.0, 0.3), 0.0, band)
+            where[rows] = True
+    where &= (rng.random((h, w)) < rng.uniform(0.6, 1.0)) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
     "c": echo_interference,
     "d": bloom_interference,
+    "e": beat_interference,
 }
-SEALED: set[str] = set()  # sets only an explicit --set runs (set D was, until the unet8-shell decision)
+SEALED: set[str] = {"e"}  # sets only an explicit --set runs (set D was, until the unet8-shell decision)
 
 
 def open_sets() -> list[str]:
@@ -406,7 +453,8 @@ def main() -> None:
         choices=sorted(SETS),
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
-        "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors)",
+        "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
+        "e (moire beat, row tearing; sealed)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
