@@ -81,6 +81,8 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	# The shipped unet16 (since 2026-11-26): that unet8 widened to unet16 (models.widen), trained on.
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
+	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (docs/decisions.md).
+	$(BIN)/d2sr train recovery --config configs/unet32-wide.toml --out runs/unet32-wide
 	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
 	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
 	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
@@ -91,7 +93,7 @@ weights: $(STAMP)
 	# paper-detector were trained on data version 3 by the same configs (code of b0d36d6 and ebe0a54); on
 	# version 4 the detector flags 16-19% of the clean L515 frames and the Azure Kinect frames (CHANGELOG
 	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does configs/unet16.toml's.
-	for m in unet8-shell/unet8 unet16-wide/unet16 unet8-temporal/unet8-temporal; do \
+	for m in unet8-shell/unet8 unet16-wide/unet16 unet32-wide/unet32 unet8-temporal/unet8-temporal; do \
 	  cp runs/$$m.safetensors runs/$$m.card.json runs/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
@@ -113,7 +115,6 @@ trials: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-stack.toml --out runs/unet8-stack
 	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
 	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
-	$(BIN)/d2sr train recovery --config configs/unet32-wide.toml --out runs/unet32-wide
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.

@@ -69,7 +69,7 @@ RECOVERY_NAMES = (
     "paper-unet32",
 )
 DEFAULT_RECOVERY = "unet8"
-SHIPPED_RECOVERY = ("unet8", "unet16", "unet8-temporal")  # unet32: `make weights` trains it locally
+SHIPPED_RECOVERY = ("unet8", "unet16", "unet32", "unet8-temporal")
 THRESHOLD = 0.5  # detector probability at or above which a frame counts as interfered
 PAD = 32  # the largest stride of the shipped models
 # Do no harm (``guard``): a repair stays within the range of its trusted neighbours (``GUARD_PX`` around),
