@@ -10,7 +10,8 @@ chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interfer
 when written, opened 2026-11-26 to confirm unet8-shell, a choice made on sets A and B): emitter bloom and
 phase-unwrapping errors (``bloom_interference``). ``--set e`` (written and sealed 2026-11-26, before any
 model ran on it, to confirm choices made on sets A-D; ``docs/decisions.md``): moire beats and row tearing
-(``beat_interference``).
+(``beat_interference``). ``--set f`` (written and sealed 2026-11-26, before any model ran on it):
+another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -43,7 +44,8 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 
 SEED = 5_000_000
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E}  # each set's stream of random numbers
+# Each set's stream of random numbers.
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F}
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
     "a": ("rings", "sawtooth"),
@@ -51,6 +53,7 @@ KINDS = {
     "c": ("phantom", "echo bursts"),
     "d": ("bloom", "unwrapping"),
     "e": ("moire beat", "row tearing"),
+    "f": ("dot lattice", "gray-code stripes"),
 }
 
 
@@ -266,15 +269,66 @@ def beat_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return out.astype(np.uint16)
 
 
+def projector_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set F (written 2026-11-26 and sealed before any model ran on it, to confirm a choice made on sets A-E):
+    another sensor's projector light read as this one's, one of two patterns chosen by the seed, neither in
+    ``d2sr.sim`` nor in sets A-E:
+
+    * a dot lattice: a structured-light sensor's dots (a slanted hexagonal grid, 1-3 pixels each, jittered)
+      over a patch of the view, each dot reading too near (the two lights mixed) or no return;
+    * Gray-code stripes: a coded-light projector's lit stripes (one bit plane of a Gray code: stripes of
+      varying width, at any angle) read nearer or farther (by frame) by an offset that grows with range,
+      and sometimes no return at their edges.
+
+    As in sets B-E, only pixels that move by more than 2 cm + 1% count."""
+    rng = np.random.default_rng([seed, SALTS["f"]])
+    h, w = frame.shape
+    d = frame.astype(np.float64) / scale
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    if rng.random() < 0.5:  # dot lattice
+        pitch, ang = rng.uniform(5, 16), rng.uniform(0, np.pi / 3)
+        u = (x * np.cos(ang) + y * np.sin(ang)) / pitch
+        v = (-x * np.sin(ang) + y * np.cos(ang)) / (pitch * np.sqrt(3) / 2)
+        row = np.floor(v + 0.5)
+        du = u - np.floor(u + 0.5 * (row % 2)) - 0.5 * (row % 2)  # hexagonal: odd rows shifted half a pitch
+        du = np.where(du > 0.5, du - 1, np.where(du < -0.5, du + 1, du))
+        dist = np.hypot(du * pitch, (v - row) * pitch * np.sqrt(3) / 2)
+        where = dist < rng.uniform(1.0, 3.0) + rng.normal(0, 0.3, (h, w))
+        cx, cy = rng.uniform(0, w), rng.uniform(0, h)
+        where &= np.hypot((x - cx) / w, (y - cy) / h) < rng.uniform(0.3, 0.9)  # a patch of the view
+        r = rng.uniform(0.3, 2.0)
+        new = 1.0 / (1.0 / np.maximum(d, 1e-3) + 1.0 / r)
+        new = np.where(rng.random((h, w)) < rng.uniform(0.0, 0.4), 0.0, new)
+    else:  # Gray-code stripes
+        ang = rng.uniform(0, np.pi)
+        s = x * np.cos(ang) + y * np.sin(ang)
+        s = (s - s.min()) / max(float(np.ptp(s)), 1.0)
+        code = np.floor(s * 2 ** int(rng.integers(3, 8))).astype(np.int64)
+        bit = int(rng.integers(0, 3))
+        stripe = ((code ^ (code >> 1)) >> bit) & 1  # one bit plane of the Gray code
+        offset = rng.uniform(0.04, 0.25) * (1 + rng.uniform(0.0, 0.5) * d)
+        new = np.maximum(d + offset * (-1 if rng.random() < 0.5 else 1), 0.05)
+        edge = cv2.morphologyEx(stripe.astype(np.uint8), cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8)) > 0
+        new = np.where(edge & (rng.random((h, w)) < rng.uniform(0.0, 0.8)), 0.0, new)
+        where = stripe == 1
+        if rng.random() < 0.6:  # only where the views overlap: a half-plane
+            a2 = rng.uniform(0, 2 * np.pi)
+            where &= x * np.cos(a2) + y * np.sin(a2) > rng.uniform(-0.3, 0.6) * max(h, w)
+    where &= (rng.random((h, w)) < rng.uniform(0.6, 1.0)) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
     "c": echo_interference,
     "d": bloom_interference,
     "e": beat_interference,
+    "f": projector_interference,
 }
 # Sets only an explicit --set runs (D until the unet8-shell decision, E until unet32's; docs/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"f"}
 
 
 def open_sets() -> list[str]:
@@ -455,7 +509,7 @@ def main() -> None:
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
         "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
-        "e (moire beat, row tearing; sealed)",
+        "e (moire beat, row tearing), f (dot lattice, Gray-code stripes; sealed)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
