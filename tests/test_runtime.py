@@ -120,6 +120,32 @@ def test_temporal_backend_gets_the_last_frame_the_detector_passed():
     assert one.previous == [None, None]  # a one-frame model is never handed frames it cannot use
 
 
+def test_repairing_every_frame_the_detector_runs_only_where_the_last_clean_frame_can_change():
+    # With repair="all" and a temporal model the detector only picks the last clean frame: it runs while
+    # there is none, where a frame stops lining up with it, and every REFRESH_FRAMES frames.
+    from d2sr.contract import REFRESH_FRAMES
+
+    net = FakeNet(frames=2)
+    loop = SensorLoop(net, make_controller("static", 30, 3), repair="all", judge_every=False)
+    results = [loop.process(_cap("0", bad=True)), loop.process(_cap("1", bad=False))]
+    assert len(net.before) == 2  # judged: no last clean frame yet, then frame 1 passes
+    for i in range(2, 2 + 2 * REFRESH_FRAMES):
+        results.append(loop.process(_cap(str(i), bad=i % 2 == 0)))
+    judged = [i for i, r in enumerate(results) if not np.isnan(r.score)]
+    assert judged == [0, 1, 1 + REFRESH_FRAMES, 1 + 2 * REFRESH_FRAMES]
+    assert len(net.before) == len(judged)
+    assert net.recovered == len(results)  # every frame repaired, judged or not
+    # An unjudged frame never becomes the last clean frame, even one the detector would pass.
+    assert all(p is not None and p[0, 0, 0] * 4000 == 8000 for p in net.previous[2:])
+    moved = _cap("moved", bad=False)
+    moved.frame.depth[:] = 16000  # no longer lines up with the last clean frame (2 m against 4 m)
+    assert not np.isnan(loop.process(moved).score)
+    with pytest.raises(ConfigError):
+        SensorLoop(FakeNet(), make_controller("static", 30, 3), repair="all", judge_every=False)
+    with pytest.raises(ConfigError):
+        SensorLoop(net, make_controller("static", 30, 3), repair="flagged", judge_every=False)
+
+
 def test_agreement_counts_pixels_returning_in_both_within_5_cm_and_2_percent():
     a = np.full((4, 4), 2.0, np.float32)
     assert agreement(a, None) == 0.0
@@ -390,3 +416,15 @@ def test_frame_buffers_freed_in_a_loop_are_reused_not_faulted_in_again():
     assert runs["1"][0] == "True"
     assert runs["0"][1] > 20 * 100  # glibc's defaults: each 1.2 MB buffer is mapped afresh (~300 pages)
     assert runs["1"][1] < runs["0"][1] / 20
+
+
+def test_auto_runs_the_temporal_model_at_its_own_operating_point():
+    # auto: unet8-temporal at AUTO_TEMPORAL_LOGIT, unet8 at its own logit; a given --mask-logit sets both.
+    from d2sr.contract import AUTO_TEMPORAL_LOGIT
+
+    net = open_backend("auto", "onnx")
+    assert isinstance(net, Gated)
+    assert net.temporal.mask_logit == AUTO_TEMPORAL_LOGIT != open_backend("unet8-temporal", "onnx").mask_logit
+    assert net.single.mask_logit == open_backend("unet8", "onnx").mask_logit
+    given = open_backend("auto", "onnx", mask_logit=0.25)
+    assert given.temporal.mask_logit == given.single.mask_logit == 0.25

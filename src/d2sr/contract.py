@@ -23,6 +23,7 @@ __all__ = [
     "AGREE_M",
     "AGREE_REL",
     "AUTO_RECOVERY",
+    "AUTO_TEMPORAL_LOGIT",
     "DEFAULT_RECOVERY",
     "DETECTOR",
     "DETECTOR_NAMES",
@@ -31,6 +32,7 @@ __all__ = [
     "MODEL_HELP",
     "PAD",
     "RECOVERY_NAMES",
+    "REFRESH_FRAMES",
     "REPAIR_MODELS",
     "REPAIR_PASSES",
     "SHIPPED_RECOVERY",
@@ -95,6 +97,13 @@ TEMPORAL_RECOVERY = "unet8-temporal"
 LINES_UP = 0.5
 AGREE_M = 0.05
 AGREE_REL = 0.02
+# auto's own operating point for the temporal model (unet8 keeps its own): read off outside set A, held on
+# sets B and C, and confirmed with the default's switch on sealed set F (docs/decisions.md).
+AUTO_TEMPORAL_LOGIT = -1.5
+# Repairing every frame with a temporal model, the detector only picks the last clean frame: it runs on a
+# frame with none yet, one that does not line up with it, or when this many frames have passed since it
+# last ran (unet8-temporal was trained with last clean frames 1-12 frames old).
+REFRESH_FRAMES = 10
 
 
 REPAIR_MODELS = (AUTO_RECOVERY, *RECOVERY_NAMES)  # what recover and run take: a model, or auto's pair

@@ -11,6 +11,7 @@ import numpy as np
 
 from d2sr.contract import (
     AUTO_RECOVERY,
+    AUTO_TEMPORAL_LOGIT,
     DEFAULT_RECOVERY,
     DETECTOR,
     REPAIR_PASSES,
@@ -44,13 +45,15 @@ def open_backend(
     """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
     ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
     threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``).
-    ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up, ``unet8`` elsewhere
+    ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up, at auto's own mask logit
+    (``AUTO_TEMPORAL_LOGIT``, unless ``mask_logit`` is given), ``unet8`` elsewhere
     (``runtime.backends.Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
     if model == AUTO_RECOVERY:
         single = open_backend(DEFAULT_RECOVERY, backend, weights, detector, threads, int8, mask_logit, passes)
         if not _has(weights, TEMPORAL_RECOVERY):
             return single
-        temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, mask_logit, passes)
+        own = AUTO_TEMPORAL_LOGIT if mask_logit is None else mask_logit
+        temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, own, passes)
         return Gated(single, temporal)
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")

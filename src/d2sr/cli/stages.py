@@ -157,6 +157,9 @@ def recover(
         threshold=threshold,
         repair="all" if every else "flagged",
         detect=detect,
+        # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
+        # shows its scores): it runs where that can change.
+        judge_every=not every or net.frames == 1 or rerun is not None,
     )
     rows: list[dict[str, Any]] = []
     repaired = 0

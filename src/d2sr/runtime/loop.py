@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from d2sr.contract import THRESHOLD, padded, repair_frame
+from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, agreement, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
@@ -101,6 +101,9 @@ class SensorLoop:
     # False: no detector runs (score NaN, never flagged). Only with repair="all" and a single-frame
     # recovery model, where no verdict is used: a temporal one needs to know which frames were clean.
     detect: bool = True
+    # False (recover --all with a temporal model): the detector runs only where its verdict can change the
+    # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
+    judge_every: bool = True
     period: int = 0
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
@@ -108,6 +111,7 @@ class SensorLoop:
     _last_clean: np.ndarray | None = None  # metres, padded: what a temporal recovery model also sees
     _last: tuple[tuple[int, ...], np.ndarray] | None = None  # the previous frame's size and metres (padded)
     _cut: float = THRESHOLD  # the threshold in use
+    _unjudged: int = 0  # frames since the detector last ran
 
     @property
     def offset(self) -> int:
@@ -118,6 +122,8 @@ class SensorLoop:
             raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {self.repair!r}")
         if not self.detect and (self.repair != "all" or getattr(self.backend, "frames", 1) > 1):
             raise ConfigError("detect=False needs repair='all' and a single-frame recovery model")
+        if not self.judge_every and (self.repair != "all" or getattr(self.backend, "frames", 1) == 1):
+            raise ConfigError("judge_every=False needs repair='all' and a temporal recovery model")
         if self.trigger is not None:
             self.trigger.set_offset(0, self.controller.offset)
         own = float(getattr(self.backend, "threshold", THRESHOLD))
@@ -143,15 +149,22 @@ class SensorLoop:
         check_depth(raw, cap.name)
         t = time.perf_counter()
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
-        # A temporal detector also weighs the previous frame as delivered, flagged or not.
-        before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
-        score = float(self.backend.scores(metres, before)[0]) if self.detect else float("nan")
-        flagged = score >= self._cut  # False for NaN
         last = self._last_clean
         previous = last if last is not None and last.shape == metres.shape else None
+        judge = self.detect and (
+            self.judge_every
+            or previous is None
+            or self._unjudged + 1 >= REFRESH_FRAMES
+            or agreement(metres, previous) < LINES_UP
+        )
+        self._unjudged = 0 if judge else self._unjudged + 1
+        # A temporal detector also weighs the previous frame as delivered, flagged or not.
+        before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
+        score = float(self.backend.scores(metres, before)[0]) if judge else float("nan")
+        flagged = score >= self._cut  # False for NaN
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
-        self._remember(raw, metres, flagged)
+        self._remember(raw, metres, judge and not flagged)
         self._buffer(flagged, cap.slot)
         return d
 
@@ -174,14 +187,14 @@ class SensorLoop:
         the models' memory of earlier frames is restored too, so a resumed run decides as the first did."""
         if cap is not None:
             raw = cap.frame.depth
-            self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), flagged)
+            self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), not flagged)
         self._buffer(flagged, slot)
 
-    def _remember(self, raw: np.ndarray, metres: np.ndarray, flagged: bool) -> None:
-        """What the next frame's models see: this frame (temporal detector) and, when it passed, the last
-        clean frame (temporal recovery)."""
+    def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
+        """What the next frame's models see: this frame (temporal detector) and, when the detector passed
+        it, the last clean frame (temporal recovery)."""
         self._last = (raw.shape, metres)
-        if not flagged and getattr(self.backend, "frames", 1) > 1:
+        if clean and getattr(self.backend, "frames", 1) > 1:
             self._last_clean = metres
 
     def _buffer(self, flagged: bool, slot: int | None) -> None:
