@@ -20,11 +20,13 @@ another sensor's projector, a dot lattice or Gray-code stripes (``projector_inte
 * ``adapt`` (with --adapt): ``d2sr adapt`` on the first 100 D435 frames, then the other 93, every other one
   corrupted, through ``--models``: precision, recall, recover --all mask F1; and the time adapt took.
 
-Run:  .venv/bin/python bench/held_out.py --data ../shared/data --adapt --json docs/results/held_out.json
-      .venv/bin/python bench/held_out.py --data ../shared/data --model unet8-temporal \
-          --json docs/results/held_out_temporal.json
-      .venv/bin/python bench/held_out.py --data ../shared/data --set b --json docs/results/held_out_b.json
-      .venv/bin/python bench/held_out.py --data ../shared/data --set c --json docs/results/held_out_c.json
+Run:  .venv/bin/python bench/held_out.py --data ../shared/data --model auto \
+          --json docs/results/held_out_auto.json
+      .venv/bin/python bench/held_out.py --data ../shared/data --model unet8 --adapt \
+          --json docs/results/held_out.json
+      .venv/bin/python bench/held_out.py --data ../shared/data --set b --model unet8 \
+          --json docs/results/held_out_b.json
+(files without a suffix: unet8, recover's default until 2026-11-26; ``_auto``: the default since)
 """
 
 from __future__ import annotations
@@ -327,8 +329,8 @@ SETS = {
     "e": beat_interference,
     "f": projector_interference,
 }
-# Sets only an explicit --set runs (D until the unet8-shell decision, E until unet32's; docs/decisions.md).
-SEALED: set[str] = {"f"}
+# Sets only an explicit --set runs (D, E and F each until the decision it was written for; docs/decisions.md).
+SEALED: set[str] = set()
 
 
 def open_sets() -> list[str]:
@@ -499,7 +501,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
-    ap.add_argument("--model", default=None, help="recover's --model (default: its own, unet8)")
+    ap.add_argument("--model", default=None, help="recover's --model (default: its own, auto)")
     ap.add_argument(
         "--mask-logit", type=float, default=None, help="recover's --mask-logit (default: the model's)"
     )

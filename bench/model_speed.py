@@ -18,9 +18,10 @@ from d2sr.bench import check_output, cpu, output_args, write_result
 from held_out import worst_case
 
 # name: recover's options after --all (the default first: the one the others are compared with)
+# (Until 2026-11-26 the default was unet8 and "auto" had its own entry: bench_model_speed_2026-11-26.json.)
 OPTIONS = {
     "default": [],
-    "auto": ["--model", "auto"],
+    "unet8": ["--model", "unet8"],
     "auto, mask logit -1.5": ["--model", "auto", "--mask-logit", "-1.5"],
 }
 

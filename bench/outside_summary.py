@@ -18,10 +18,11 @@ from d2sr.eval.plots import plt, save  # Agg, set there
 from held_out import open_sets
 
 RESULTS = Path(__file__).resolve().parent.parent / "docs" / "results"
-# recover setting: the suffix of its held_out.py result files (held_out{_set}{suffix}.json; set A has none)
+# recover setting: the suffix of its held_out.py result files (held_out{_set}{suffix}.json; set A has none).
+# The files without a suffix hold `--model unet8`, recover's default until 2026-11-26 (docs/decisions.md).
 SETTINGS = {
-    "default (unet8)": "",
-    "--model auto": "_auto",
+    "default (auto)": "_auto",
+    "--model unet8": "",
     "--model auto --mask-logit -1.5": "_auto_logit-1.5",
 }
 FIGURES = ("detector_recall", "detector_precision", "rmse_change", "mask_f1", "clean_changed")

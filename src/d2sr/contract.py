@@ -32,6 +32,7 @@ __all__ = [
     "MODEL_HELP",
     "PAD",
     "RECOVERY_NAMES",
+    "RECOVER_MODEL",
     "REFRESH_FRAMES",
     "REPAIR_MODELS",
     "REPAIR_PASSES",
@@ -107,6 +108,9 @@ REFRESH_FRAMES = 10
 
 
 REPAIR_MODELS = (AUTO_RECOVERY, *RECOVERY_NAMES)  # what recover and run take: a model, or auto's pair
+# What `d2sr recover` repairs with unless told (since 2026-11-26, docs/decisions.md); `run` keeps
+# DEFAULT_RECOVERY, since its controller runs the detector on every frame anyway.
+RECOVER_MODEL = AUTO_RECOVERY
 MODEL_HELP = (
     f"Recovery model: {', '.join(REPAIR_MODELS)} (shipped: {', '.join(SHIPPED_RECOVERY)}; auto: "
     f"{TEMPORAL_RECOVERY} where the last clean frame lines up with the frame, {DEFAULT_RECOVERY} elsewhere)."

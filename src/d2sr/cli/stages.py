@@ -33,9 +33,9 @@ from d2sr.cli.common import (
     prefetch,
 )
 from d2sr.contract import (
-    DEFAULT_RECOVERY,
     DETECTOR,
     MODEL_HELP,
+    RECOVER_MODEL,
     REPAIR_MODELS,
     REPAIR_PASSES,
     WEIGHTS,
@@ -101,7 +101,7 @@ def recover(
     every: Annotated[
         bool, typer.Option("--all", metavar="", help="Repair every frame, not only those the detector flags.")
     ] = False,
-    model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
+    model: Annotated[str, typer.Option(help=MODEL_HELP)] = RECOVER_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
@@ -114,7 +114,9 @@ def recover(
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
     Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed;
-    --model auto takes it for the frames that line up with that frame (a sensor that held still).
+    --model auto (the default) takes it for the frames that line up with that frame (a sensor that held
+    still) and unet8 for the others. With --all and a temporal model the detector runs only where it can
+    change that frame.
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
