@@ -59,11 +59,17 @@ KINDS = {
 }
 
 
+def _start(
+    frame: np.ndarray, scale: float, seed: int, which: str
+) -> tuple[np.random.Generator, int, int, np.ndarray]:
+    """Set ``which``'s random numbers for the frame of ``seed``, the frame's size, and its depth in metres."""
+    h, w = frame.shape
+    return np.random.default_rng([seed, SALTS[which]]), h, w, frame.astype(np.float64) / scale
+
+
 def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     """Corrupt a uint16 frame with one of the two outside models (chosen by the seed)."""
-    rng = np.random.default_rng([seed, SALTS["a"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "a")
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     if rng.random() < 0.5:  # phase-wrapping rings
         cx, cy = rng.uniform(-0.5, 1.5) * w, rng.uniform(-0.5, 1.5) * h
@@ -87,6 +93,12 @@ def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarr
     return out.astype(np.uint16)
 
 
+def _written(frame: np.ndarray, new: np.ndarray, where: np.ndarray, scale: float) -> np.ndarray:
+    """Sets B-F: the uint16 frame with ``new`` (metres; 0: no return) written at the pixels ``where``."""
+    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
+    return out.astype(np.uint16)
+
+
 def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     """Set B (written after a threshold was read off set A, to check it on a set nobody had looked at):
     corrupt a uint16 frame with one of two more outside models, chosen by the seed. Neither is in
@@ -100,9 +112,7 @@ def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
 
     Only pixels that move by more than 2 cm + 1% count (the truth is what changed): a ghost of a flat wall
     on itself changes nothing anyone could find."""
-    rng = np.random.default_rng([seed, SALTS["b"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "b")
     if rng.random() < 0.5:  # Lissajous trace of another scanner's spot
         t = np.linspace(0.0, 1.0, 40_000)
         fa, fb = rng.integers(1, 9, 2)
@@ -133,8 +143,7 @@ def crosstalk_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
         y, x = np.mgrid[0:h, 0:w]
         where &= ((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2 < 1
     where &= (rng.random((h, w)) < hit) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
-    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
-    return out.astype(np.uint16)
+    return _written(frame, new, where, scale)
 
 
 def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
@@ -150,9 +159,7 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
 
     Hits are spatially clustered (a smoothed random field), and, as in set B, only pixels that move by more
     than 2 cm + 1% count."""
-    rng = np.random.default_rng([seed, SALTS["c"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "c")
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     valid = d > 0
     if rng.random() < 0.5 and valid.any():  # range-gated phantom
@@ -180,8 +187,7 @@ def echo_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     field = (field - field.mean()) / max(float(field.std()), 1e-6)
     where &= field > rng.normal(-0.5, 0.6)  # clustered partial fill
     where &= valid & (np.abs(new - d) > 0.02 + 0.01 * d)
-    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
-    return out.astype(np.uint16)
+    return _written(frame, new, where, scale)
 
 
 def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
@@ -195,9 +201,7 @@ def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
       tiling, inside a region or over the frame) one ambiguity interval off, nearer or farther by patch.
 
     As in sets B and C, only pixels that move by more than 2 cm + 1% count."""
-    rng = np.random.default_rng([seed, SALTS["d"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "d")
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     if rng.random() < 0.5:  # emitter bloom
         cx, cy = rng.uniform(0.1, 0.9) * w, rng.uniform(0.1, 0.9) * h
@@ -224,8 +228,7 @@ def bloom_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
         new = np.maximum(d + step[cell], 0.0)
         where &= rng.random((h, w)) < rng.uniform(0.6, 1.0)
     where &= (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
-    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
-    return out.astype(np.uint16)
+    return _written(frame, new, where, scale)
 
 
 def beat_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
@@ -239,9 +242,7 @@ def beat_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
       scene shifted sideways and scaled (plausible surfaces in the wrong place), with some dropouts.
 
     As in sets B-D, only pixels that move by more than 2 cm + 1% count."""
-    rng = np.random.default_rng([seed, SALTS["e"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "e")
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     if rng.random() < 0.5:  # moire beat
         ang = rng.uniform(0, np.pi)
@@ -267,8 +268,7 @@ def beat_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
             new[rows] = np.where(rng.random(band.shape) < rng.uniform(0.0, 0.3), 0.0, band)
             where[rows] = True
     where &= (rng.random((h, w)) < rng.uniform(0.6, 1.0)) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
-    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
-    return out.astype(np.uint16)
+    return _written(frame, new, where, scale)
 
 
 def projector_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
@@ -283,9 +283,7 @@ def projector_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
       and sometimes no return at their edges.
 
     As in sets B-E, only pixels that move by more than 2 cm + 1% count."""
-    rng = np.random.default_rng([seed, SALTS["f"]])
-    h, w = frame.shape
-    d = frame.astype(np.float64) / scale
+    rng, h, w, d = _start(frame, scale, seed, "f")
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     if rng.random() < 0.5:  # dot lattice
         pitch, ang = rng.uniform(5, 16), rng.uniform(0, np.pi / 3)
@@ -317,8 +315,7 @@ def projector_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
             a2 = rng.uniform(0, 2 * np.pi)
             where &= x * np.cos(a2) + y * np.sin(a2) > rng.uniform(-0.3, 0.6) * max(h, w)
     where &= (rng.random((h, w)) < rng.uniform(0.6, 1.0)) & (d > 0) & (np.abs(new - d) > 0.02 + 0.01 * d)
-    out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
-    return out.astype(np.uint16)
+    return _written(frame, new, where, scale)
 
 
 SETS = {
