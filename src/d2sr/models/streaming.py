@@ -40,7 +40,6 @@ class StreamingDetector(nn.Module):
         self.det = det
         self.stem = cast(nn.Conv2d, det.body[0])
         self.rest = cast(nn.Sequential, det.body[1:])
-        self.code_channels = self.stem.out_channels
         self.code_stride = 4
 
     def encode(self, depth: torch.Tensor) -> torch.Tensor:
