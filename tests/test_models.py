@@ -339,3 +339,50 @@ def test_a_narrow_unet_widens_to_the_same_function(tmp_path):
     assert not can_widen(build("unet8"), build("unet8-temporal")) and not can_widen(wide, narrow)
     with pytest.raises(ValueError, match="one layout"):
         widen(build("unet8"), build("unet8-temporal"))
+
+
+def test_large_models_are_stored_in_float16_and_exported_with_the_same_function(tmp_path, monkeypatch):
+    # A model over HALF_ABOVE parameters (unet32) keeps float16 in its files and computes in float32; its
+    # ONNX weights are float16 read through folded Casts: the same outputs as float32 weights of those
+    # values. Small models are stored as they are.
+    import onnx
+    import onnxruntime as ort
+    from safetensors.torch import load_file
+
+    import d2sr.models.store as store
+    from d2sr.export import export
+
+    torch.manual_seed(6)
+    net = build("unet8").eval()
+    save_model(net, "unet8", tmp_path / "small.safetensors")
+    assert all(t.dtype == torch.float32 for t in load_file(str(tmp_path / "small.safetensors")).values())
+    monkeypatch.setattr(store, "HALF_ABOVE", 1000)  # unet8 counts as large
+    w = tmp_path / "unet8.safetensors"
+    save_model(net, "unet8", w, mask_logit=0.5)
+    assert all(t.dtype == torch.float16 for t in load_file(str(w)).values() if t.is_floating_point())
+    back, _ = load_model(w)
+    for (k, a), b in zip(net.state_dict().items(), back.state_dict().values(), strict=True):
+        assert b.dtype == torch.float32 and torch.equal(b, a.half().float()), k
+    export(w, tmp_path / "half.onnx")
+    graph = onnx.load(str(tmp_path / "half.onnx")).graph
+    halves = [i for i in graph.initializer if i.data_type == onnx.TensorProto.FLOAT16]
+    assert len(halves) >= 17 and sum(n.op_type == "Cast" for n in graph.node) >= len(halves)
+    monkeypatch.setattr(store, "HALF_ABOVE", 10**9)  # the same weights, exported in float32
+    export(w, tmp_path / "full.onnx")
+    assert (tmp_path / "half.onnx").stat().st_size < 0.6 * (tmp_path / "full.onnx").stat().st_size
+    x = {"depth": _depth(1, 64, 96, seed=11).numpy()}
+    got, want = (
+        ort.InferenceSession(str(tmp_path / f), providers=["CPUExecutionProvider"]).run(None, x)
+        for f in ("half.onnx", "full.onnx")
+    )
+    for g, r in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, r)
+    # What the int8 quantizer sees (it quantizes only weights it finds as initializers): float32 again.
+    from d2sr.onnx_half import float_weights
+
+    float_weights(graph)
+    full = {i.name: i for i in onnx.load(str(tmp_path / "full.onnx")).graph.initializer}
+    assert {i.name for i in graph.initializer} == set(full)
+    assert not any(n.op_type == "Cast" and n.input[0].endswith(".f16") for n in graph.node)
+    for i in graph.initializer:
+        np.testing.assert_array_equal(onnx.numpy_helper.to_array(i), onnx.numpy_helper.to_array(full[i.name]))

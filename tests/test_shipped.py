@@ -105,3 +105,9 @@ def test_a_recovery_model_opens_alone(backend, frames):
         net.scores(x)
     with pytest.raises(InputError, match="needs a detector"):
         open_backend(None, backend, detector=None)
+
+
+def test_every_shipped_file_stays_under_5_mb():
+    # The repository stays light: large models are stored in float16 (models.store.HALF_ABOVE).
+    big = [f.name for f in SHIPPED.iterdir() if f.stat().st_size > 5 * 2**20]
+    assert not big, big

@@ -19,8 +19,9 @@ from d2sr.atomic import atomic_file
 from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, STREAM_CODES, STREAM_INPUTS, code_path
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
-from d2sr.models.store import load_model, mask_logit, threshold
+from d2sr.models.store import load_model, mask_logit, stored_in_half, threshold
 from d2sr.models.streaming import Encoder, StreamingDetector, StreamingUNet, streaming
+from d2sr.onnx_half import half_weights
 
 __all__ = ["export", "parity"]
 
@@ -50,6 +51,8 @@ def _onnx(net: nn.Module, args: tuple, path: Path, inputs: list[str], outputs: l
     for k, v in meta.items():
         entry = proto.metadata_props.add()
         entry.key, entry.value = k, v
+    if stored_in_half(net):
+        half_weights(proto.graph)
     onnx.save(proto, str(path))
 
 

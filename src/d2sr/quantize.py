@@ -5,6 +5,7 @@ Torch-free. Its accuracy cost is measured by ``measure`` (``bench/quantize.py``)
 from __future__ import annotations
 
 import shutil
+import tempfile
 from collections.abc import Iterator
 from contextlib import ExitStack
 from pathlib import Path
@@ -14,6 +15,7 @@ import numpy as np
 from d2sr.atomic import atomic_file
 from d2sr.contract import code_path
 from d2sr.errors import InputError
+from d2sr.onnx_half import float_weights
 from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
 
 __all__ = ["CALIBRATION_SEED", "int8_path", "quantize"]
@@ -43,6 +45,19 @@ def _outputs(onnx: Path) -> list[str]:
     return [o.name for o in onnx_lib.load(str(onnx), load_external_data=False).graph.output]
 
 
+def _with_float_weights(onnx: Path, tmp: Path) -> Path:
+    """``onnx`` itself, or, where its weights are stored in float16 (``onnx_half``), a float32 copy in
+    ``tmp``: the quantizer only quantizes weights it finds as initializers."""
+    import onnx as onnx_lib
+
+    proto = onnx_lib.load(str(onnx))
+    if not any(i.data_type == onnx_lib.TensorProto.FLOAT16 for i in proto.graph.initializer):
+        return onnx
+    float_weights(proto.graph)
+    onnx_lib.save(proto, str(tmp / onnx.name))
+    return tmp / onnx.name
+
+
 def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
     """Write ``<model>.int8.onnx`` next to ``onnx`` (or to ``out``) atomically."""
     try:
@@ -66,7 +81,7 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
         if encoder.is_file():
             shutil.copyfile(encoder, stack.enter_context(atomic_file(code_path(target))))
         quantize_static(
-            str(onnx),
+            str(_with_float_weights(onnx, Path(stack.enter_context(tempfile.TemporaryDirectory())))),
             str(tmp),
             Reader(),
             quant_format=QuantFormat.QDQ,
