@@ -70,7 +70,7 @@ def test_desync_run_with_config_moving(tmp_path):
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     assert "robot's frames only" in res.stdout
-    rows = json.loads((tmp_path / "r.json").read_text())
+    rows = json.loads((tmp_path / "r.json").read_text())["results"]
     assert [r["controller"] for r in rows] == ["d2sr", "damped"] and all(
         r["scenario"] == "moving" for r in rows
     )

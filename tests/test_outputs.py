@@ -18,7 +18,7 @@ from test_corpus import _good, _run
 
 
 def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
-    w = ["--weights", str(weights)]
+    w = ["--models", str(weights)]
     s = str(src)
     return {
         "detect": ["detect", s, "--out", out, *w],
@@ -94,13 +94,13 @@ def test_out_dot_is_refused(tmp_path, weights, command, monkeypatch):
 def test_overwrite_replaces_only_what_d2sr_wrote(tmp_path, weights):
     src = _good(tmp_path / "in")
     out = tmp_path / "out"
-    assert _run(["recover", str(src), "--out", str(out), "--all", "--weights", str(weights)])[0] == 0
+    assert _run(["recover", str(src), "--out", str(out), "--all", "--models", str(weights)])[0] == 0
     made = json.loads((out / MANIFEST).read_text())["files"]
     assert "f000.png" in made and "masks/f000.png" in made
     (out / "notes.txt").write_text("mine\n")
     (out / "masks" / "mine.txt").write_text("also mine\n")
-    assert _run(["recover", str(src), "--out", str(out), "--weights", str(weights)])[0] == 2  # no --overwrite
-    code, err = _run(["recover", str(src), "--out", str(out), "--overwrite", "--weights", str(weights)])
+    assert _run(["recover", str(src), "--out", str(out), "--models", str(weights)])[0] == 2  # no --overwrite
+    code, err = _run(["recover", str(src), "--out", str(out), "--overwrite", "--models", str(weights)])
     assert code == 0, err
     assert (out / "notes.txt").read_text() == "mine\n"
     assert (out / "masks" / "mine.txt").read_text() == "also mine\n"
@@ -133,7 +133,8 @@ def test_commit_keeps_user_files_and_refuses_a_folder_it_did_not_make(tmp_path):
 
 def test_check_out_rules(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "f.csv").write_text("x")
+    (tmp_path / "f.csv").write_text("frame,score,interfered\n")  # detect's header: d2sr's own file
+    (tmp_path / "mine.csv").write_text("frame,score\n")
     with pytest.raises(OutputError, match="current folder"):
         check_out(Path("."), is_dir=True)
     with pytest.raises(OutputError, match="current folder"):
@@ -141,6 +142,8 @@ def test_check_out_rules(tmp_path, monkeypatch):
     with pytest.raises(OutputError, match="--overwrite"):
         check_out(Path("f.csv"), is_dir=False)
     assert check_out(Path("f.csv"), is_dir=False, overwrite=True) == tmp_path / "f.csv"
+    with pytest.raises(OutputError, match="did not write"):
+        check_out(Path("mine.csv"), is_dir=False, overwrite=True)
     (tmp_path / "d").mkdir()
     with pytest.raises(OutputError, match="name a file"):
         check_out(Path("d"), is_dir=False, overwrite=True)
@@ -179,9 +182,43 @@ def test_benchmark_scripts_refuse_an_existing_json_or_plot_without_overwrite(tmp
         with pytest.raises(SystemExit) as exc:
             check_output(ap, ap.parse_args(argv))
         assert exc.value.code == 2
-    check_output(ap, ap.parse_args(["--plot", str(old), "--overwrite"]))  # asked for: allowed
+    with pytest.raises(SystemExit):  # a user's file: refused even with --overwrite
+        check_output(ap, ap.parse_args(["--plot", str(old), "--overwrite"]))
+    import matplotlib.pyplot as plt
+
+    from d2sr.eval.plots import save
+
+    ours = save(plt.figure(), tmp_path / "ours.png")  # a plot d2sr wrote says so in its metadata
+    check_output(ap, ap.parse_args(["--plot", str(ours), "--overwrite"]))  # asked for: allowed
     check_output(ap, ap.parse_args(["--plot", str(tmp_path / "new.png")]))
     assert old.read_bytes() == b"a user's file"  # checking writes nothing
     plain = argparse.ArgumentParser()
     output_args(plain)
     assert not hasattr(plain.parse_args([]), "plot")  # --plot only where a script makes one
+
+
+@pytest.mark.slow  # a subprocess per command: not in make test-fast
+def test_overwrite_replaces_a_single_file_only_when_d2sr_wrote_it(tmp_path, weights):
+    src = _good(tmp_path / "in")
+    run = tmp_path / "run"
+    assert _run(["run", str(src), "--out", str(run), "--models", str(weights)])[0] == 0
+    w = ["--models", str(weights)]
+    cases = {
+        "detect": (["detect", str(src), *w, "--out"], tmp_path / "flags.csv"),
+        "recover --rerun": (
+            ["recover", str(src), *w, "--out", str(tmp_path / "rep"), "--overwrite", "--rerun"],
+            tmp_path / "log.rrd",
+        ),
+        "view --save": (["view", str(run), "--save"], tmp_path / "view.rrd"),
+    }
+    for name, (args, target) in cases.items():
+        target.write_bytes(b"a user's file of that name\n")
+        line = _refused([*args, str(target), "--overwrite"], tmp_path)
+        assert "did not write" in line, name
+        target.unlink()
+        code, err = _run([*args, str(target)])
+        assert code == 0 and target.is_file(), (name, err)
+        first = target.read_bytes()
+        code, err = _run([*args, str(target), "--overwrite"])  # d2sr's own file: replaced
+        assert code == 0, (name, err)
+        assert target.read_bytes()[:3] == first[:3]

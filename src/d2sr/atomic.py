@@ -8,6 +8,8 @@ The policy, one place for every command:
 - A folder d2sr writes carries a manifest (``.d2sr-manifest.json``: the files it made). ``commit``
   replaces only those files when it writes the folder again; every other file in it is kept. A
   non-empty folder without a manifest is never replaced.
+- A single file is replaced (with ``overwrite``) only when it is recognisably d2sr's (``made_by_d2sr``:
+  its header or metadata says so); a user's file of that name is refused.
 """
 
 from __future__ import annotations
@@ -24,6 +26,9 @@ from pathlib import Path
 from d2sr.errors import OutputError
 
 __all__ = [
+    "CALLER",
+    "CSV_HEADERS",
+    "MADE_BY",
     "MANIFEST",
     "atomic_dir",
     "atomic_file",
@@ -31,11 +36,54 @@ __all__ = [
     "check_out",
     "commit",
     "discard",
+    "made_by_d2sr",
     "record_manifest",
     "temp_for",
 ]
 
 MANIFEST = ".d2sr-manifest.json"
+MADE_BY = "made_by"  # the key a JSON file d2sr writes carries ("d2sr <version>")
+CALLER = "/d2sr"  # the caller id of the connections d2sr adds to a ROS 1 bag
+CSV_HEADERS = ("frame,score,interfered",)  # the first lines of the CSV files d2sr writes
+_PNG_TEXT = b"tEXtSoftware\x00d2sr"  # matplotlib's metadata={"Software": "d2sr ..."}
+_PEEK = 1 << 16  # bytes read to recognise a file
+
+
+def made_by_d2sr(path: Path) -> bool:
+    """Whether the existing file ``path`` is one d2sr wrote, by what it says of itself: a CSV's header, a
+    JSON object's ``made_by``, a PNG's Software text, a Rerun recording's application id, a ROS 1 bag's
+    connection from ``CALLER``."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_PEEK)
+    except OSError:
+        return False
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return head.split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8", "replace") in CSV_HEADERS
+    if suffix == ".json":
+        try:
+            data = json.loads(Path(path).read_text())
+        except (OSError, ValueError):
+            return False
+        return isinstance(data, dict) and str(data.get(MADE_BY, "")).startswith("d2sr")
+    if suffix == ".png":
+        return head.startswith(b"\x89PNG") and _PNG_TEXT in head
+    if suffix == ".rrd":
+        return head.startswith(b"RRF") and b"d2sr" in head
+    if suffix == ".bag":
+        return head.startswith(b"#ROSBAG V2.0") and _bag_by_d2sr(path)
+    return False
+
+
+def _bag_by_d2sr(path: Path) -> bool:
+    try:
+        from rosbags.rosbag1 import Reader
+
+        with Reader(path) as bag:
+            return any(getattr(c.ext, "callerid", None) == CALLER for c in bag.connections)
+    except Exception:  # rosbags raises its own errors on a damaged bag: then it is not ours to replace
+        return False
 
 
 def _abs(path: Path) -> Path:
@@ -98,6 +146,8 @@ def check_out(
         return path
     if path.is_dir() or path.is_symlink():
         raise OutputError(f"{option} {out} is a folder or a link; name a file")
+    if not made_by_d2sr(path):
+        raise OutputError(f"{option} {out} exists and d2sr did not write it; name a new file")
     if not overwrite:
         raise OutputError(f"{option} {out} exists; pass --overwrite to replace it")
     return path

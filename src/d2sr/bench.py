@@ -75,9 +75,10 @@ def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
 
 def write_result(result: dict, path: Path | None) -> str:
     """The result as JSON text, also written atomically to ``path`` when given."""
-    from d2sr.atomic import atomic_write
+    from d2sr import __version__
+    from d2sr.atomic import MADE_BY, atomic_write
 
-    text = json.dumps(result, indent=1)
+    text = json.dumps({MADE_BY: f"d2sr {__version__}", **result}, indent=1)
     if path is not None:
         atomic_write(path, text + "\n")
     return text

@@ -96,7 +96,7 @@ def run(
     if json_out:
         from d2sr.atomic import atomic_write
 
-        atomic_write(json_out, ev.to_json(rows))
+        atomic_write(json_out, ev.to_json(rows, stamped=True))
         console.print(f"Results: {json_out}")
 
 

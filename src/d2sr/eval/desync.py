@@ -228,8 +228,9 @@ def sweep(
     return results
 
 
-def to_json(results: list[CellResult]) -> str:
-    """Results as JSON (inf written as null)."""
+def to_json(results: list[CellResult], stamped: bool = False) -> str:
+    """Results as JSON (inf written as null): a list, or with ``stamped`` an object that says d2sr made it
+    (``{"made_by": ..., "results": [...]}``, a file ``--overwrite`` may replace)."""
 
     def fin(v: object) -> object:
         if isinstance(v, float) and not np.isfinite(v):
@@ -241,7 +242,13 @@ def to_json(results: list[CellResult]) -> str:
     def clean(d: dict) -> dict:
         return {k: fin(v) for k, v in d.items()}
 
-    return json.dumps([clean(asdict(r)) for r in results], indent=1)
+    rows = [clean(asdict(r)) for r in results]
+    if stamped:
+        from d2sr import __version__
+        from d2sr.atomic import MADE_BY
+
+        return json.dumps({MADE_BY: f"d2sr {__version__}", "results": rows}, indent=1)
+    return json.dumps(rows, indent=1)
 
 
 def from_json(text: str) -> list[CellResult]:

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from d2sr import __version__
 from d2sr.atomic import atomic_file
 from d2sr.eval.desync import FPS, SENSORS, CellResult
 from d2sr.sim.calibrate import BINS, SequenceStats
@@ -36,7 +37,9 @@ def save(fig: Figure, path: Path) -> Path:
     """Write a figure to a temporary name and rename, so a killed run leaves no half-written PNG."""
     try:
         with atomic_file(path) as tmp:
-            fig.savefig(tmp, dpi=110, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
+            kind = path.suffix.lstrip(".").lower() or "png"
+            meta = {"Software": f"d2sr {__version__}"} if kind == "png" else None  # recognised as d2sr's
+            fig.savefig(tmp, dpi=110, bbox_inches="tight", format=kind, metadata=meta)
     finally:
         plt.close(fig)
     return path
