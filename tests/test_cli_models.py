@@ -37,7 +37,7 @@ def _png(p: Path) -> np.ndarray:
 def test_detect_writes_the_fixed_csv(tmp_path, weights, backend):
     src = _folder(tmp_path / "in")
     res = d2sr(
-        "detect", str(src), "--out", str(tmp_path / "d.csv"), "--weights", str(weights), "--backend", backend
+        "detect", str(src), "--out", str(tmp_path / "d.csv"), "--models", str(weights), "--backend", backend
     )
     assert res.returncode == 0, res.stderr
     rows = list(csv.DictReader((tmp_path / "d.csv").open()))
@@ -57,7 +57,7 @@ def test_backends_agree(tmp_path, weights):
                 str(src),
                 "--out",
                 str(tmp_path / f"{b}.csv"),
-                "--weights",
+                "--models",
                 str(weights),
                 "--backend",
                 b,
@@ -72,7 +72,7 @@ def test_backends_agree(tmp_path, weights):
 def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
     src = _folder(tmp_path / "in", 7)
     out = tmp_path / "out"
-    res = d2sr("recover", str(src), "--out", str(out), "--all", "--weights", str(weights))
+    res = d2sr("recover", str(src), "--out", str(out), "--all", "--models", str(weights))
     assert res.returncode == 0, res.stderr
     meta = json.loads((out / "meta.json").read_text())
     assert meta["depth_scale"] == 1000 and all(f["repaired"] for f in meta["frames"])
@@ -95,11 +95,11 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
     alone.mkdir()
     for f in weights.glob("unet8.*"):
         shutil.copy(f, alone / f.name)
-    res = d2sr("recover", str(src), "--out", str(tmp_path / "o2"), "--all", "--weights", str(alone))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o2"), "--all", "--models", str(alone))
     assert res.returncode == 0, res.stderr
     for f in sorted(src.glob("*.png")):
         assert np.array_equal(_png(tmp_path / "o2" / f.name), _png(out / f.name))
-    res = d2sr("recover", str(src), "--out", str(tmp_path / "o3"), "--weights", str(alone))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o3"), "--models", str(alone))
     assert res.returncode == 2 and "detector" in res.stderr and not (tmp_path / "o3").exists()
 
 
@@ -137,7 +137,7 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
             "--out",
             str(tmp_path / name),
             "--all",
-            "--weights",
+            "--models",
             str(folder),
             "--model",
             model,
@@ -178,16 +178,16 @@ def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     masked = []
     for logit in ("8", "-8"):
         out = tmp_path / f"o{logit}"
-        args = ("--all", "--weights", str(weights), "--backend", backend, "--mask-logit", logit)
+        args = ("--all", "--models", str(weights), "--backend", backend, "--mask-logit", logit)
         assert d2sr("recover", str(src), "--out", str(out), *args).returncode == 0
         masked.append(int((_png(out / "masks" / "f000.png") > 0).sum()))
     assert masked[0] < masked[1]
     res = d2sr(
-        "recover", str(src), "--out", str(tmp_path / "bad"), "--weights", str(weights), "--mask-logit", "nan"
+        "recover", str(src), "--out", str(tmp_path / "bad"), "--models", str(weights), "--mask-logit", "nan"
     )
     assert res.returncode == 2 and "--mask-logit" in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "bad").exists()
-    bad = ("--out", str(tmp_path / "bad"), "--weights", str(weights), "--passes", "0")
+    bad = ("--out", str(tmp_path / "bad"), "--models", str(weights), "--passes", "0")
     res = d2sr("recover", str(src), *bad)
     assert res.returncode == 2 and "--passes" in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "bad").exists()
@@ -197,7 +197,7 @@ def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
 def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
     src = _folder(tmp_path / "in")
     out = tmp_path / "out"
-    res = d2sr("recover", str(src), "--out", str(out), "--threshold", "0.999999", "--weights", str(weights))
+    res = d2sr("recover", str(src), "--out", str(out), "--threshold", "0.999999", "--models", str(weights))
     assert res.returncode == 0, res.stderr
     for f in sorted(src.glob("*.png")):
         assert np.array_equal(_png(out / f.name), _png(f))
@@ -207,13 +207,13 @@ def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_frames_of_any_size_are_padded_for_the_models_and_cropped_back(tmp_path, weights):
     src = _folder(tmp_path / "in", 2, shape=(100, 130))  # 32 divides neither side
-    res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--all", "--weights", str(weights))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--all", "--models", str(weights))
     assert res.returncode == 0, res.stderr
     for f in sorted(src.glob("*.png")):
         out, mask = _png(tmp_path / "o" / f.name), _png(tmp_path / "o" / "masks" / f.name)
         assert out.shape == mask.shape == (100, 130)
         assert np.array_equal(out[mask == 0], _png(f)[mask == 0])
-    res = d2sr("detect", str(src), "--out", str(tmp_path / "d.csv"), "--weights", str(weights))
+    res = d2sr("detect", str(src), "--out", str(tmp_path / "d.csv"), "--models", str(weights))
     assert res.returncode == 0, res.stderr
 
 
@@ -243,7 +243,7 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, c
         str(src),
         "--out",
         str(out),
-        "--weights",
+        "--models",
         str(weights),
         "--all" if command == "recover" else "--threshold=0.5",
     )
@@ -258,16 +258,16 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, c
 def test_nan_depth_and_missing_or_corrupt_weights(tmp_path, weights):
     bad = tmp_path / "nan.npz"
     np.savez(bad, depth=np.full((2, 96, 128), np.nan, np.float32), depth_scale=1.0)
-    res = d2sr("detect", str(bad), "--out", str(tmp_path / "o.csv"), "--weights", str(weights))
+    res = d2sr("detect", str(bad), "--out", str(tmp_path / "o.csv"), "--models", str(weights))
     assert res.returncode == 2 and "NaN" in res.stderr
     src = _folder(tmp_path / "in")
-    res = d2sr("detect", str(src), "--out", str(tmp_path / "o.csv"), "--weights", str(tmp_path / "none"))
+    res = d2sr("detect", str(src), "--out", str(tmp_path / "o.csv"), "--models", str(tmp_path / "none"))
     assert res.returncode == 2 and "no such" in res.stderr
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "detector.onnx").write_bytes(b"garbage")
     res = d2sr(
-        "detect", str(src), "--out", str(tmp_path / "o.csv"), "--weights", str(broken), "--backend", "onnx"
+        "detect", str(src), "--out", str(tmp_path / "o.csv"), "--models", str(broken), "--backend", "onnx"
     )
     assert res.returncode == 2 and "corrupt ONNX" in res.stderr
     res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--model", "unet9")

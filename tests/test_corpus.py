@@ -72,7 +72,7 @@ CORPUS: dict[str, tuple[Callable[[Path], Path], str]] = {
 
 
 def _commands(src: Path, out: Path, weights: Path) -> dict[str, list[str]]:
-    w = ["--weights", str(weights)]
+    w = ["--models", str(weights)]
     cfg = src.parent / "train.toml"  # users' own labelled folders (fine-tuning)
     cfg.write_text(
         f'model = "unet8"\nsynthetic = 0\nsteps = 1\nbatch = 1\ncrop = [64, 96]\n'

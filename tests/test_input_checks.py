@@ -51,7 +51,7 @@ def test_scale_is_checked_through_the_whole_input_not_the_first_frame(tmp_path, 
     # the first frame is fine at the default scale; the other 11 are 0.1 mm counts (30x too far)
     frames = [_room(rng, 2.0)] + [_room(rng, 2.0) * 10 for _ in range(11)]
     src = _folder(tmp_path / "in", frames, 1000)
-    code, _, err = _run(["detect", str(src), "--out", str(tmp_path / "s.csv"), "--weights", str(weights)])
+    code, _, err = _run(["detect", str(src), "--out", str(tmp_path / "s.csv"), "--models", str(weights)])
     assert code == 2 and "sampled frames" in err and "scale" in err, err
     assert not (tmp_path / "s.csv").exists()
 
@@ -59,7 +59,7 @@ def test_scale_is_checked_through_the_whole_input_not_the_first_frame(tmp_path, 
 def test_max_range_admits_a_large_hall(tmp_path, weights):
     rng = np.random.default_rng(2)
     src = _folder(tmp_path / "hall", [_room(rng, 18.0) for _ in range(3)], 1000)
-    args = ["detect", str(src), "--out", str(tmp_path / "s.csv"), "--weights", str(weights)]
+    args = ["detect", str(src), "--out", str(tmp_path / "s.csv"), "--models", str(weights)]
     code, _, err = _run(args)
     assert code == 2 and "--max-range" in err
     code, out, err = _run([*args, "--max-range", "30"])
@@ -71,9 +71,9 @@ def test_the_scale_used_and_its_source_are_printed(tmp_path, weights):
     rng = np.random.default_rng(3)
     src = _folder(tmp_path / "in", [_room(rng, 2.0) for _ in range(2)], 4000)
     (src / "meta.json").write_text('{"depth_scale": 4000}')
-    code, out, err = _run(["detect", str(src), "--out", str(tmp_path / "a.csv"), "--weights", str(weights)])
+    code, out, err = _run(["detect", str(src), "--out", str(tmp_path / "a.csv"), "--models", str(weights)])
     assert code == 0 and "depth scale 4000 units per metre (from the recording)" in out, out + err
-    args = ["detect", str(src), "--out", str(tmp_path / "b.csv"), "--weights", str(weights)]
+    args = ["detect", str(src), "--out", str(tmp_path / "b.csv"), "--models", str(weights)]
     code, out, err = _run([*args, "--depth-scale", "1000"])
     assert "(--depth-scale)" in out and "it says its depth scale is 4000" in err
 
@@ -81,7 +81,7 @@ def test_the_scale_used_and_its_source_are_printed(tmp_path, weights):
 def test_frames_with_no_valid_depth_are_named(tmp_path, weights):
     rng = np.random.default_rng(4)
     src = _folder(tmp_path / "in", [_room(rng, 2.0), np.zeros((96, 128)), np.zeros((96, 128))], 1000)
-    code, _, err = _run(["recover", str(src), "--out", str(tmp_path / "o"), "--weights", str(weights)])
+    code, _, err = _run(["recover", str(src), "--out", str(tmp_path / "o"), "--models", str(weights)])
     assert code == 0
     assert "2 of 3 frames have no valid depth" in err
 
@@ -92,7 +92,7 @@ def test_an_intensity_image_in_a_depth_folder_is_named(tmp_path, weights):
     assert looks_like_intensity(np.rint(ir[0] * 1000).astype(np.uint16))
     assert not looks_like_intensity(np.rint(_room(rng, 2.0) * 1000).astype(np.uint16))
     src = _folder(tmp_path / "in", ir, 1000)
-    _, _, err = _run(["detect", str(src), "--out", str(tmp_path / "s.csv"), "--weights", str(weights)])
+    _, _, err = _run(["detect", str(src), "--out", str(tmp_path / "s.csv"), "--models", str(weights)])
     assert "intensity (IR) image" in err
 
 
@@ -108,7 +108,7 @@ def test_far_off_sizes_warn_and_huge_frames_are_refused():
 def test_run_on_a_recording_says_n_a_where_nothing_applies(tmp_path, weights):
     rng = np.random.default_rng(7)
     src = _folder(tmp_path / "in", [_room(rng, 2.0) for _ in range(3)], 1000)
-    code, out, err = _run(["run", str(src), "--out", str(tmp_path / "r"), "--weights", str(weights)])
+    code, out, err = _run(["run", str(src), "--out", str(tmp_path / "r"), "--models", str(weights)])
     assert code == 0, err
     assert "n/a" in out  # no ground truth: precision, recall and RMSE do not apply
     rows = list(csv.DictReader((tmp_path / "r" / "log.csv").open()))

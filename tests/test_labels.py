@@ -135,7 +135,7 @@ def test_label_cli(tmp_path):
         str(tmp_path / "paper"),
         "--method",
         "paper",
-        "--threshold",
+        "--statistic",
         "mu",
     )
     assert r.returncode == 0, r.stderr

@@ -205,10 +205,14 @@ def test_loop_pads_frames_the_model_strides_do_not_divide(net):
     assert np.array_equal(res.depth[~res.mask], d[~res.mask])
 
 
-def test_loop_rejects_float_frames_and_bad_repair_mode():
+def test_loop_takes_float_metres_only_at_scale_1_and_refuses_a_bad_repair_mode():
     loop = SensorLoop(FakeNet(), make_controller("static", 30, 3))
-    with pytest.raises(InputError, match="uint16"):
+    with pytest.raises(InputError, match="metres"):
         loop.process(Capture(Frame("f", np.ones((8, 16), np.float32)), 1000.0))
+    with pytest.raises(InputError, match="uint16"):
+        loop.process(Capture(Frame("f", np.ones((8, 16), np.int32)), 1000.0))
+    res = loop.process(Capture(Frame("f", np.ones((8, 16), np.float32)), 1.0))
+    assert res.depth.dtype == np.float32
     with pytest.raises(ConfigError, match="repair"):
         SensorLoop(FakeNet(), make_controller("static", 30, 3), repair="some")
 

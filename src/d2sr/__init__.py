@@ -1,5 +1,73 @@
-"""d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference."""
+"""d2sr: decentralized detection, de-synchronization and recovery of depth-sensor interference.
+
+The library in a few names (``docs/api.md`` has runnable examples):
+
+- ``repair(depth, depth_scale=None, **options)``: one frame detected and repaired (``Repaired``).
+- ``Pipeline(depth_scale=None, **options)``: one sensor's loop; ``.process(depth, timestamp_ns=None)``.
+- ``recover_recording(input, out, ...)``, ``detect_recording(input, out, ...)``: a recording in, a
+  recording out (what ``d2sr recover`` and ``d2sr detect`` run).
+- ``open_frames(path)``: read any supported recording; ``make_controller(name, ...)``: a de-synchronization
+  controller on its own.
+- ``D2SRError`` and its kinds ``InputError``, ``ConfigError``, ``OutputError``: what d2sr raises on purpose.
+
+Names load on first use, so ``import d2sr`` stays light.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.10.0"
 
-__all__ = ["__version__"]
+_WHERE = {
+    "repair": "d2sr.runtime.pipeline",
+    "Pipeline": "d2sr.runtime.pipeline",
+    "Repaired": "d2sr.runtime.pipeline",
+    "Window": "d2sr.runtime.pipeline",
+    "recover_recording": "d2sr.runtime.batch",
+    "detect_recording": "d2sr.runtime.batch",
+    "Summary": "d2sr.runtime.batch",
+    "open_frames": "d2sr.frames",
+    "make_controller": "d2sr.desync",
+    "D2SRError": "d2sr.errors",
+    "InputError": "d2sr.errors",
+    "ConfigError": "d2sr.errors",
+    "OutputError": "d2sr.errors",
+}
+
+__all__ = [
+    "ConfigError",
+    "D2SRError",
+    "InputError",
+    "OutputError",
+    "Pipeline",
+    "Repaired",
+    "Summary",
+    "Window",
+    "__version__",
+    "detect_recording",
+    "make_controller",
+    "open_frames",
+    "recover_recording",
+    "repair",
+]
+
+if TYPE_CHECKING:
+    from d2sr.desync import make_controller
+    from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
+    from d2sr.frames import open_frames
+    from d2sr.runtime.batch import Summary, detect_recording, recover_recording
+    from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'd2sr' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_WHERE[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

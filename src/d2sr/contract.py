@@ -24,6 +24,7 @@ __all__ = [
     "AGREE_REL",
     "AUTO_RECOVERY",
     "AUTO_TEMPORAL_LOGIT",
+    "DEFAULT_MODEL",
     "DEFAULT_RECOVERY",
     "DETECTOR",
     "DETECTOR_NAMES",
@@ -32,7 +33,6 @@ __all__ = [
     "MODEL_HELP",
     "PAD",
     "RECOVERY_NAMES",
-    "RECOVER_MODEL",
     "REFRESH_FRAMES",
     "REPAIR_MODELS",
     "REPAIR_PASSES",
@@ -108,9 +108,10 @@ REFRESH_FRAMES = 10
 
 
 REPAIR_MODELS = (AUTO_RECOVERY, *RECOVERY_NAMES)  # what recover and run take: a model, or auto's pair
-# What `d2sr recover` repairs with unless told (since 2026-11-26, docs/decisions.md); `run` keeps
-# DEFAULT_RECOVERY, since its controller runs the detector on every frame anyway.
-RECOVER_MODEL = AUTO_RECOVERY
+# What every caller repairs with unless told: d2sr.repair, d2sr.Pipeline, recover, run and the demo (auto
+# since 2026-11-26 for recover, docs/research/decisions.md; the others followed so that one name means one
+# repair). DEFAULT_RECOVERY stays the single-frame model auto falls back on.
+DEFAULT_MODEL = AUTO_RECOVERY
 MODEL_HELP = (
     f"Recovery model: {', '.join(REPAIR_MODELS)} (shipped: {', '.join(SHIPPED_RECOVERY)}; auto: "
     f"{TEMPORAL_RECOVERY} where the last clean frame lines up with the frame, {DEFAULT_RECOVERY} elsewhere)."
@@ -276,9 +277,10 @@ def repair_frame(
     frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
-    the mask (``guard``), rounded to the input's units; the input itself everywhere else, bit for bit."""
+    the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
+    1); the input itself everywhere else, bit for bit."""
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
     out = frames.copy()
-    units = np.rint(np.maximum(p[m], 0) * np.float32(scale))
-    out[m] = np.clip(units, 0, 65535).astype(np.uint16)
+    fixed = np.maximum(p[m], 0) * np.float32(scale)
+    out[m] = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
     return out, m

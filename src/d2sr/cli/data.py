@@ -12,9 +12,10 @@ import typer
 from rich.table import Table
 
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.cli.common import Overwrite, Topic, checked_counts, open_input, renamed, resolution_of
+from d2sr.cli.common import Overwrite, Topic, renamed, resolution_of
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Reader
+from d2sr.frames.checks import checked_counts, open_input
 from d2sr.ui import NA, console, progress_bar
 
 __all__ = ["calibrate", "gallery", "label", "simulate"]
@@ -97,8 +98,12 @@ def label(
     depth_scale: Annotated[
         float | None, typer.Option(help="Units per metre (default: what the recording says).")
     ] = None,
-    threshold: Annotated[
-        str, typer.Option(help="mu, mu+sigma or mu+2sigma (the paper's thresholds).")
+    statistic: Annotated[
+        str,
+        typer.Option(
+            help="The error threshold: mu, mu+sigma or mu+2sigma of the clean sequence (the paper's). "
+            "--threshold is a detector score on every other command."
+        ),
     ] = "mu+sigma",
     method: Annotated[str, typer.Option(help="stats (ours, default) or paper (Section V-C.1).")] = "stats",
     topic: Topic = None,
@@ -131,7 +136,7 @@ def label(
             lambda f: bar.update(task, completed=f),
             count=len(creader),
         )
-        lab = Labeller(stats, method, threshold)
+        lab = Labeller(stats, method, statistic)
 
         def refs() -> Iterator[np.ndarray]:
             while True:
@@ -150,7 +155,7 @@ def label(
             folder.finish(scale, ireader.intrinsics, rows)
             info = {
                 "method": method,
-                "threshold": threshold,
+                "statistic": statistic,
                 "depth_scale": scale,
                 "clean_frames": stats.frames,
                 "clean": str(clean),
@@ -160,7 +165,7 @@ def label(
             (tmp / "label.json").write_text(json.dumps(info, indent=1) + "\n")
     share = np.mean([r["mask_share"] for r in rows]) if rows else 0.0
     console.print(
-        f"Labelled {len(rows)} frames ({method}, {threshold}): mean mask share {share:.1%}; wrote {out}"
+        f"Labelled {len(rows)} frames ({method}, {statistic}): mean mask share {share:.1%}; wrote {out}"
     )
 
 

@@ -12,7 +12,7 @@ from rich.progress import Progress
 from rich.table import Table
 
 from d2sr.atomic import check_out
-from d2sr.cli.common import BackendOpt, Cache, Overwrite, Real, Weights, out_dir, split_list
+from d2sr.cli.common import BackendOpt, Cache, ModelDir, Overwrite, Real, out_dir, split_list
 from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, THRESHOLD, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.sim.families import FAMILIES
@@ -41,8 +41,10 @@ def detector(
     out: Annotated[Path, typer.Option(help="Folder for detector.json and pr.png.")] = Path(
         "out/eval/detector"
     ),
-    models: Annotated[str, typer.Option(help="Detectors (comma-separated).")] = "detector,paper-detector",
-    weights: Weights = WEIGHTS,
+    model: Annotated[
+        str, typer.Option(help="Detectors (comma-separated names).")
+    ] = "detector,paper-detector",
+    models: ModelDir = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
     threshold: Annotated[float, typer.Option(help="Detector probability that flags a frame.")] = THRESHOLD,
@@ -59,15 +61,13 @@ def detector(
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     with progress_bar() as bar:
-        results = evaluate_detectors(
-            split_list(models, "models"), weights, real, cache, threshold, _steps(bar)
-        )
+        results = evaluate_detectors(split_list(model, "model"), models, real, cache, threshold, _steps(bar))
     if not results:
-        raise ConfigError(f"no detector weights for {models} in {weights}")
+        raise ConfigError(f"no detector weights for {model} in {models}")
     with out_dir(out, overwrite, [real]) as tmp:
         write_detectors(results, tmp)
     if card:
-        detector_cards(results, weights)
+        detector_cards(results, models)
     for k, r in results.items():
         extra = f", people {r['false_alarm_rate_people']:.3f}" if "false_alarm_rate_people" in r else ""
         console.print(
@@ -80,10 +80,10 @@ def recovery(
     out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")] = Path(
         "out/eval/recovery"
     ),
-    models: Annotated[
-        str, typer.Option(help="Recovery models (comma-separated).")
+    model: Annotated[
+        str, typer.Option(help="Recovery models (comma-separated names).")
     ] = "unet8,unet16,unet32,unet8-temporal",
-    weights: Weights = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
     limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
@@ -98,20 +98,20 @@ def recovery(
 
     if limit < 0:
         raise ConfigError(f"--limit must be >= 0, got {limit}")
-    names = split_list(models, "models")
+    names = split_list(model, "model")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
     with out_dir(out, overwrite, [real]) as tmp, progress_bar() as bar:
-        result = evaluate_recovery(names, weights, real, cache, limit, tmp, _steps(bar))
+        result = evaluate_recovery(names, models, real, cache, limit, tmp, _steps(bar))
     console.print(result["table"])
     if card:
-        recovery_cards(result["tables"], names, weights, limit)
+        recovery_cards(result["tables"], names, models, limit)
 
 
 def paper(
     out: Annotated[Path, typer.Option(help="Folder for report.md, results.json and plots.")] = Path(
         "out/eval/paper"
     ),
-    weights: Weights = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
     rooms: Annotated[int, typer.Option(help="Rooms per Fig. 9 cell.")] = 4,
@@ -135,7 +135,7 @@ def paper(
             return fn()
 
     with out_dir(out, overwrite, [real]) as tmp:
-        report(tmp, weights, real, cache, rooms, limit, command, step)
+        report(tmp, models, real, cache, rooms, limit, command, step)
     console.print(f"Report: {out / 'report.md'}")
 
 
@@ -184,7 +184,7 @@ def generalization(
     ),
     data: Annotated[Path, typer.Option(help="The shared real data folder (l515/, d435/, ...).")] = DATA,
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
-    weights: Weights = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     backend: BackendOpt = "auto",
     lofo: Annotated[
         Path | None,
@@ -213,7 +213,7 @@ def generalization(
     if not data.is_dir():
         raise InputError(f"{data}: not a folder")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[data])
-    net = open_backend(model, backend, weights)
+    net = open_backend(model, backend, models)
 
     def finished(root: Path | None, names: tuple[str, ...], name: str) -> dict[str, Path]:
         folders = {n: root / (n if n == "all" else f"no-{n}") for n in names} if root else {}

@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import time
-from collections.abc import Iterator
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import (
@@ -17,32 +14,25 @@ from d2sr.cli.common import (
     MaskLogit,
     MaxRange,
     ModelDir,
+    ModelName,
     Overwrite,
     Passes,
     RerunOpt,
     Scale,
     Threshold,
     Topic,
-    checked,
-    open_input,
 )
-from d2sr.contract import (
-    DEFAULT_RECOVERY,
-    MODEL_HELP,
-    REPAIR_MODELS,
-    REPAIR_PASSES,
-    WEIGHTS,
-    check_probability,
-)
+from d2sr.contract import DEFAULT_MODEL, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame, Reader
 from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.frames.checks import Checked, open_input
 from d2sr.runtime.loop import REPAIR
 from d2sr.runtime.memory import reuse_freed_memory
-from d2sr.ui import NA, console, progress_bar
+from d2sr.runtime.stats import stats_table
+from d2sr.ui import console, progress_bar
 
-__all__ = ["demo", "run", "stats_table", "view"]
+__all__ = ["run"]
 
 
 def run(
@@ -61,14 +51,14 @@ def run(
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
-    model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
+    model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
     depth_scale: Scale = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: ModelDir = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
     int8: Annotated[
         bool, typer.Option("--int8", metavar="", help="int8 models (d2sr export --int8).")
@@ -114,7 +104,7 @@ def run(
     net = open_backend(
         model if repair != "none" else None,
         backend,
-        weights,
+        models,
         threads=threads,
         int8=int8,
         mask_logit=mask_logit,
@@ -156,102 +146,9 @@ def run(
         else:
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
-                net, _Checked(reader, scale), scale, out, controller, str(path.resolve()), active_frames,
+                net, Checked(reader, scale), scale, out, controller, str(path.resolve()), active_frames,
                 repair, threshold, seed, progress=lambda f: bar.update(task, completed=f),
                 on_result=on_result,
             )  # fmt: skip
     console.print(stats_table(summary, f"d2sr run {source}"))
     console.print(f"-> {out}")
-
-
-class _Checked:
-    """A reader whose frames pass the CLI's checks (dtype, NaN, plausible depth scale)."""
-
-    def __init__(self, reader: Reader, scale: float) -> None:
-        self.reader, self.scale = reader, scale
-
-    def __len__(self) -> int:
-        return len(self.reader)
-
-    def __iter__(self) -> Iterator[Frame]:
-        yield from checked(self.reader, self.scale)
-
-
-COLUMNS = {
-    "frames": "frames",
-    "interfered_ratio": "interfered",
-    "flagged": "flagged",
-    "precision": "P",
-    "recall": "R",
-    "rmse_before_cm": "RMSE in (cm)",
-    "rmse_after_cm": "RMSE out (cm)",
-    "ms_median": "ms/frame",
-}
-
-
-def stats_table(summary: dict, title: str) -> Table:
-    cols = list(COLUMNS)
-    t = Table(title=title)
-    t.add_column("sensor")
-    for c in cols:
-        t.add_column(COLUMNS[c], justify="right")
-    rows = [(str(i), s) for i, s in enumerate(summary["sensors"])] if len(summary["sensors"]) > 1 else []
-    for name, s in [*rows, ("all", summary["all"])]:
-        t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
-    return t
-
-
-def demo(
-    out: Annotated[Path, typer.Option(help="Folder for the runs, plots and report.")] = Path("out/demo"),
-    seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 20.0,
-    backend: BackendOpt = "auto",
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
-    overwrite: Overwrite = False,
-) -> None:
-    """The closed loop: 3 simulated L515s in one room under static, d2sr and the default controller, with
-    the shipped models; a table, and a report with plots.
-
-    Example: d2sr demo --out out/demo
-    """
-    from d2sr.eval.demo import DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
-    from d2sr.inference import open_backend
-
-    if not seconds > 0:
-        raise ConfigError(f"--seconds must be positive, got {seconds}")
-    check_out(out, is_dir=True, overwrite=overwrite)
-    net = open_backend(DEFAULT_RECOVERY, backend)
-    t = time.perf_counter()
-    with progress_bar() as bar:
-        tasks = {c: bar.add_task(f"{c:8s} 3 sensors, {seconds:g} s", total=1.0) for c in DEMO_CONTROLLERS}
-        report = run_demo(
-            net, out, seconds, seed=seed, progress=lambda c, f: bar.update(tasks[c], completed=f)
-        )
-    table = Table(
-        title=f"3 simulated L515s, 6 of 30 frames per second, {seconds:g} s, closed loop ({net.name})"
-    )
-    for h in HEADERS:
-        table.add_column(h, justify="left" if h == "controller" else "right")
-    for row in table_rows(report):
-        table.add_row(*row)
-    console.print(table)
-    console.print(f"Report: {out / 'report.md'} ({time.perf_counter() - t:.0f} s)")
-
-
-def view(
-    run: Annotated[
-        Path, typer.Argument(help="A finished d2sr run folder (holds log.csv).", metavar="RUN_DIR")
-    ],
-    save: Annotated[
-        Path | None, typer.Option(help="Save a FILE.rrd instead of opening a viewer.", metavar="FILE.rrd")
-    ] = None,
-    overwrite: Overwrite = False,
-) -> None:
-    """Open a finished run in Rerun: every sensor's repaired frames and predicted masks, and the detector
-    score, flag and window over time. Example: d2sr view out/demo/runs/robust"""
-    from d2sr.runtime.viewer import LIVE
-    from d2sr.runtime.viewer import view as replay
-
-    if save is not None:
-        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], option="--save")
-    n = replay(run, save if save is not None else LIVE)
-    console.print(f"{n} frames of {run} -> {save or 'the Rerun viewer'}")

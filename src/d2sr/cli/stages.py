@@ -1,54 +1,42 @@
-"""``d2sr detect`` and ``d2sr recover``: the learned stages on a recording (any reader's input)."""
+"""``d2sr detect`` and ``d2sr recover``: options parsed here, the work done by ``d2sr.runtime.batch``."""
 
 from __future__ import annotations
 
-import csv
-import io
-import os
-from collections import deque
-from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import nullcontext
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
-import numpy as np
 import typer
 
-from d2sr.atomic import atomic_dir, atomic_write, check_out
 from d2sr.cli.common import (
     BackendOpt,
     Input,
     MaskLogit,
     MaxRange,
     ModelDir,
+    ModelName,
     Overwrite,
     Passes,
     RerunOpt,
     Scale,
     Threshold,
     Topic,
-    checked_counts,
-    checked_frames,
-    open_input,
-    prefetch,
 )
-from d2sr.contract import (
-    DETECTOR,
-    MODEL_HELP,
-    RECOVER_MODEL,
-    REPAIR_MODELS,
-    REPAIR_PASSES,
-    WEIGHTS,
-    check_probability,
-)
-from d2sr.desync import TOTAL_FRAMES
-from d2sr.errors import InputError
-from d2sr.frames.base import PLAUSIBLE_M, Frame
-from d2sr.frames.layout import REPAIRED, FrameFolder
-from d2sr.runtime.memory import reuse_freed_memory
+from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
+from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.runtime.batch import Progress
 from d2sr.ui import progress_bar
 
 __all__ = ["detect", "recover"]
+
+
+@contextmanager
+def _bar(what: str) -> Iterator[Progress]:
+    """A progress bar the library's jobs advance: (frames done, frames in all)."""
+    with progress_bar() as bar:
+        task = bar.add_task(what, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
 
 
 def detect(
@@ -58,7 +46,7 @@ def detect(
     threshold: Threshold = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
-    weights: ModelDir = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     overwrite: Overwrite = False,
 ) -> None:
@@ -66,48 +54,43 @@ def detect(
 
     Example: d2sr detect recording/ --depth-scale 4000 --out flags.csv
     """
-    from d2sr.contract import padded
-    from d2sr.inference import open_backend
+    from d2sr.runtime.batch import detect_recording
 
-    if threshold is not None:
-        check_probability(threshold, "--threshold")
-    check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
-    reuse_freed_memory()
-    net = open_backend(None, backend, weights)
-    cut = threshold if threshold is not None else net.threshold
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["frame", "score", "interfered"])
-    flagged = 0
-    with progress_bar() as bar:
-        task = bar.add_task(f"detecting ({net.name})", total=len(reader))
-        last: tuple[tuple[int, ...], np.ndarray] | None = None  # the previous frame, for a temporal detector
-        for f, metres in prefetch(checked_frames(reader, scale)):
-            x = padded(metres[None])
-            s = float(net.scores(x, last[1] if last is not None and last[0] == metres.shape else None)[0])
-            last = (metres.shape, x)
-            flagged += s >= cut
-            w.writerow([f.name, f"{s:.6f}", int(s >= cut)])
-            bar.advance(task)
-    atomic_write(out, buf.getvalue())
-    typer.echo(f"{flagged} of {len(reader)} frames interfered -> {out}")
+    with _bar("detecting") as progress:
+        s = detect_recording(
+            input, out, depth_scale=depth_scale, topic=topic, threshold=threshold, models=models,
+            backend=backend, max_range=max_range, overwrite=overwrite, progress=progress,
+        )  # fmt: skip
+    typer.echo(f"{s.flagged} of {s.frames} frames interfered -> {out}")
 
 
 def recover(
     input: Input,
-    out: Annotated[Path, typer.Option(help="Output folder: <name>.png repaired, masks/<name>.png.")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="Output: a folder of <name>.png repaired and masks/<name>.png; for a ROS bag, a bag of its "
+            "kind with every input topic plus TOPIC/repaired and TOPIC/mask (see --format)."
+        ),
+    ],
     depth_scale: Scale = None,
     every: Annotated[
         bool, typer.Option("--all", metavar="", help="Repair every frame, not only those the detector flags.")
     ] = False,
-    model: Annotated[str, typer.Option(help=MODEL_HELP)] = RECOVER_MODEL,
+    model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
     topic: Topic = None,
+    format: Annotated[
+        str,
+        typer.Option(
+            help="auto: a ROS 1 or ROS 2 bag gives a bag of its kind (ROS 2 keeps MCAP or sqlite3), anything "
+            "else (a RealSense .bag too) a PNG folder; png: always a PNG folder; bag: a bag, or an error."
+        ),
+    ] = "auto",
     backend: BackendOpt = "auto",
-    weights: ModelDir = WEIGHTS,
+    models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     overwrite: Overwrite = False,
@@ -120,88 +103,12 @@ def recover(
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
-    from d2sr.desync import make_controller
-    from d2sr.inference import open_backend
-    from d2sr.runtime.loop import Capture, Result, SensorLoop
-    from d2sr.runtime.viewer import LIVE, RerunLog
+    from d2sr.runtime.batch import recover_recording
 
-    if model not in REPAIR_MODELS:
-        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
-    if threshold is not None:
-        check_probability(threshold, "--threshold")
-    check_out(out, is_dir=True, overwrite=overwrite, inputs=[input])
-    if rerun is not None and rerun != LIVE:
-        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
-    # --all asks no detector (its verdict would go unused) unless a view shows it or a temporal model
-    # needs to know which frames were clean.
-    detect = not every or rerun is not None
-    # Frames are decided in order (the detector weighs the frame before; a temporal model gets the last clean
-    # one) and then repaired several at a time, each on fewer of onnxruntime's threads: the guard and
-    # write-back run on one core, and the model scales poorly over two (worst case on 2 cores: 1.4-1.5x the
-    # frames a second, the same output).
-    cores = os.cpu_count() or 1
-    workers = min(cores, 4)
-    threads = cores // workers if workers > 1 else None  # None: the backend's own choice
-    reuse_freed_memory()
-    net = open_backend(
-        model, backend, weights, DETECTOR if detect else None, threads, mask_logit=mask_logit, passes=passes
-    )
-    if not detect and net.frames > 1:
-        detect = True
-        net = open_backend(model, backend, weights, DETECTOR, threads, mask_logit=mask_logit, passes=passes)
-    if net.name != "onnxruntime":  # torch has threads of its own
-        workers = 1
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
-    # The runtime's loop, open loop with a controller that never moves: one way to detect and repair.
-    loop = SensorLoop(
-        net,
-        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
-        threshold=threshold,
-        repair="all" if every else "flagged",
-        detect=detect,
-        # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
-        # shows its scores): it runs where that can change.
-        judge_every=not every or net.frames == 1 or rerun is not None,
-    )
-    rows: list[dict[str, Any]] = []
-    repaired = 0
-    log = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
-    with (
-        log as view,
-        atomic_dir(out) as tmp,
-        ThreadPoolExecutor(1) as writer,
-        ThreadPoolExecutor(workers) as pool,
-        progress_bar() as bar,
-    ):
-        folder = FrameFolder(tmp, REPAIRED)
-        task = bar.add_task(f"recovering ({net.name}, {model})", total=len(reader))
-        pending: deque[Future[None]] = deque()
-        frames = prefetch(checked_counts(reader, scale, "frame"))
-        running: deque[tuple[Frame, Future[Result]]] = deque()
-
-        def done(f: Frame, res: Result) -> None:
-            nonlocal repaired
-            if view is not None:
-                view.write(0, res)
-            fix = every or res.flagged
-            repaired += fix
-            pending.append(writer.submit(folder.write, f.name, depth=res.depth, masks=res.mask))
-            while len(pending) > 4:  # bounded: a slow disk must not pile frames up in memory
-                pending.popleft().result()
-            rows.append({"name": f.name, "timestamp_ns": f.timestamp_ns, "repaired": bool(fix)})
-            bar.advance(task)
-
-        # The next frame is decided (the detector runs) while the workers repair earlier ones; at most
-        # 2 x workers frames wait, written in input order.
-        for f in frames:
-            running.append((f, pool.submit(loop.finish, loop.decide(Capture(f, scale)))))
-            if len(running) >= 2 * workers:
-                g, job = running.popleft()
-                done(g, job.result())
-        while running:
-            g, job = running.popleft()
-            done(g, job.result())
-        for p in pending:
-            p.result()
-        folder.finish(scale, reader.intrinsics, rows)
-    typer.echo(f"repaired {repaired} of {len(rows)} frames -> {out}")
+    with _bar(f"recovering ({model})") as progress:
+        s = recover_recording(
+            input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
+            threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
+            max_range=max_range, rerun=rerun, overwrite=overwrite, progress=progress,
+        )  # fmt: skip
+    typer.echo(f"repaired {s.repaired} of {s.frames} frames -> {out}")

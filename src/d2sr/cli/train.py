@@ -184,7 +184,9 @@ def adapt(
         typer.Option(help="Folders written by d2sr label (real interference with its masks; repeatable)."),
     ] = None,
     topic: Topic = None,
-    weights: Annotated[Path, typer.Option(help="Models to start from (default: shipped).")] = WEIGHTS,
+    models: Annotated[
+        Path, typer.Option(help="Folder of the models to start from (default: shipped).")
+    ] = WEIGHTS,
     overwrite: Overwrite = False,
 ) -> None:
     """Fit the default recovery model to your sensor and room from a clean recording (self-supervised: the
@@ -192,8 +194,8 @@ def adapt(
 
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
-    from d2sr.cli.common import checked_counts, open_input
     from d2sr.frames import open_frames
+    from d2sr.frames.checks import checked_counts, open_input
     from d2sr.train.adapt import adapt as run
     from d2sr.train.adapt import prepare
     from d2sr.ui import progress_bar
@@ -202,7 +204,7 @@ def adapt(
     if not minutes > 0:
         raise ConfigError(f"--minutes must be > 0, got {minutes}")
     check_probability(false_alarm, "--false-alarm")
-    inputs = [*clean, *(labelled or []), weights]
+    inputs = [*clean, *(labelled or []), models]
     check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs, resume=True)
     recordings, scale = [], None
     for path in clean:
@@ -234,7 +236,7 @@ def adapt(
             bar.update(tasks[name], completed=share)
 
         command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-        card = run(data, out, minutes, false_alarm, command, weights, tick)
+        card = run(data, out, minutes, false_alarm, command, models, tick)
     for name, fit in card["training"].items():
         if fit["stopped_at_time_cap"]:
             warn(f"the {name} stopped at its time cap after {fit['steps']} of {fit['planned_steps']} steps "

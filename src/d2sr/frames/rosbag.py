@@ -20,7 +20,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
-from d2sr.atomic import discard
+from d2sr.atomic import CALLER, discard
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
 from d2sr.frames.png import decode_png, encode_png
@@ -260,9 +260,10 @@ class _BagWriter(Writer):
         if self._bag is None:
             self._open_bag()
             assert self._bag is not None
-            self._conn = self._bag.add_connection(self.topic, msgtype, typestore=ts)
+            who: dict[str, Any] = {"callerid": CALLER} if self.ros1 else {}  # how --overwrite knows it
+            self._conn = self._bag.add_connection(self.topic, msgtype, typestore=ts, **who)
             if self.intrinsics is not None:
-                self._info = self._bag.add_connection(self.info_topic, INFO, typestore=ts)
+                self._info = self._bag.add_connection(self.info_topic, INFO, typestore=ts, **who)
         serialize = ts.serialize_ros1 if self.ros1 else ts.serialize_cdr
         stamp = frame.timestamp_ns or self.count
         self._bag.write(self._conn, stamp, serialize(msg, msgtype))

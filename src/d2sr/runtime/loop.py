@@ -144,9 +144,9 @@ class SensorLoop:
         controller's window. ``finish`` then repairs; it depends on no other frame, so several can run at
         once (``d2sr recover``)."""
         raw = cap.frame.depth
-        if raw.dtype != np.uint16:  # the loop works in the sensor's units; readers deliver uint16
-            raise InputError(f"{cap.name}: the runtime takes uint16 depth frames, got {raw.dtype}")
-        check_depth(raw, cap.name)
+        check_depth(raw, cap.name)  # uint16 in the sensor's units, or float32 metres (scale 1)
+        if raw.dtype == np.float32 and cap.scale != 1:
+            raise InputError(f"{cap.name}: float32 depth is metres; its scale must be 1, got {cap.scale:g}")
         t = time.perf_counter()
         metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
         last = self._last_clean

@@ -7,10 +7,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from rich.table import Table
 
 from d2sr.runtime.loop import Result
+from d2sr.ui import NA
 
-__all__ = ["RunStats"]
+__all__ = ["RunStats", "stats_table"]
 
 BINS = 20_000  # up to 2 s
 
@@ -70,3 +72,28 @@ class RunStats:
             out["rmse_before_cm"] = round(100 * float(np.sqrt(self.se_before / self.n_valid)), 2)
             out["rmse_after_cm"] = round(100 * float(np.sqrt(self.se_after / self.n_valid)), 2)
         return out
+
+
+COLUMNS = {
+    "frames": "frames",
+    "interfered_ratio": "interfered",
+    "flagged": "flagged",
+    "precision": "P",
+    "recall": "R",
+    "rmse_before_cm": "RMSE in (cm)",
+    "rmse_after_cm": "RMSE out (cm)",
+    "ms_median": "ms/frame",
+}
+
+
+def stats_table(summary: dict[str, Any], title: str) -> Table:
+    """A run's summary as a table: one row per sensor (when several) and all together."""
+    cols = list(COLUMNS)
+    t = Table(title=title)
+    t.add_column("sensor")
+    for c in cols:
+        t.add_column(COLUMNS[c], justify="right")
+    rows = [(str(i), s) for i, s in enumerate(summary["sensors"])] if len(summary["sensors"]) > 1 else []
+    for name, s in [*rows, ("all", summary["all"])]:
+        t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
+    return t

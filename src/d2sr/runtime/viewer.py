@@ -46,8 +46,18 @@ def _rerun() -> Any:
 class RerunLog:
     """One Rerun recording of a run (see the module docstring)."""
 
-    def __init__(self, target: str | Path, sensors: int, name: str = "d2sr run", stride: int = 2) -> None:
+    def __init__(
+        self,
+        target: str | Path,
+        sensors: int,
+        name: str = "d2sr run",
+        stride: int = 2,
+        asked: tuple[str, str] = ("--rerun live", "--rerun FILE.rrd"),
+    ) -> None:
+        """``asked``: how the caller asked for a live viewer and how it saves a file instead (named in
+        the one-line errors)."""
         rr = self.rr = _rerun()
+        self._asked = asked
         # Images are logged at every ``stride``-th pixel: a view, not the record (the run folder keeps
         # every pixel); 2 keeps logging under 10% of a 2-core loop's time (bench/rerun_overhead.py).
         self.stride = max(1, int(stride))
@@ -92,8 +102,8 @@ class RerunLog:
             os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
         ):
             raise InputError(
-                "--rerun live: no viewer is running and there is no screen to start one; start `rerun` "
-                "where you can see it, or save with --rerun FILE.rrd"
+                f"{self._asked[0]}: no viewer is running and there is no screen to start one; start `rerun` "
+                f"where you can see it, or save with {self._asked[1]}"
             )
         here = str(Path(sys.executable).parent)
         path = os.environ.get("PATH", "")
@@ -104,7 +114,7 @@ class RerunLog:
         except (RuntimeError, OSError) as exc:
             reason = str(exc).strip().splitlines()[0]
             raise InputError(
-                f"--rerun live: cannot start a Rerun viewer ({reason}); save with --rerun FILE.rrd"
+                f"{self._asked[0]}: cannot start a Rerun viewer ({reason}); save with {self._asked[1]}"
             ) from None
 
     def _blueprint(self, sensors: int) -> Any:
@@ -194,7 +204,8 @@ def view(run: Path, target: str | Path) -> int:
     scale = float(settings.get("depth_scale") or 4000.0)
     sensors = 1 + max((int(r["sensor"]) for r in rows), default=0)
     folders = [FrameFolder(sensor_dir(Path(run), i), RUN, create=False) for i in range(sensors)]
-    with RerunLog(target, sensors, f"d2sr run {Path(run).name}") as log:
+    asked = ("d2sr view (no --save)", "--save FILE.rrd")
+    with RerunLog(target, sensors, f"d2sr run {Path(run).name}", asked=asked) as log:
         for r in rows:
             i, name = int(r["sensor"]), r["frame"]
             stamp = None if r["time_s"] in ("", "n/a") else round(float(r["time_s"]) * 1e9)

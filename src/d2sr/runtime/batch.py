@@ -1,0 +1,289 @@
+"""A recording through one sensor's loop, as ``d2sr detect`` and ``d2sr recover`` run it: frames are read
+ahead on a thread, decided in order (the detector weighs the frame before; a temporal model gets the last
+clean frame), repaired several at a time, and written in input order by a bounded writer.
+
+``detect_recording`` writes ``frame,score,interfered`` (CSV); ``recover_recording`` writes a PNG folder
+(``<name>.png`` repaired, ``masks/<name>.png``) or, for a ROS bag, a bag of the same kind with every input
+message and ``T/repaired`` and ``T/mask`` added (``d2sr.frames.bagcopy``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import os
+import queue
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol, TypeVar
+
+import numpy as np
+
+from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
+from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
+from d2sr.desync import TOTAL_FRAMES, make_controller
+from d2sr.errors import InputError
+from d2sr.frames import Frame, Intrinsics, detect_format
+from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.frames.checks import checked, checked_counts, open_input
+from d2sr.frames.layout import REPAIRED, FrameFolder
+from d2sr.runtime.loop import Capture, Result, SensorLoop
+from d2sr.runtime.memory import reuse_freed_memory
+
+__all__ = [
+    "CSV_HEADER",
+    "FORMATS",
+    "Progress",
+    "Summary",
+    "detect_recording",
+    "in_order",
+    "prefetch",
+    "recover_recording",
+]
+
+T = TypeVar("T")
+Progress = Callable[[int, int], None]  # (frames done, frames in all)
+CSV_HEADER = CSV_HEADERS[0].split(",")  # detect's columns (how --overwrite knows its file)
+FORMATS = ("auto", "png", "bag")  # recover's outputs: auto is a bag for a ROS bag, else a PNG folder
+
+
+@dataclass(frozen=True)
+class Summary:
+    """What a recording job did: ``frames`` read, ``flagged`` by the detector, ``repaired`` (changed
+    where the model found interference), written to ``out`` (``format``: png, ros1 or ros2) with
+    ``model`` on ``backend`` at ``depth_scale`` units per metre."""
+
+    frames: int
+    flagged: int
+    repaired: int
+    out: Path
+    format: str
+    model: str
+    backend: str
+    depth_scale: float
+
+
+def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
+    """Produce ``items`` on a thread, ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
+    inference), re-raising its errors here."""
+    q: queue.Queue[Any] = queue.Queue(depth)
+    done = object()
+
+    def run() -> None:
+        try:
+            for it in items:
+                q.put(it)
+        except BaseException as exc:
+            q.put(exc)
+        q.put(done)
+
+    threading.Thread(target=run, daemon=True).start()
+    while (it := q.get()) is not done:
+        if isinstance(it, BaseException):
+            raise it
+        yield it
+
+
+def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Iterator[Result]:
+    """``loop``'s results for ``captures``, in order. Frames are decided in order (``SensorLoop.decide``)
+    and repaired on ``workers`` threads while the next are decided; at most 2 x ``workers`` wait."""
+    if workers <= 1:
+        yield from map(loop.process, captures)
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        running: deque[Future[Result]] = deque()
+        for cap in captures:
+            running.append(pool.submit(loop.finish, loop.decide(cap)))
+            if len(running) >= 2 * workers:
+                yield running.popleft().result()
+        while running:
+            yield running.popleft().result()
+
+
+def _workers() -> tuple[int, int | None]:
+    """(frames repaired at once, onnxruntime threads each): on 2 cores, two frames on one thread each
+    repair 1.4-1.5x the frames a second of one frame on two (the guard and write-back run on one core, and
+    the model scales poorly). torch has threads of its own: one frame at a time."""
+    cores = os.cpu_count() or 1
+    workers = min(cores, 4)
+    return workers, (cores // workers if workers > 1 else None)
+
+
+class _Sink(Protocol):
+    def write(self, frame: Frame, depth: np.ndarray, mask: np.ndarray, repaired: bool) -> None: ...
+
+    def finish(self, scale: float, intrinsics: Intrinsics | None) -> None: ...
+
+
+class _PngSink:
+    """``<name>.png`` and ``masks/<name>.png`` in a folder, encoded on a thread (at most 4 frames wait)."""
+
+    def __init__(self, root: Path, pool: ThreadPoolExecutor) -> None:
+        self.folder = FrameFolder(root, REPAIRED)
+        self.pool = pool
+        self.pending: deque[Future[None]] = deque()
+        self.rows: list[dict[str, Any]] = []
+
+    def write(self, frame: Frame, depth: np.ndarray, mask: np.ndarray, repaired: bool) -> None:
+        self.pending.append(self.pool.submit(self.folder.write, frame.name, depth=depth, masks=mask))
+        while len(self.pending) > 4:  # bounded: a slow disk must not pile frames up in memory
+            self.pending.popleft().result()
+        self.rows.append({"name": frame.name, "timestamp_ns": frame.timestamp_ns, "repaired": repaired})
+
+    def finish(self, scale: float, intrinsics: Intrinsics | None) -> None:
+        for p in self.pending:
+            p.result()
+        self.folder.finish(scale, intrinsics, self.rows)
+
+
+@contextlib.contextmanager
+def _open_sink(kind: str, out: Path, input: Path, reader: Any) -> Iterator[_Sink]:
+    """The output, in place only when the block ends without error (nothing half-written otherwise)."""
+    if kind == "png":
+        with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as pool:
+            yield _PngSink(tmp, pool)
+        return
+    from d2sr.frames.bagcopy import BagCopy
+
+    bag = BagCopy(Path(input), reader.topic, Path(out), ros1=kind == "ros1")
+    try:
+        yield bag
+    except BaseException:
+        bag.abort()
+        raise
+    bag.close()
+
+
+def _options(model: str, threshold: float | None) -> None:
+    if model not in REPAIR_MODELS:
+        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
+    if threshold is not None:
+        check_probability(threshold, "--threshold")
+
+
+def detect_recording(
+    input: Path,
+    out: Path,
+    *,
+    depth_scale: float | None = None,
+    topic: str | None = None,
+    threshold: float | None = None,
+    models: Path = WEIGHTS,
+    backend: str = "auto",
+    max_range: float = PLAUSIBLE_M[1],
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> Summary:
+    """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
+    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``)."""
+    from d2sr.runtime.pipeline import open_models
+
+    _options(DEFAULT_MODEL, threshold)
+    check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
+    reuse_freed_memory()
+    net = open_models(None, Path(models), backend)
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
+    loop = SensorLoop(
+        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), threshold=threshold, repair="none"
+    )
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_HEADER)
+    flagged = done = 0
+    for res in map(loop.process, (Capture(f, scale) for f in prefetch(checked(reader, scale)))):
+        flagged += res.flagged
+        w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged)])
+        done += 1
+        if progress is not None:
+            progress(done, len(reader))
+    atomic_write(out, buf.getvalue())
+    return Summary(done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale)
+
+
+def recover_recording(
+    input: Path,
+    out: Path,
+    *,
+    depth_scale: float | None = None,
+    topic: str | None = None,
+    every: bool = False,
+    model: str = DEFAULT_MODEL,
+    models: Path = WEIGHTS,
+    threshold: float | None = None,
+    mask_logit: float | None = None,
+    passes: int = REPAIR_PASSES,
+    backend: str = "auto",
+    format: str = "auto",
+    max_range: float = PLAUSIBLE_M[1],
+    rerun: str | None = None,
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> Summary:
+    """Repair a recording: only the frames the detector flags, or ``every`` frame. ``format``: ``auto`` (a
+    ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``. ``rerun``:
+    also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
+    ``every``) come out bit for bit as they went in."""
+    from d2sr.runtime.pipeline import open_models
+    from d2sr.runtime.viewer import LIVE, RerunLog
+
+    _options(model, threshold)
+    kind = _out_format(input, format, topic)
+    check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=[input])
+    if rerun is not None and rerun != LIVE:
+        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
+    reuse_freed_memory()
+    workers, threads = _workers()
+    # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
+    # needs to know which frames were clean.
+    net = open_models(
+        model, Path(models), backend, mask_logit, passes, threads, detector=not every or bool(rerun)
+    )
+    if every and not rerun and net.frames > 1:
+        net = open_models(model, Path(models), backend, mask_logit, passes, threads)
+    if net.name != "onnxruntime":
+        workers = 1
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
+    loop = SensorLoop(
+        net,
+        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
+        threshold=threshold,
+        repair="all" if every else "flagged",
+        detect=not every or net.frames > 1 or bool(rerun),
+        # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
+        # shows its scores): it runs where that can change.
+        judge_every=not every or net.frames == 1 or bool(rerun),
+    )
+    log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
+    flagged = repaired = done = 0
+    with log as view, _open_sink(kind, Path(out), Path(input), reader) as sink:
+        frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
+        for res in in_order(loop, (Capture(f, scale) for f in frames), workers):
+            if view is not None:
+                view.write(0, res)
+            fix = every or res.flagged
+            sink.write(res.capture.frame, res.depth, res.mask, fix)
+            flagged += res.flagged
+            repaired += fix
+            done += 1
+            if progress is not None:
+                progress(done, len(reader))
+        sink.finish(scale, reader.intrinsics)
+    return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale)
+
+
+def _out_format(input: Path, format: str, topic: str | None) -> str:
+    """png, ros1 or ros2: what recover writes for this input."""
+    if format not in FORMATS:
+        raise InputError(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
+    kind = detect_format(Path(input))
+    if format == "png" or (format == "auto" and kind not in ("ros1", "ros2")):
+        return "png"
+    if kind not in ("ros1", "ros2"):
+        raise InputError(f"{input}: --format bag needs a ROS 1 or ROS 2 bag in (this is a {kind} recording)")
+    return kind

@@ -1,0 +1,247 @@
+"""The library's face: ``repair`` mends one frame, ``Pipeline`` runs one sensor's loop (detect, controller,
+repair, the temporal models' last clean frame). Torch-free on an edge install (onnxruntime).
+
+Depth in: ``uint16`` in sensor units (``depth_scale`` units per metre, default 1000: millimetres) comes
+back ``uint16`` in the same units; ``float32``/``float64`` is metres (NaN, inf and 0 = no return) and comes
+back as metres of the same type. Only the repaired pixels (``mask``) differ from the input.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
+from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import PLAUSIBLE_M, Frame, probe
+from d2sr.runtime.backends import Backend
+from d2sr.runtime.loop import REPAIR, Capture, Result, SensorLoop, Trigger
+
+__all__ = ["Pipeline", "Repaired", "Window", "open_models", "repair"]
+
+DEFAULT_ACTIVE = 6  # frames per 1 s period that `d2sr run` and a Pipeline run by default (the paper's 20%)
+
+
+@dataclass(frozen=True)
+class Window:
+    """Where the sensor's laser is on: slots ``offset`` .. ``offset + active_frames - 1`` (mod
+    ``total_frames``) of every 1 s period, from period ``period`` on."""
+
+    period: int
+    offset: int
+    active_frames: int
+    total_frames: int = TOTAL_FRAMES
+
+    def active(self, slot: int) -> bool:
+        """Whether slot ``slot`` of a period lies in the window."""
+        return (slot - self.offset) % self.total_frames < self.active_frames
+
+
+@dataclass(frozen=True)
+class Repaired:
+    """One frame after d2sr.
+
+    - ``depth``: the frame, repaired inside ``mask`` and bit for bit the input elsewhere; same dtype and
+      units as the input.
+    - ``mask``: bool, True where a pixel was repaired.
+    - ``interfered``: the detector flagged the frame (its score reached the threshold).
+    - ``score``: the detector's probability that the frame is interfered, in [0, 1]; NaN where no detector
+      ran.
+    - ``window``: the active window the sensor ran this frame's period with (``Pipeline`` only).
+    - ``seconds``: detect + repair time of this frame.
+    """
+
+    depth: np.ndarray
+    mask: np.ndarray
+    interfered: bool
+    score: float
+    window: Window | None = None
+    seconds: float = 0.0
+
+
+def _check_options(model: str, repair: str, threshold: float | None, models: Path) -> None:
+    if model not in REPAIR_MODELS:
+        raise ConfigError(f"model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
+    if repair not in REPAIR:
+        raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {repair!r}")
+    if threshold is not None:
+        check_probability(threshold, "threshold")
+    if not Path(models).is_dir():
+        raise InputError(f"{models}: no such models folder")
+
+
+@functools.lru_cache(maxsize=4)
+def open_models(
+    model: str | None = DEFAULT_MODEL,
+    models: Path = WEIGHTS,
+    backend: str = "auto",
+    mask_logit: float | None = None,
+    passes: int = REPAIR_PASSES,
+    threads: int | None = None,
+    int8: bool = False,
+    detector: bool = True,
+) -> Backend:
+    """The detector (``detector``) and recovery model ``model`` (None: the detector only) of folder
+    ``models``, opened once per set of arguments and shared (sessions are safe to run from several
+    threads)."""
+    from d2sr.inference import open_backend
+
+    return open_backend(
+        model, backend, Path(models), DETECTOR if detector else None, threads, int8, mask_logit, passes
+    )
+
+
+def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.ndarray, float]:
+    """The loop's view of a caller's array: (uint16 units or float32 metres with NaN/inf as 0, scale)."""
+    if not isinstance(depth, np.ndarray):
+        raise InputError(f"{name}: depth must be a numpy array, got {type(depth).__name__}")
+    if depth.ndim != 2:
+        raise InputError(f"{name}: depth must be a 2-D image, got shape {'x'.join(map(str, depth.shape))}")
+    if depth.dtype.kind == "f":
+        if depth_scale not in (None, 1, 1.0):
+            raise InputError(f"{name}: float depth is metres; depth_scale applies to uint16 frames only")
+        metres = np.where(np.isfinite(depth), depth, 0).astype(np.float32)
+        if (metres < 0).any():
+            raise InputError(f"{name}: depth has negative values")
+        return metres, 1.0
+    if depth.dtype != np.uint16:
+        raise InputError(f"{name}: depth must be uint16 (sensor units) or float (metres), got {depth.dtype}")
+    scale = 1000.0 if depth_scale is None else float(depth_scale)
+    if not (np.isfinite(scale) and scale > 0):
+        raise InputError(f"depth_scale must be a positive number, got {depth_scale}")
+    return depth, scale
+
+
+def _probe(depth: np.ndarray, scale: float, name: str) -> None:
+    """A scale that makes indoor sense (an InputError when far off); doubts become Python warnings."""
+    for w in probe([Frame(name, depth)], scale, PLAUSIBLE_M[1]):
+        warnings.warn(f"d2sr: {w}", stacklevel=3)
+
+
+def _back(depth: np.ndarray, res: Result) -> np.ndarray:
+    """The result in the caller's dtype: the input itself outside the mask (NaN kept), the repair inside."""
+    if depth.dtype == res.depth.dtype:
+        return res.depth if depth.dtype == np.uint16 else np.where(res.mask, res.depth, depth)
+    out = depth.copy()
+    out[res.mask] = res.depth[res.mask]
+    return out
+
+
+class Pipeline:
+    """One sensor's stateful loop, the runtime ``d2sr run`` and ``d2sr recover`` use: each frame is scored
+    by the detector, its flag fed to the de-synchronization controller (one decision per period of
+    ``active_frames`` frames), and repaired when flagged (``repair="flagged"``), always (``"all"``) or
+    never (``"none"``). Temporal models see the last frame the detector passed.
+
+    - ``depth_scale``: units per metre of uint16 frames (default 1000; raw L515 4000); float frames are
+      metres.
+    - ``model``: ``auto`` (default), ``unet8``, ``unet16``, ``unet32`` or ``unet8-temporal``;
+      ``models``: the folder holding them (``d2sr adapt`` writes one).
+    - ``threshold``: detector probability that flags a frame (default: the detector's own, 0.5);
+      ``mask_logit``: the recovery mask's threshold (lower repairs more); ``passes``: model runs per frame.
+    - ``controller``, ``active_frames``, ``seed``: the de-synchronization controller; ``trigger``: an
+      object with ``set_offset(period, offset)`` that moves the real sensor's window (none: the window is
+      only reported).
+    - ``backend``: ``auto`` (onnxruntime when installed), ``onnx`` or ``torch``.
+    """
+
+    def __init__(
+        self,
+        depth_scale: float | None = None,
+        *,
+        model: str = DEFAULT_MODEL,
+        models: Path | str = WEIGHTS,
+        repair: str = "flagged",
+        threshold: float | None = None,
+        mask_logit: float | None = None,
+        passes: int = REPAIR_PASSES,
+        controller: str = DEFAULT_CONTROLLER,
+        active_frames: int = DEFAULT_ACTIVE,
+        seed: int = 0,
+        trigger: Trigger | None = None,
+        backend: str = "auto",
+        threads: int | None = None,
+        int8: bool = False,
+    ) -> None:
+        _check_options(model, repair, threshold, Path(models))
+        if controller not in CONTROLLERS or controller == "oracle":
+            names = ", ".join(c for c in CONTROLLERS if c != "oracle")
+            raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")
+        if not 1 <= active_frames <= TOTAL_FRAMES:
+            raise ConfigError(f"active_frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
+        self.depth_scale = depth_scale
+        self.backend = open_models(
+            model if repair != "none" else None, Path(models), backend, mask_logit, passes, threads, int8
+        )
+        self.loop = SensorLoop(
+            self.backend,
+            make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed),
+            trigger,
+            threshold=threshold,
+            repair=repair,
+        )
+        self._count = itertools.count()
+        self._probed = False
+
+    @property
+    def window(self) -> Window:
+        """The window the sensor runs now (the next frame's period)."""
+        c = self.loop.controller
+        return Window(self.loop.period, c.offset, c.active_frames, c.total_frames)
+
+    def process(
+        self, depth: np.ndarray, timestamp_ns: int | None = None, slot: int | None = None
+    ) -> Repaired:
+        """Detect, de-synchronize and repair one frame (frames in time order). ``slot``: where the frame
+        lies in its 1 s period, for a sensor whose trigger sets it (None: every ``active_frames`` frames
+        make a period)."""
+        k = next(self._count)
+        name = f"frame {k}"
+        frame, scale = _as_frame(depth, self.depth_scale, name)
+        if not self._probed:  # the first frame tells whether the scale makes sense
+            _probe(frame, scale, name)
+            self._probed = True
+        res = self.loop.process(Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot))
+        window = Window(res.period, res.offset, self.loop.controller.active_frames, TOTAL_FRAMES)
+        return Repaired(_back(depth, res), res.mask, res.flagged, res.score, window, res.seconds)
+
+    def end_period(self) -> Window:
+        """Close the observation period now (a triggered sensor whose last slots delivered no frame) and
+        return the window the controller chose for the next."""
+        self.loop.end_period()
+        return self.window
+
+
+def repair(
+    depth: np.ndarray,
+    depth_scale: float | None = None,
+    *,
+    model: str = DEFAULT_MODEL,
+    models: Path | str = WEIGHTS,
+    repair: str = "flagged",
+    threshold: float | None = None,
+    mask_logit: float | None = None,
+    passes: int = REPAIR_PASSES,
+    backend: str = "auto",
+) -> Repaired:
+    """Detect and repair one depth frame: the repair ``d2sr recover`` gives that frame alone.
+
+    ``depth``: uint16 in sensor units (``depth_scale`` units per metre; default 1000, millimetres) or float
+    metres. Returns ``Repaired``: ``.depth`` (the input's dtype and units), ``.mask``, ``.interfered``,
+    ``.score``. ``repair="all"`` repairs the frame even when the detector passes it; the other options are
+    ``Pipeline``'s. Models are opened on the first call and kept for the next ones."""
+    _check_options(model, repair, threshold, Path(models))
+    frame, scale = _as_frame(depth, depth_scale, "depth")
+    _probe(frame, scale, "depth")
+    net = open_models(model if repair != "none" else None, Path(models), backend, mask_logit, passes)
+    loop = SensorLoop(
+        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), None, None, threshold, repair
+    )
+    res = loop.process(Capture(Frame("frame", frame), scale))
+    return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds)

@@ -1,0 +1,172 @@
+"""d2sr recover on ROS bags: a bag of the input's kind back, every input message copied, the repaired
+depth and mask added with the input's stamps, pixels equal to the PNG path's; its output rules."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+from d2sr.frames.png import encode_png
+from helpers import d2sr_inprocess
+
+TOPIC = "/camera/depth/image_raw"
+N = 5
+
+
+def _frames() -> list[np.ndarray]:
+    rng = np.random.default_rng(0)
+    out = []
+    for _ in range(N):
+        d = (rng.uniform(1.0, 4.0, (96, 128)) * 1000).astype(np.uint16)
+        d[rng.random(d.shape) < 0.3] = 0
+        out.append(d)
+    return out
+
+
+def _write_bag(path: Path, kind: str, encoding: str = "16UC1") -> list[np.ndarray]:
+    """A bag as a robot records it: depth (16UC1 mm or 32FC1 m) at 30 Hz, an IMU at 200 Hz."""
+    ros1 = kind == "ros1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    T = ts.types
+    if ros1:
+        bag: Writer1 | Writer2 = Writer1(path)
+    else:
+        bag = Writer2(
+            path, version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        )
+    frames = _frames()
+    with bag:
+        depth = bag.add_connection(TOPIC, "sensor_msgs/msg/Image", typestore=ts)
+        imu = bag.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+        ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+
+        def header(ns: int, frame: str) -> object:
+            t = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            return T["std_msgs/msg/Header"](stamp=t, frame_id=frame, **({"seq": 0} if ros1 else {}))
+
+        v3 = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=9.8)
+        q = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+        cov = np.zeros(9)
+        for k in range(N * 7):
+            ns = 10**9 + k * 5_000_000
+            m = T["sensor_msgs/msg/Imu"](header(ns, "imu"), q, cov, v3, cov, v3, cov)
+            bag.write(imu, ns, ser(m, "sensor_msgs/msg/Imu"))
+        for i, d in enumerate(frames):
+            ns = 10**9 + i * 33_333_333
+            data = d if encoding == "16UC1" else np.where(d > 0, d / 1000.0, np.nan).astype(np.float32)
+            msg = T["sensor_msgs/msg/Image"](
+                header(ns, "depth"),
+                96,
+                128,
+                encoding,
+                0,
+                128 * data.itemsize,
+                np.frombuffer(data.tobytes(), np.uint8),
+            )
+            bag.write(depth, ns + 1000, ser(msg, "sensor_msgs/msg/Image"))
+    return frames
+
+
+def _read(path: Path) -> dict[str, list[tuple[int, object, bytes]]]:
+    got: dict[str, list[tuple[int, object, bytes]]] = {}
+    with AnyReader([path]) as r:
+        for c, stamp, raw in r.messages():
+            got.setdefault(c.topic, []).append((stamp, r.deserialize(raw, c.msgtype), bytes(raw)))
+    return got
+
+
+@pytest.mark.parametrize("kind", ["mcap", "sqlite3", "ros1"])
+def test_a_bag_in_gives_a_bag_of_its_kind_with_repairs(tmp_path, weights, kind):
+    src = tmp_path / ("in.bag" if kind == "ros1" else "in")
+    frames = _write_bag(src, kind)
+    out = tmp_path / ("out.bag" if kind == "ros1" else "out")
+    code, _, err = d2sr_inprocess("recover", str(src), "--all", "--models", str(weights), "--out", str(out))
+    assert code == 0, err
+    if kind != "ros1":  # the input's storage kept
+        assert any(out.glob("*.mcap" if kind == "mcap" else "*.db3"))
+    before, after = _read(src), _read(out)
+    assert set(after) == {*before, TOPIC + "/repaired", TOPIC + "/mask"}
+    for topic, msgs in before.items():  # every input message, unchanged, at its bag time
+        assert [(s, raw) for s, _, raw in after[topic]] == [(s, raw) for s, _, raw in msgs]
+    # the PNG path's repair of the same frames
+    png = tmp_path / "png"
+    png.mkdir()
+    for i, d in enumerate(frames):
+        (png / f"{i:06d}.png").write_bytes(encode_png(d, "f"))
+    code, _, err = d2sr_inprocess(
+        "recover", str(png), "--all", "--models", str(weights), "--out", str(tmp_path / "p")
+    )
+    assert code == 0, err
+    changed = 0
+    for i, ((s, d, _), (rs, rep, _), (ms, mask, _)) in enumerate(
+        zip(before[TOPIC], after[TOPIC + "/repaired"], after[TOPIC + "/mask"], strict=True)
+    ):
+        assert s == rs == ms and rep.header.stamp == d.header.stamp == mask.header.stamp
+        assert rep.encoding == "16UC1" and mask.encoding == "mono8" and rep.header.frame_id == "depth"
+        fixed = np.frombuffer(bytes(rep.data), np.uint16).reshape(96, 128)
+        m = np.frombuffer(bytes(mask.data), np.uint8).reshape(96, 128)
+        assert np.array_equal(fixed, cv2.imread(str(tmp_path / "p" / f"{i:06d}.png"), cv2.IMREAD_UNCHANGED))
+        assert np.array_equal(
+            m, cv2.imread(str(tmp_path / "p" / "masks" / f"{i:06d}.png"), cv2.IMREAD_UNCHANGED)
+        )
+        changed += int((fixed != frames[i]).sum())
+    assert changed > 0
+
+
+def test_float_metres_keep_their_encoding_and_nans(tmp_path, weights):
+    src = tmp_path / "in"
+    _write_bag(src, "mcap", "32FC1")
+    code, _, err = d2sr_inprocess(
+        "recover", str(src), "--all", "--models", str(weights), "--out", str(tmp_path / "o")
+    )
+    assert code == 0, err
+    before, after = _read(src), _read(tmp_path / "o")
+    for (_, d, _), (_, rep, _), (_, mask, _) in zip(
+        before[TOPIC], after[TOPIC + "/repaired"], after[TOPIC + "/mask"], strict=True
+    ):
+        assert rep.encoding == "32FC1"
+        a = np.frombuffer(bytes(d.data), np.float32)
+        b = np.frombuffer(bytes(rep.data), np.float32)
+        keep = np.frombuffer(bytes(mask.data), np.uint8) == 0
+        assert np.array_equal(a[keep], b[keep], equal_nan=True)  # NaN (no return) kept outside the mask
+
+
+def test_bag_outputs_follow_the_output_rules(tmp_path, weights):
+    src = tmp_path / "in.bag"
+    _write_bag(src, "ros1")
+    mine = tmp_path / "notes.bag"
+    _write_bag(mine, "ros1")  # a bag the user recorded, not d2sr
+    code, _, err = d2sr_inprocess(
+        "recover", str(src), "--models", str(weights), "--out", str(mine), "--overwrite"
+    )
+    assert code == 2 and "did not write" in err and len(err.strip().splitlines()) == 1
+    out = tmp_path / "out.bag"
+    assert d2sr_inprocess("recover", str(src), "--models", str(weights), "--out", str(out))[0] == 0
+    code, _, err = d2sr_inprocess("recover", str(src), "--models", str(weights), "--out", str(out))
+    assert code == 2 and "--overwrite" in err
+    assert (
+        d2sr_inprocess("recover", str(src), "--models", str(weights), "--out", str(out), "--overwrite")[0]
+        == 0
+    )
+    # its own output again: refused, it already carries the repairs
+    code, _, err = d2sr_inprocess(
+        "recover", str(out), "--models", str(weights), "--topic", TOPIC, "--out", str(tmp_path / "again.bag")
+    )
+    assert code == 2 and "already has" in err and not (tmp_path / "again.bag").exists()
+    # --format png: a PNG folder from a bag, as before
+    code, _, err = d2sr_inprocess(
+        "recover", str(src), "--models", str(weights), "--format", "png", "--out", str(tmp_path / "pngs")
+    )
+    assert code == 0 and len(list((tmp_path / "pngs").glob("*.png"))) == N
+    code, _, err = d2sr_inprocess(
+        "recover", str(tmp_path / "pngs"), "--format", "bag", "--out", str(tmp_path / "x.bag")
+    )
+    assert code == 2 and "ROS" in err
