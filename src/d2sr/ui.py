@@ -8,13 +8,18 @@ from types import TracebackType
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-__all__ = ["NA", "console", "flush_warnings", "progress_bar", "warn"]
+__all__ = ["NA", "console", "flush_warnings", "print_line", "progress_bar", "warn"]
 
 console = Console()
 NA = "n/a"  # where a figure does not apply (no ground truth, no timestamp)
 
 
 _pending: list[str] = []
+
+
+def print_line(line: str) -> None:
+    """One line of output, never wrapped (paths stay whole)."""
+    console.print(line, soft_wrap=True)
 
 
 def warn(message: str) -> None:

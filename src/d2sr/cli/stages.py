@@ -26,7 +26,7 @@ from d2sr.cli.common import (
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.batch import Progress
-from d2sr.ui import progress_bar
+from d2sr.ui import print_line, progress_bar
 
 __all__ = ["detect", "recover"]
 
@@ -59,7 +59,7 @@ def detect(
     with _bar("detecting") as progress:
         s = detect_recording(
             input, out, depth_scale=depth_scale, topic=topic, threshold=threshold, models=models,
-            backend=backend, max_range=max_range, overwrite=overwrite, progress=progress,
+            backend=backend, max_range=max_range, overwrite=overwrite, progress=progress, say=print_line,
         )  # fmt: skip
     typer.echo(f"{s.flagged} of {s.frames} frames interfered -> {out}")
 
@@ -109,6 +109,6 @@ def recover(
         s = recover_recording(
             input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
             threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, overwrite=overwrite, progress=progress,
+            max_range=max_range, rerun=rerun, overwrite=overwrite, progress=progress, say=print_line,
         )  # fmt: skip
     typer.echo(f"repaired {s.repaired} of {s.frames} frames -> {out}")

@@ -4,7 +4,7 @@ recording jobs and every command that reads depth."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +12,7 @@ import numpy as np
 from d2sr.errors import InputError
 from d2sr.frames import Frame, Reader, check_depth, open_frames, to_metres
 from d2sr.frames.base import KNOWN_SCALES, PLAUSIBLE_M, probe
-from d2sr.ui import console, warn
+from d2sr.ui import print_line, warn
 
 __all__ = ["SAMPLED", "Checked", "checked", "checked_counts", "checked_frames", "open_input"]
 
@@ -24,6 +24,7 @@ def open_input(
     what: str,
     default: float | None = None,
     max_range: float = PLAUSIBLE_M[1],
+    say: Callable[[str], object] | None = None,
 ) -> tuple[Reader, float]:
     """A non-empty recording and its depth scale: ``scale`` if given, else what the recording says, else
     ``default`` (None: the user must say). Frames sampled through it are checked before any work (values,
@@ -48,9 +49,7 @@ def open_input(
         raise InputError(f"{path}: the {what} sequence is empty")
     for w in notes + probe(reader.sample(SAMPLED), float(use), max_range):
         warn(f"{path}: {w}")
-    console.print(
-        f"{path}: {len(reader)} frames, depth scale {use:g} units per metre ({source})", soft_wrap=True
-    )
+    (say or print_line)(f"{path}: {len(reader)} frames, depth scale {use:g} units per metre ({source})")
     return reader, float(use)
 
 

@@ -69,6 +69,10 @@ class Summary:
     depth_scale: float
 
 
+def _quiet(line: str) -> None:
+    """A library call says nothing unless asked (``say``)."""
+
+
 def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
     """Produce ``items`` on a thread, ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
     inference), re-raising its errors here."""
@@ -179,16 +183,18 @@ def detect_recording(
     max_range: float = PLAUSIBLE_M[1],
     overwrite: bool = False,
     progress: Progress | None = None,
+    say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
-    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``)."""
+    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``).
+    ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
     from d2sr.runtime.pipeline import open_models
 
     _options(DEFAULT_MODEL, threshold)
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
     reuse_freed_memory()
     net = open_models(None, Path(models), backend)
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
     loop = SensorLoop(
         net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), threshold=threshold, repair="none"
     )
@@ -224,6 +230,7 @@ def recover_recording(
     rerun: str | None = None,
     overwrite: bool = False,
     progress: Progress | None = None,
+    say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Repair a recording: only the frames the detector flags, or ``every`` frame. ``format``: ``auto`` (a
     ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``. ``rerun``:
@@ -248,7 +255,7 @@ def recover_recording(
         net = open_models(model, Path(models), backend, mask_logit, passes, threads)
     if net.name != "onnxruntime":
         workers = 1
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range)
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
     loop = SensorLoop(
         net,
         make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
