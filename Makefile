@@ -81,40 +81,41 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	# The shipped unet16 (since 2026-11-26): that unet8 widened to unet16 (models.widen), trained on.
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
-	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (docs/decisions.md).
+	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (docs/research/decisions.md).
 	$(BIN)/d2sr train recovery --config configs/unet32-wide.toml --out runs/unet32-wide
-	$(BIN)/d2sr train recovery --config configs/unet16.toml --out runs/unet16
-	$(BIN)/d2sr train recovery --config configs/unet32.toml --out runs/unet32
-	$(BIN)/d2sr train recovery --config configs/unet32-stage2.toml --out runs/unet32-stage2
-	$(BIN)/d2sr train recovery --config configs/unet32-stage3.toml --out runs/unet32-stage3
-	$(BIN)/d2sr train recovery --config configs/unet32-stage4.toml --out runs/unet32-stage4
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector and
 	# paper-detector were trained on data version 3 by the same configs (code of b0d36d6 and ebe0a54); on
 	# version 4 the detector flags 16-19% of the clean L515 frames and the Azure Kinect frames (CHANGELOG
-	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does configs/unet16.toml's.
+	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does configs/trials/unet16.toml's.
 	for m in unet8-shell/unet8 unet16-wide/unet16 unet32-wide/unet32 unet8-temporal/unet8-temporal; do \
 	  cp runs/$$m.safetensors runs/$$m.card.json runs/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
-# Trials that did not ship (each config holds its rule, written before it ran, and its outcome): the shipped
+# Trials that did not ship (configs/trials/; each one's rule, written before it ran, and its outcome are in
+# docs/research/trials.md): the older unet16 and unet32 lines and the shipped
 # models one more cycle on data versions 5 and 6, unet8-temporal also gated as auto uses it. They start
 # from `make weights`'s runs.
 trials: $(STAMP)
 	test -f runs/unet8-temporal/unet8-temporal.safetensors -a -f runs/unet16-0.4.0/unet16.safetensors || \
 	  { echo "make trials: run make weights first (it trains and extracts their starting points)"; exit 2; }
-	$(BIN)/d2sr train recovery --config configs/unet8-v6.toml --out runs/unet8-v6
-	$(BIN)/d2sr train recovery --config configs/unet8-temporal-v6.toml --out runs/unet8-temporal-v6
-	$(BIN)/d2sr train recovery --config configs/unet16-v5.toml --out runs/unet16-v5
-	$(BIN)/d2sr train recovery --config configs/unet16-v6.toml --out runs/unet16-v6
-	$(BIN)/d2sr train recovery --config configs/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
-	$(BIN)/d2sr train recovery --config configs/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
-	$(BIN)/d2sr train recovery --config configs/unet8-temporal-gated-stage2.toml --out runs/unet8-temporal-gated-stage2
-	$(BIN)/d2sr train recovery --config configs/unet8-missweight.toml --out runs/unet8-missweight
-	$(BIN)/d2sr train recovery --config configs/unet8-warp.toml --out runs/unet8-warp
-	$(BIN)/d2sr train recovery --config configs/unet8-stack.toml --out runs/unet8-stack
-	$(BIN)/d2sr train recovery --config configs/unet8-mirror.toml --out runs/unet8-mirror
-	$(BIN)/d2sr train detector --config configs/detector-clean-previous.toml --out runs/detector-clean-previous
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-v6.toml --out runs/unet8-v6
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-v6.toml --out runs/unet8-temporal-v6
+	$(BIN)/d2sr train recovery --config configs/trials/unet16-v5.toml --out runs/unet16-v5
+	$(BIN)/d2sr train recovery --config configs/trials/unet16-v6.toml --out runs/unet16-v6
+	$(BIN)/d2sr train recovery --config configs/trials/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-gated-stage2.toml --out runs/unet8-temporal-gated-stage2
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-missweight.toml --out runs/unet8-missweight
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-warp.toml --out runs/unet8-warp
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-stack.toml --out runs/unet8-stack
+	$(BIN)/d2sr train recovery --config configs/trials/unet8-mirror.toml --out runs/unet8-mirror
+	$(BIN)/d2sr train detector --config configs/trials/detector-clean-previous.toml --out runs/detector-clean-previous
+	$(BIN)/d2sr train recovery --config configs/trials/unet16.toml --out runs/unet16
+	$(BIN)/d2sr train recovery --config configs/trials/unet32.toml --out runs/unet32
+	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage2.toml --out runs/unet32-stage2
+	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage3.toml --out runs/unet32-stage3
+	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage4.toml --out runs/unet32-stage4
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models` refreshes the cards.

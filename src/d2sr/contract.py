@@ -99,7 +99,7 @@ LINES_UP = 0.5
 AGREE_M = 0.05
 AGREE_REL = 0.02
 # auto's own operating point for the temporal model (unet8 keeps its own): read off outside set A, held on
-# sets B and C, and confirmed with the default's switch on sealed set F (docs/decisions.md).
+# sets B and C, and confirmed with the default's switch on sealed set F (docs/research/decisions.md).
 AUTO_TEMPORAL_LOGIT = -1.5
 # Repairing every frame with a temporal model, the detector only picks the last clean frame: it runs on a
 # frame with none yet, one that does not line up with it, or when this many frames have passed since it

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich import box
 from rich.table import Table
 
 from d2sr.atomic import check_out
@@ -31,7 +32,7 @@ def demo(
 
     Example: d2sr demo --out out/demo
     """
-    from d2sr.eval.demo import DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
+    from d2sr.eval.demo import CAPTION, DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
     from d2sr.inference import open_backend
 
     if not seconds > 0:
@@ -45,10 +46,15 @@ def demo(
             net, out, seconds, seed=seed, progress=lambda c, f: bar.update(tasks[c], completed=f)
         )
     table = Table(
-        title=f"3 simulated L515s, 6 of 30 frames per second, {seconds:g} s, closed loop ({net.name})"
+        title=f"3 simulated L515s, 6 of 30 frames per second, {seconds:g} s, closed loop ({net.name})",
+        caption=CAPTION,
+        caption_justify="left",
+        box=box.SIMPLE_HEAD,
+        collapse_padding=True,
+        pad_edge=False,
     )
     for h in HEADERS:
-        table.add_column(h, justify="left" if h == "controller" else "right")
+        table.add_column(h, justify="left" if h == "controller" else "right", no_wrap=True)
     for row in table_rows(report):
         table.add_row(*row)
     console.print(table)

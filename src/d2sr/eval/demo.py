@@ -2,7 +2,8 @@
 
 Each run is the runtime users run (``d2sr run sim``): every sensor renders its frames, detects with the
 shipped detector, feeds its own controller, moves its own window through its trigger, and repairs what it
-flags with the shipped UNet8. The controllers meet the same room, phases and luck (paired comparison).
+flags with the shipped models (``auto``). The controllers meet the same room, phases and luck (paired
+comparison).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from d2sr.atomic import atomic_dir
+from d2sr.contract import DEFAULT_MODEL
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.runtime.backends import Backend
@@ -28,7 +30,7 @@ from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 from d2sr.sim.timing import TimingConfig
 
-__all__ = ["DEMO_CONTROLLERS", "read_log", "run_demo"]
+__all__ = ["CAPTION", "DEMO_CONTROLLERS", "HEADERS", "markdown_table", "read_log", "run_demo", "table_rows"]
 
 DEMO_CONTROLLERS = ("static", "d2sr", DEFAULT_CONTROLLER)
 
@@ -47,22 +49,31 @@ def read_log(path: Path, sensors: int, periods: int) -> tuple[np.ndarray, np.nda
 
 
 def _examples(items: list[tuple[int, Result]], path: Path) -> Path:
-    cols = ["input", "true mask", "predicted mask", "repaired", "ground truth"]
-    fig, axes = plt.subplots(len(items), 5, figsize=(15, 2.4 * len(items)), squeeze=False)
+    """Input, true mask, predicted mask, repair and truth of a few frames, depth in metres on one colour
+    scale per row (with its colour bar), masks white where interfered."""
+    cols = ["input (interfered)", "true mask", "predicted mask", "repaired", "ground truth (clean)"]
+    fig, axes = plt.subplots(len(items), 5, figsize=(16, 2.5 * len(items)), squeeze=False)
     for row, (sensor, res) in zip(axes, items, strict=True):
         cap = res.capture
         assert cap.clean is not None and cap.mask is not None
-        hi = float(np.percentile(cap.clean[cap.clean > 0], 99)) if (cap.clean > 0).any() else 1.0
+        scale = np.float32(cap.scale)
+        hi = float(np.percentile(cap.clean[cap.clean > 0], 99)) / scale if (cap.clean > 0).any() else 1.0
+        shown = None
         for ax, img in zip(row, [cap.frame.depth, cap.mask, res.mask, res.depth, cap.clean], strict=True):
-            is_mask = img.dtype == bool
-            ax.imshow(img, cmap="gray" if is_mask else "turbo", vmin=0, vmax=1 if is_mask else hi)
+            if img.dtype == bool:
+                ax.imshow(img, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+            else:
+                shown = ax.imshow(img / scale, cmap="turbo", vmin=0, vmax=hi, interpolation="nearest")
             ax.set_xticks([])
             ax.set_yticks([])
             if ax is row[0]:
                 ax.set_ylabel(f"sensor {sensor}, frame {cap.name}", fontsize=8)
         for ax, col in zip(row, cols, strict=True):
             ax.set_title(col, fontsize=9)
-    fig.tight_layout()
+        fig.colorbar(shown, ax=list(row), fraction=0.015, pad=0.01, label="depth (m); 0 = no return")
+    fig.suptitle(
+        "Frames the static controller's sensors flagged: masks are white where interfered", fontsize=10
+    )
     return save(fig, path)
 
 
@@ -137,6 +148,7 @@ def _fmt(v: object) -> str:
 
 
 def table_rows(report: dict) -> list[list[str]]:
+    """The demo's table (``HEADERS``): what the terminal prints and report.md holds, the same rows."""
     rows = []
     base = report["controllers"]["static"]["interfered_ratio"]
     for name, r in report["controllers"].items():
@@ -145,7 +157,7 @@ def table_rows(report: dict) -> list[list[str]]:
         rows.append(
             [
                 name + (" (default)" if name == DEFAULT_CONTROLLER else ""),
-                f"{r.get('interfered', 0)}/{r['frames']} ({ratio:.1%})",
+                f"{r.get('interfered', 0)}/{r['frames']}",
                 vs,
                 _fmt(r.get("precision")),
                 _fmt(r.get("recall")),
@@ -157,16 +169,14 @@ def table_rows(report: dict) -> list[list[str]]:
     return rows
 
 
-HEADERS = [
-    "controller",
-    "interfered frames",
-    "vs static",
-    "detector P",
-    "detector R",
-    "RMSE in (cm)",
-    "RMSE out (cm)",
-    "fps (per frame)",
-]
+# Short enough for an 80-column terminal; CAPTION says what each means.
+HEADERS = ["controller", "interfered", "vs static", "P", "R", "RMSE in", "RMSE out", "fps"]
+CAPTION = (
+    "interfered: frames another sensor's laser hit, of all frames delivered; vs static: change in that "
+    "count; P, R: the detector's precision and recall against the simulator's truth; RMSE in, out (cm): "
+    "depth error over the interfered frames' valid pixels before and after repair; fps: detect + repair "
+    "per delivered frame (median; machine-dependent)."
+)
 
 
 def _markdown(report: dict, plots: list[str]) -> str:
@@ -176,18 +186,40 @@ def _markdown(report: dict, plots: list[str]) -> str:
         "",
         f"{sc['sensors']} simulated L515s share one room for {sc['seconds']:g} s, each running "
         f"{sc['active_frames']} of {TOTAL_FRAMES} frames per second. Every sensor runs its own loop "
-        "(shipped detector "
-        f"and UNet8, {sc['backend']}): detect, de-synchronize through its own trigger, repair what it flags. "
-        "RMSE is over the interfered frames' valid pixels, against the simulator's clean frames; fps is "
-        "detect + repair per delivered frame (median).",
+        f"(shipped detector and `{DEFAULT_MODEL}` repair, {sc['backend']}): detect, de-synchronize through "
+        "its own trigger, repair what it flags.",
         "",
         "Command: `make demo` (`d2sr demo --out out/demo`).",
         "",
-        "| " + " | ".join(HEADERS) + " |",
-        "|" + "---|" * len(HEADERS),
+        *markdown_table(report),
+        "",
+        CAPTION,
+        "",
     ]
-    lines += ["| " + " | ".join(r) + " |" for r in table_rows(report)]
-    lines.append("")
     for p in plots:
-        lines += [f"![{p}]({p})", ""]
+        lines += [f"![{p}]({p})", "", f"*{_caption(p)}*", ""]
     return "\n".join(lines)
+
+
+def markdown_table(report: dict) -> list[str]:
+    """The table as markdown lines (the README quotes these rows)."""
+    lines = ["| " + " | ".join(HEADERS) + " |", "|" + "---|" * len(HEADERS)]
+    return lines + ["| " + " | ".join(r) + " |" for r in table_rows(report)]
+
+
+def _caption(plot: str) -> str:
+    if plot.startswith("timeline_"):
+        name = plot.removeprefix("timeline_").removesuffix(".png")
+        return (
+            f"{name}: each sensor's 30 slots of every 1 s period: green a clean frame, red an interfered one, "
+            "grey the laser idle; a dot marks a frame its detector flagged."
+        )
+    if plot == "ratio_over_time.png":
+        return (
+            "Share of delivered frames interfered in each 1 s period, per controller (all sensors together)."
+        )
+    if plot == "examples.png":
+        return (
+            "Example frames under the static controller: depth in metres (colour bar), masks white where hit."
+        )
+    return plot
