@@ -9,8 +9,9 @@ tiles (``crosstalk_interference``). ``--set c`` (written after both had judged e
 chosen on them): range-gated phantoms and scan-line echo bursts (``echo_interference``). ``--set d`` (sealed
 when written, opened 2026-11-26 to confirm unet8-shell, a choice made on sets A and B): emitter bloom and
 phase-unwrapping errors (``bloom_interference``). ``--set e`` (written and sealed 2026-11-26, before any
-model ran on it, to confirm choices made on sets A-D; ``docs/research/decisions.md``): moire beats and row tearing
-(``beat_interference``). ``--set f`` (written and sealed 2026-11-26, before any model ran on it):
+model ran on it, to confirm choices made on sets A-D; ``docs/research/decisions.md``): moire beats and
+row tearing (``beat_interference``). ``--set f`` (written and sealed 2026-11-26, before any model ran on
+it):
 another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
@@ -326,7 +327,8 @@ SETS = {
     "e": beat_interference,
     "f": projector_interference,
 }
-# Sets only an explicit --set runs (D, E and F each until the decision it was written for; docs/research/decisions.md).
+# Sets only an explicit --set runs (D, E and F each until the decision it was written for;
+# docs/research/decisions.md).
 SEALED: set[str] = set()
 
 

@@ -19,7 +19,8 @@ from held_out import open_sets
 
 RESULTS = Path(__file__).resolve().parent.parent / "docs" / "results"
 # recover setting: the suffix of its held_out.py result files (held_out{_set}{suffix}.json; set A has none).
-# The files without a suffix hold `--model unet8`, recover's default until 2026-11-26 (docs/research/decisions.md).
+# The files without a suffix hold `--model unet8`, recover's default until 2026-11-26
+# (docs/research/decisions.md).
 SETTINGS = {
     "default (auto)": "_auto",
     "--model unet8": "",

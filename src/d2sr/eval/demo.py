@@ -211,8 +211,8 @@ def _caption(plot: str) -> str:
     if plot.startswith("timeline_"):
         name = plot.removeprefix("timeline_").removesuffix(".png")
         return (
-            f"{name}: each sensor's 30 slots of every 1 s period: green a clean frame, red an interfered one, "
-            "grey the laser idle; a dot marks a frame its detector flagged."
+            f"{name}: each sensor's 30 slots of every 1 s period: green a clean frame, red an interfered "
+            "one, grey the laser idle; a dot marks a frame its detector flagged."
         )
     if plot == "ratio_over_time.png":
         return (
