@@ -17,8 +17,7 @@ from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import THRESHOLD
 from d2sr.errors import D2SRError
 from d2sr.frames import open_frames
-from d2sr.inference import open_backend
-from d2sr.runtime.backends import Backend
+from d2sr.runtime.backends import Backend, open_backend
 from held_out import every_other, open_sets, outside_set
 
 THRESHOLDS = (0.9, 0.7, THRESHOLD, 0.4, 0.3, 0.2, 0.1, 0.05)

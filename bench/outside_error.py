@@ -26,11 +26,10 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, repair_frame
 from d2sr.errors import D2SRError, InputError
+from d2sr.eval.metrics import RepairSums
 from d2sr.eval.model_plots import operating_curves
 from d2sr.eval.plots import save
-from d2sr.inference import open_backend
-from d2sr.metrics import RepairSums
-from d2sr.runtime.backends import Backend
+from d2sr.runtime.backends import Backend, open_backend
 from held_out import SETS, every_other, outside_set
 
 SCALE = 4000.0

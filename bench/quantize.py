@@ -19,8 +19,8 @@ import numpy as np
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import WEIGHTS, repair_frame
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
-from d2sr.inference import open_backend
-from d2sr.quantize import int8_path, quantize
+from d2sr.models.onnx.quantize import int8_path, quantize
+from d2sr.runtime.backends import open_backend
 
 
 def ms(fn: object, repeats: int = 20) -> float:

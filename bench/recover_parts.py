@@ -19,7 +19,7 @@ import numpy as np
 
 from d2sr.bench import check_output, cpu, output_args, write_result
 from d2sr.contract import guard, padded, repair_frame
-from d2sr.inference import open_backend
+from d2sr.runtime.backends import open_backend
 from held_out import worst_case
 
 PARTS = ("metres", "pass 1", "guard 1", "fill", "pass 2", "guard 2 + write-back")

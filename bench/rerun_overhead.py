@@ -15,8 +15,7 @@ import time
 from pathlib import Path
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.inference import open_backend
-from d2sr.runtime.backends import Backend
+from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 from d2sr.runtime.viewer import RerunLog

@@ -19,7 +19,7 @@ import time
 from d2sr.bench import check_output, frame_4000, output_args, write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.frames import Frame
-from d2sr.inference import open_backend
+from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.sources import RoomTrigger
 from d2sr.runtime.stats import RunStats

@@ -11,8 +11,8 @@ settings.load_profile("ci")
 @pytest.fixture(scope="session")
 def weights(tmp_path_factory) -> Path:
     """Random-weight models in a folder laid out like the shipped one (safetensors + onnx)."""
-    from d2sr.export import export
     from d2sr.models import build
+    from d2sr.models.onnx.export import export
     from d2sr.models.store import save_model
 
     root = tmp_path_factory.mktemp("weights")

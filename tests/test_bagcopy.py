@@ -170,3 +170,22 @@ def test_bag_outputs_follow_the_output_rules(tmp_path, weights):
         "recover", str(tmp_path / "pngs"), "--format", "bag", "--out", str(tmp_path / "x.bag")
     )
     assert code == 2 and "ROS" in err
+
+
+def test_a_ros2_output_folder_follows_the_folder_rules(tmp_path, weights):
+    src = tmp_path / "in"
+    _write_bag(src, "mcap")
+    out = tmp_path / "out"
+    w = ["--models", str(weights)]
+    assert d2sr_inprocess("recover", str(src), *w, "--out", str(out))[0] == 0
+    assert (out / ".d2sr-manifest.json").is_file() and (out / "metadata.yaml").is_file()
+    (out / "notes.txt").write_text("mine\n")
+    code, _, err = d2sr_inprocess("recover", str(src), *w, "--out", str(out))
+    assert code == 2 and "--overwrite" in err
+    assert d2sr_inprocess("recover", str(src), *w, "--out", str(out), "--overwrite")[0] == 0
+    assert (out / "notes.txt").read_text() == "mine\n" and TOPIC + "/mask" in _read(out)
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "x.txt").write_text("x")
+    code, _, err = d2sr_inprocess("recover", str(src), *w, "--out", str(theirs), "--overwrite")
+    assert code == 2 and (theirs / "x.txt").read_text() == "x" and len(list(theirs.iterdir())) == 1

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from d2sr.baselines import BASELINES
+from d2sr.eval.baselines import BASELINES
 
 
 def _plane() -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ import pytest
 
 from d2sr.contract import padded, repair_frame
 from d2sr.frames.png import encode_png
-from d2sr.inference import open_backend
+from d2sr.runtime.backends import open_backend
 from helpers import d2sr
 
 
@@ -109,9 +109,9 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
 
     from d2sr.contract import DETECTOR
     from d2sr.desync import make_controller
-    from d2sr.export import export
     from d2sr.frames import Frame
     from d2sr.models import build
+    from d2sr.models.onnx.export import export
     from d2sr.models.store import save_model
     from d2sr.runtime.loop import Capture, SensorLoop
 

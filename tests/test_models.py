@@ -107,7 +107,7 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
     from d2sr.contract import code_path
-    from d2sr.export import export, parity
+    from d2sr.models.onnx.export import export, parity
 
     torch.manual_seed(3)
     w = tmp_path / f"{name}.safetensors"
@@ -154,8 +154,8 @@ def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):
     # Codes are looked up by the earlier frame's value: a frame changed in place, or another frame, is
     # encoded again; a missing encoder file or a two-frame file of the old layout is a clear error.
     from d2sr.contract import code_path
-    from d2sr.export import _onnx, export
     from d2sr.models.detector import Scored
+    from d2sr.models.onnx.export import _onnx, export
     from d2sr.runtime.backends import OnnxBackend
 
     torch.manual_seed(5)
@@ -203,7 +203,7 @@ def test_exported_unet_folds_pixels_with_a_convolution(tmp_path, monkeypatch):
     import onnx
     import torch.nn.functional as F
 
-    from d2sr.export import export
+    from d2sr.models.onnx.export import export
     from d2sr.models.unet import space_to_depth
 
     w = tmp_path / "unet8.safetensors"
@@ -350,7 +350,7 @@ def test_large_models_are_stored_in_float16_and_exported_with_the_same_function(
     from safetensors.torch import load_file
 
     import d2sr.models.store as store
-    from d2sr.export import export
+    from d2sr.models.onnx.export import export
 
     torch.manual_seed(6)
     net = build("unet8").eval()
@@ -378,7 +378,7 @@ def test_large_models_are_stored_in_float16_and_exported_with_the_same_function(
     for g, r in zip(got, want, strict=True):
         np.testing.assert_array_equal(g, r)
     # What the int8 quantizer sees (it quantizes only weights it finds as initializers): float32 again.
-    from d2sr.onnx_half import float_weights
+    from d2sr.models.onnx.half import float_weights
 
     float_weights(graph)
     full = {i.name: i for i in onnx.load(str(tmp_path / "full.onnx")).graph.initializer}
@@ -386,3 +386,12 @@ def test_large_models_are_stored_in_float16_and_exported_with_the_same_function(
     assert not any(n.op_type == "Cast" and n.input[0].endswith(".f16") for n in graph.node)
     for i in graph.initializer:
         np.testing.assert_array_equal(onnx.numpy_helper.to_array(i), onnx.numpy_helper.to_array(full[i.name]))
+
+
+def test_one_catalogue_of_model_names():
+    from d2sr.contract import CATALOG, WEIGHTS
+
+    assert set(MODELS) == set(CATALOG)  # the registry builds exactly the catalogue's names
+    for name, entry in CATALOG.items():
+        assert (WEIGHTS / f"{name}.onnx").is_file() == entry.shipped, name
+        assert isinstance(build(name), torch.nn.Module) and entry.kind in ("detector", "recovery")

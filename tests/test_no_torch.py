@@ -18,9 +18,11 @@ CORES = [
     "labels.py",
     "atomic.py",
     "runtime",
-    "baselines.py",
+    "eval/baselines.py",
     "contract.py",
-    "inference.py",
+    "runtime/pipeline.py",
+    "runtime/batch.py",
+    "__init__.py",
     "cli",
     "eval/demo.py",
 ]
@@ -68,8 +70,8 @@ def test_edge_inference_runs_without_torch(tmp_path):
     """What `pip install d2sr[edge]` gives: onnxruntime inference and d2sr detect/recover, no torch."""
     import torch
 
-    from d2sr.export import export
     from d2sr.models import build
+    from d2sr.models.onnx.export import export
     from d2sr.models.store import save_model
 
     torch.manual_seed(0)
@@ -85,9 +87,9 @@ class Block:
 sys.meta_path.insert(0, Block())
 import numpy as np
 from pathlib import Path
-from d2sr.inference import open_backend
+from d2sr.runtime.backends import open_backend
 from d2sr.contract import repair_frame
-from d2sr.baselines import BASELINES
+from d2sr.eval.baselines import BASELINES
 net = open_backend('unet8', 'auto', Path({str(tmp_path)!r}))
 assert net.name == 'onnxruntime'
 x = np.random.default_rng(0).uniform(0.5, 4, (1, 96, 128)).astype(np.float32)

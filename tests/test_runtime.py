@@ -14,8 +14,7 @@ from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
-from d2sr.inference import open_backend
-from d2sr.runtime.backends import Gated
+from d2sr.runtime.backends import Gated, open_backend
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
 from d2sr.runtime.session import run_recording, run_sim
 from d2sr.sim.overlap import OverlapGraph
@@ -346,10 +345,10 @@ def test_run_cli_on_a_recording_and_bad_inputs(tmp_path):
 def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
     import torch
 
-    from d2sr.export import export
     from d2sr.models import build
+    from d2sr.models.onnx.export import export
+    from d2sr.models.onnx.quantize import int8_path, quantize
     from d2sr.models.store import save_model
-    from d2sr.quantize import int8_path, quantize
 
     torch.manual_seed(0)
     for name in ("detector", "unet8", "unet8-temporal"):

@@ -11,8 +11,8 @@ import torch
 
 from d2sr.contract import DETECTOR_NAMES, repair_frame
 from d2sr.contract import WEIGHTS as SHIPPED
-from d2sr.inference import open_backend
 from d2sr.models.store import load_model
+from d2sr.runtime.backends import open_backend
 from d2sr.train.synth import TEST_SEED, synth_frame, synth_sequence_frame
 
 NAMES = sorted(p.stem for p in SHIPPED.glob("*.safetensors"))
@@ -36,7 +36,7 @@ def test_card_says_data_command_metrics_date(name):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_onnx_matches_weights(name):
-    from d2sr.export import parity
+    from d2sr.models.onnx.export import parity
 
     model, got = load_model(SHIPPED / f"{name}.safetensors")
     assert got == json.loads((SHIPPED / f"{name}.card.json").read_text())["model"]

@@ -171,8 +171,8 @@ def _weights_with_onnx(names: list[str], tmp: str) -> tuple[Path, dict[str, str]
     import shutil
 
     from d2sr.contract import WEIGHTS
-    from d2sr.export import export
     from d2sr.models import build
+    from d2sr.models.onnx.export import export
     from d2sr.models.store import save_model
 
     root, kinds = Path(tmp), {}
@@ -249,7 +249,7 @@ def bench_models(
             if progress:
                 progress("d2sr recover --all, from outside")
             out["outside"] = _outside(
-                ["recover", "--all", "--weights", str(wdir), "--backend", "onnx", "--depth-scale", "4000"],
+                ["recover", "--all", "--models", str(wdir), "--backend", "onnx", "--depth-scale", "4000"],
                 [frame],
             )
     out["bars"] = {"detector_fps": 300, "detect+unet8_fps": 30}
@@ -305,7 +305,7 @@ def bench_pipeline(
 
     from d2sr.desync import make_controller
     from d2sr.frames import Frame
-    from d2sr.inference import open_backend
+    from d2sr.runtime.backends import open_backend
     from d2sr.runtime.loop import Capture, SensorLoop
     from d2sr.train.synth import TEST_SEED
 

@@ -12,6 +12,7 @@ source for each fact.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -24,6 +25,7 @@ __all__ = [
     "AGREE_REL",
     "AUTO_RECOVERY",
     "AUTO_TEMPORAL_LOGIT",
+    "CATALOG",
     "DEFAULT_MODEL",
     "DEFAULT_RECOVERY",
     "DETECTOR",
@@ -40,6 +42,7 @@ __all__ = [
     "TEMPORAL_RECOVERY",
     "THRESHOLD",
     "WEIGHTS",
+    "Entry",
     "Raw",
     "agreement",
     "check_passes",
@@ -58,21 +61,40 @@ __all__ = [
 
 WEIGHTS = Path(__file__).resolve().parent / "models" / "weights"  # the shipped weights, ONNX and cards
 DETECTOR = "detector"
-DETECTOR_NAMES = ("detector", "detector-temporal", "paper-detector")
 MASK_DETECTOR = "mask-detector"  # d2sr adapt's detector: a recovery model's mask (not trained on its own)
-# Ours first; unet8-direct is the ablation unet8 starts from; paper-* are the paper's layouts.
-RECOVERY_NAMES = (
-    "unet8",
-    "unet16",
-    "unet32",
-    "unet8-temporal",
-    "unet8-direct",
-    "paper-unet8",
-    "paper-unet16",
-    "paper-unet32",
-)
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A model name in the catalogue: its ``kind`` (detector or recovery), whether its weights ship
+    with d2sr, and what it is."""
+
+    kind: str
+    shipped: bool
+    about: str
+
+
+# The one catalogue of model names. models.registry builds exactly these (a test holds them equal); the
+# tuples below are views of it. Ours first; unet8-direct is the ablation unet8 starts from; paper-* are
+# the paper's layouts.
+CATALOG: dict[str, Entry] = {
+    "detector": Entry("detector", True, "ours; the shipped file is the two-frame (temporal) architecture"),
+    "detector-temporal": Entry("detector", False, "ours, also weighs the sensor's previous frame"),
+    "paper-detector": Entry("detector", True, "the paper's detector"),
+    MASK_DETECTOR: Entry("detector", False, "d2sr adapt's: its unet8's mask, thresholded"),
+    "unet8": Entry("recovery", True, "ours, 8 channels (the single-frame default)"),
+    "unet16": Entry("recovery", True, "ours, 16 channels"),
+    "unet32": Entry("recovery", True, "ours, 32 channels"),
+    "unet8-temporal": Entry("recovery", True, "ours, also sees the last clean frame"),
+    "unet8-direct": Entry("recovery", False, "ablation: an absolute-depth head"),
+    "paper-unet8": Entry("recovery", False, "the paper's layout"),
+    "paper-unet16": Entry("recovery", False, "the paper's layout"),
+    "paper-unet32": Entry("recovery", False, "the paper's layout"),
+}
+DETECTOR_NAMES = tuple(n for n, e in CATALOG.items() if e.kind == "detector" and n != MASK_DETECTOR)
+RECOVERY_NAMES = tuple(n for n, e in CATALOG.items() if e.kind == "recovery")
 DEFAULT_RECOVERY = "unet8"
-SHIPPED_RECOVERY = ("unet8", "unet16", "unet32", "unet8-temporal")
+SHIPPED_RECOVERY = tuple(n for n in RECOVERY_NAMES if CATALOG[n].shipped)
 THRESHOLD = 0.5  # detector probability at or above which a frame counts as interfered
 PAD = 32  # the largest stride of the shipped models
 # Do no harm (``guard``): a repair stays within the range of its trusted neighbours (``GUARD_PX`` around),

@@ -30,7 +30,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "simulate": data.simulate,
     "label": data.label,
     "calibrate": data.calibrate,
-    "gallery": data.gallery,
+    "gallery": show.gallery,
     "train": train.train,
     "threshold": train.threshold,
     "export": train.export,

@@ -65,7 +65,7 @@ Overwrite = Annotated[
     typer.Option(
         "--overwrite",
         metavar="",
-        help="Replace what d2sr wrote at --out before; files d2sr did not make there are kept.",
+        help="Replace outputs d2sr wrote before; a file of yours is never replaced (in a folder, kept).",
     ),
 ]
 MaxRange = Annotated[

@@ -18,7 +18,7 @@ from d2sr.frames.base import Reader
 from d2sr.frames.checks import checked_counts, open_input
 from d2sr.ui import NA, console, progress_bar
 
-__all__ = ["calibrate", "gallery", "label", "simulate"]
+__all__ = ["calibrate", "label", "simulate"]
 
 
 def simulate(
@@ -233,20 +233,3 @@ def calibrate(
     console.print(
         "Fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in model.model_dump().items() if isinstance(v, float))
     )
-
-
-def gallery(
-    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("out/gallery.png"),
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
-    overwrite: Overwrite = False,
-) -> None:
-    """A gallery of simulated frames: each interference kind, clean / interfered / true mask.
-
-    Example: d2sr gallery --out out/gallery.png
-    """
-    from d2sr.eval.plots import save
-    from d2sr.eval.sim_gallery import gallery_figure
-
-    check_out(out, is_dir=False, overwrite=overwrite)
-    save(gallery_figure(seed), out)
-    console.print(f"Wrote {out}")

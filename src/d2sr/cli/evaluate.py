@@ -208,7 +208,7 @@ def generalization(
     from d2sr.eval import generalization as g
     from d2sr.eval.model_plots import generalization as plot
     from d2sr.eval.plots import save
-    from d2sr.inference import open_backend
+    from d2sr.runtime.backends import open_backend
 
     if not data.is_dir():
         raise InputError(f"{data}: not a folder")

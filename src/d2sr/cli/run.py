@@ -75,8 +75,8 @@ def run(
 
     Example: d2sr run sim --sensors 3 --seconds 20 --out out/run --rerun out/run.rrd
     """
-    from d2sr.inference import open_backend
     from d2sr.runtime import session
+    from d2sr.runtime.backends import open_backend
     from d2sr.runtime.viewer import LIVE, RerunLog
 
     if controller not in CONTROLLERS:

@@ -1,5 +1,5 @@
-"""``d2sr demo`` (the closed loop in a simulated room, with a report) and ``d2sr view`` (a finished run in
-Rerun)."""
+"""``d2sr demo`` (the closed loop in a simulated room, with a report), ``d2sr view`` (a finished run in
+Rerun) and ``d2sr gallery`` (the simulated interference kinds)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from d2sr.contract import DEFAULT_MODEL
 from d2sr.errors import ConfigError
 from d2sr.ui import console, progress_bar
 
-__all__ = ["demo", "view"]
+__all__ = ["demo", "gallery", "view"]
 
 
 def demo(
@@ -33,7 +33,7 @@ def demo(
     Example: d2sr demo --out out/demo
     """
     from d2sr.eval.demo import CAPTION, DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
-    from d2sr.inference import open_backend
+    from d2sr.runtime.backends import open_backend
 
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
@@ -86,3 +86,20 @@ def view(
         check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], option="--save")
     n = replay(run, save if save is not None else LIVE)
     console.print(f"{n} frames of {run} -> {save or 'the Rerun viewer'}")
+
+
+def gallery(
+    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("out/gallery.png"),
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    overwrite: Overwrite = False,
+) -> None:
+    """A gallery of simulated frames: each interference kind, clean / interfered / true mask.
+
+    Example: d2sr gallery --out out/gallery.png
+    """
+    from d2sr.eval.plots import save
+    from d2sr.eval.sim_gallery import gallery_figure
+
+    check_out(out, is_dir=False, overwrite=overwrite)
+    save(gallery_figure(seed), out)
+    console.print(f"Wrote {out}")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import shlex
 import sys
 import time
@@ -88,7 +87,7 @@ def threshold(
     """
     import datetime as dt
 
-    from d2sr.export import export as to_onnx
+    from d2sr.models.onnx.export import export as to_onnx
     from d2sr.models.store import load_model, mask_logit, read_card, save_model, write_card
     from d2sr.train.loop import choose_mask_logit
 
@@ -139,10 +138,10 @@ def export(
 
     Example: d2sr export runs/unet8/unet8.safetensors --out out/onnx
     """
-    from d2sr.export import export as run
+    from d2sr.models.onnx.export import export as run
+    from d2sr.models.onnx.quantize import int8_path, quantize
     from d2sr.models.store import load_model
     from d2sr.models.streaming import StreamingUNet, streaming
-    from d2sr.quantize import int8_path, quantize
 
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
@@ -194,10 +193,9 @@ def adapt(
 
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
-    from d2sr.frames import open_frames
     from d2sr.frames.checks import checked_counts, open_input
     from d2sr.train.adapt import adapt as run
-    from d2sr.train.adapt import prepare
+    from d2sr.train.adapt import labelled_frames, prepare
     from d2sr.ui import progress_bar
 
     t0 = time.perf_counter()
@@ -212,18 +210,7 @@ def adapt(
         scale = s
         recordings.append([f.depth for f in checked_counts(reader, s, "clean frame")])
     assert scale is not None
-    pairs = []
-    for folder in labelled or []:
-        info = folder / "label.json"
-        if not info.is_file():
-            raise InputError(f"{folder}: not a d2sr label output (no label.json)")
-        src = Path(json.loads(info.read_text())["interfered"])
-        frames = [f.depth for f in open_frames(src)]
-        gts = [f.depth for f in open_frames(folder / "depth")]
-        masks = [f.depth > 0 for f in open_frames(folder / "masks")]
-        if not len(frames) == len(gts) == len(masks):
-            raise InputError(f"{folder}: {len(frames)} interfered frames for {len(masks)} masks")
-        pairs += list(zip(frames, gts, masks, strict=True))
+    pairs = labelled_frames(labelled or [])
     with progress_bar() as bar:
         task = bar.add_task("corrupting the clean frames", total=None)
         data = prepare(recordings, scale, pairs)

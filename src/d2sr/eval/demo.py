@@ -70,6 +70,7 @@ def _examples(items: list[tuple[int, Result]], path: Path) -> Path:
                 ax.set_ylabel(f"sensor {sensor}, frame {cap.name}", fontsize=8)
         for ax, col in zip(row, cols, strict=True):
             ax.set_title(col, fontsize=9)
+        assert shown is not None
         fig.colorbar(shown, ax=list(row), fraction=0.015, pad=0.01, label="depth (m); 0 = no return")
     fig.suptitle(
         "Frames the static controller's sensors flagged: masks are white where interfered", fontsize=10

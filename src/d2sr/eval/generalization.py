@@ -23,9 +23,9 @@ import numpy as np
 
 from d2sr.contract import padded, repair_frame
 from d2sr.errors import InputError
+from d2sr.eval.metrics import RepairSums
 from d2sr.frames import open_frames
 from d2sr.frames.base import to_metres
-from d2sr.metrics import RepairSums
 from d2sr.runtime.backends import Backend
 from d2sr.sim.families import FAMILIES, WideConfig, wide_interference
 

@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.baselines import BASELINES, last_clean
 from d2sr.contract import Raw, scale_at
 from d2sr.desync import TOTAL_FRAMES
+from d2sr.eval.baselines import BASELINES, last_clean
 from d2sr.eval.labels import drifting_interference
+from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.frames import open_frames
-from d2sr.metrics import RepairSums, threshold_curve
 
 __all__ = [
     "TestSet",

@@ -1,4 +1,4 @@
-"""Every model by name, with the input sizes it accepts."""
+"""Every model of ``d2sr.contract.CATALOG`` by name, built in torch, with the input sizes it accepts."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from torch import nn
 
-from d2sr.contract import DEFAULT_RECOVERY, MASK_DETECTOR, check_size
+from d2sr.contract import CATALOG, DEFAULT_RECOVERY, MASK_DETECTOR, check_size
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector, MaskDetector, PaperDetector
 from d2sr.models.unet import UNet
@@ -31,6 +31,10 @@ MODELS: dict[str, Callable[[], nn.Module]] = {
     # d2sr adapt's detector: its fine-tuned unet8's mask, thresholded (the cut is in the weights).
     MASK_DETECTOR: lambda: MaskDetector(build(DEFAULT_RECOVERY)),
 }
+
+
+if set(MODELS) != set(CATALOG):  # one catalogue: a name added in one place and not the other is a bug
+    raise RuntimeError(f"models.registry and contract.CATALOG disagree: {sorted(set(MODELS) ^ set(CATALOG))}")
 
 
 def build(name: str) -> nn.Module:

@@ -1,4 +1,4 @@
-"""The form two-frame models are exported in for streams (``d2sr.export``): the part of the first
+"""The form two-frame models are exported in for streams (``d2sr.models.onnx.export``): the part of the first
 convolution that reads the earlier frame is linear in it, so it is computed once per frame, handed out as
 an output (``code``) and fed back in with the frames that follow. The same function as the full model,
 within float rounding (the sums are taken in another order).

@@ -1,9 +1,11 @@
-"""The inference protocol the runtime runs on, and its torch-free implementation: ``OnnxBackend``
-(``pip install d2sr[edge]``). ``d2sr.models.inference.TorchBackend`` is the torch one; ``d2sr.inference``
-opens either. Both work in metres (``d2sr.contract``)."""
+"""The inference protocol the runtime runs on; its torch-free implementation, ``OnnxBackend``
+(``pip install d2sr[edge]``); ``Gated`` (``--model auto``); and ``open_backend``, which opens the shipped
+or a given folder's models on onnxruntime or on ``d2sr.models.inference.TorchBackend``. Both work in
+metres (``d2sr.contract``)."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import threading
 from collections.abc import Callable
@@ -14,10 +16,17 @@ from typing import Any, Generic, Protocol, TypeVar
 import numpy as np
 
 from d2sr.contract import (
+    AUTO_RECOVERY,
+    AUTO_TEMPORAL_LOGIT,
+    DEFAULT_RECOVERY,
+    DETECTOR,
     LINES_UP,
     REPAIR_PASSES,
+    SHIPPED_RECOVERY,
     STREAM_INPUTS,
+    TEMPORAL_RECOVERY,
     THRESHOLD,
+    WEIGHTS,
     agreement,
     check_passes,
     check_size,
@@ -28,7 +37,7 @@ from d2sr.contract import (
 )
 from d2sr.errors import InputError
 
-__all__ = ["Backend", "Gated", "OnnxBackend"]
+__all__ = ["BACKENDS", "Backend", "Gated", "OnnxBackend", "open_backend"]
 
 
 class Backend(Protocol):
@@ -61,7 +70,7 @@ class Backend(Protocol):
 
 @dataclass
 class _Props:
-    """What an exported model says about itself (``d2sr.export`` writes it as ONNX metadata)."""
+    """What an exported model says about itself (``d2sr.models.onnx.export`` writes it as ONNX metadata)."""
 
     stride: int
     height: int | None
@@ -285,3 +294,71 @@ class Gated:
         self, metres: np.ndarray, previous: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         return self._each("recover", metres, previous)
+
+
+# Opening models: onnxruntime where it is installed and the ONNX files exist, torch otherwise (imported only
+# then, so the edge install never loads it).
+BACKENDS = ("auto", "onnx", "torch")
+
+
+def _has(weights: Path, name: str) -> bool:
+    """The folder holds model ``name`` (ONNX or safetensors)."""
+    return any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors"))
+
+
+def open_backend(
+    model: str | None = DEFAULT_RECOVERY,
+    backend: str = "auto",
+    weights: Path = WEIGHTS,
+    detector: str | None = DETECTOR,
+    threads: int | None = None,
+    int8: bool = False,
+    mask_logit: float | None = None,
+    passes: int = REPAIR_PASSES,
+) -> Backend:
+    """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
+    ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
+    threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``).
+    ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up, at auto's own mask logit
+    (``AUTO_TEMPORAL_LOGIT``, unless ``mask_logit`` is given), ``unet8`` elsewhere
+    (``runtime.backends.Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
+    if model == AUTO_RECOVERY:
+        single = open_backend(DEFAULT_RECOVERY, backend, weights, detector, threads, int8, mask_logit, passes)
+        if not _has(weights, TEMPORAL_RECOVERY):
+            return single
+        own = AUTO_TEMPORAL_LOGIT if mask_logit is None else mask_logit
+        temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, own, passes)
+        return Gated(single, temporal)
+    if backend not in BACKENDS:
+        raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
+    if mask_logit is not None and not np.isfinite(mask_logit):
+        raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
+    if not weights.is_dir():
+        raise InputError(f"{weights}: no such weights folder")
+    names = ([detector] if detector else []) + ([model] if model else [])
+    if not names:
+        raise InputError("open_backend needs a detector, a recovery model or both")
+    for name in names:
+        if not _has(weights, name):
+            hint = f" (shipped: {', '.join(SHIPPED_RECOVERY)}; `make weights` trains the others)"
+            raise InputError(f"no such model {name} in {weights}" + (hint if weights == WEIGHTS else ""))
+    ext = ".int8.onnx" if int8 else ".onnx"  # int8: d2sr export --int8
+    det_onnx = weights / f"{detector}{ext}" if detector else None
+    rec_onnx = weights / f"{model}{ext}" if model else None
+    onnx_files = [f for f in (det_onnx, rec_onnx) if f is not None]
+    if int8 and backend == "torch":
+        raise InputError("int8 models run on onnxruntime (--backend onnx)")
+    if int8:
+        backend = "onnx"
+    if backend == "auto":
+        has_ort = importlib.util.find_spec("onnxruntime") is not None
+        backend = "onnx" if has_ort and all(f.is_file() for f in onnx_files) else "torch"
+    if backend == "onnx":
+        return OnnxBackend(det_onnx, rec_onnx, threads, mask_logit, passes)
+    if importlib.util.find_spec("torch") is None:
+        raise InputError(f"no ONNX models in {weights} and torch is not installed")
+    from d2sr.models.inference import TorchBackend
+
+    rec = weights / f"{model}.safetensors" if model else None
+    det = weights / f"{detector}.safetensors" if detector else None
+    return TorchBackend(det, rec, mask_logit, passes)

@@ -90,7 +90,7 @@ def open_models(
     """The detector (``detector``) and recovery model ``model`` (None: the detector only) of folder
     ``models``, opened once per set of arguments and shared (sessions are safe to run from several
     threads)."""
-    from d2sr.inference import open_backend
+    from d2sr.runtime.backends import open_backend
 
     return open_backend(
         model, backend, Path(models), DETECTOR if detector else None, threads, int8, mask_logit, passes

@@ -126,6 +126,25 @@ def _generated(seed: int) -> Synth:
     return synth_sequence_frame(seed, bool(seed % 2), previous=True)
 
 
+def labelled_frames(folders: list[Path]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(interfered frame, ground-truth depth, mask) of every frame in folders ``d2sr label`` wrote."""
+    from d2sr.frames import open_frames
+
+    pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for folder in folders:
+        info = folder / "label.json"
+        if not info.is_file():
+            raise InputError(f"{folder}: not a d2sr label output (no label.json)")
+        src = Path(json.loads(info.read_text())["interfered"])
+        frames = [f.depth for f in open_frames(src)]
+        gts = [f.depth for f in open_frames(folder / "depth")]
+        masks = [f.depth > 0 for f in open_frames(folder / "masks")]
+        if not len(frames) == len(gts) == len(masks):
+            raise InputError(f"{folder}: {len(frames)} interfered frames for {len(masks)} masks")
+        pairs += list(zip(frames, gts, masks, strict=True))
+    return pairs
+
+
 def prepare(
     recordings: list[list[np.ndarray]],
     scale: float,
@@ -307,7 +326,7 @@ def adapt(
     tick: Callable[[str, float], None] | None = None,
 ) -> dict:
     """Fine-tune, choose thresholds on the held-out frames, write ``out`` (weights, ONNX, card)."""
-    from d2sr.export import export
+    from d2sr.models.onnx.export import export
 
     t_start = time.perf_counter()
     device = torch_device()

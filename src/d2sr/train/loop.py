@@ -20,7 +20,7 @@ from torch import nn
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.contract import REPAIR_PASSES, refill, repair_frame
 from d2sr.errors import ConfigError
-from d2sr.metrics import RepairSums, threshold_curve
+from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card

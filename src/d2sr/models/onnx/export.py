@@ -19,9 +19,9 @@ from d2sr.atomic import atomic_file
 from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, STREAM_CODES, STREAM_INPUTS, code_path
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
+from d2sr.models.onnx.half import half_weights
 from d2sr.models.store import load_model, mask_logit, stored_in_half, threshold
 from d2sr.models.streaming import Encoder, StreamingDetector, StreamingUNet, streaming
-from d2sr.onnx_half import half_weights
 
 __all__ = ["export", "parity"]
 

@@ -15,7 +15,7 @@ import numpy as np
 from d2sr.atomic import atomic_file
 from d2sr.contract import code_path
 from d2sr.errors import InputError
-from d2sr.onnx_half import float_weights
+from d2sr.models.onnx.half import float_weights
 from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
 
 __all__ = ["CALIBRATION_SEED", "int8_path", "quantize"]
