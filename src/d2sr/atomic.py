@@ -53,20 +53,20 @@ def made_by_d2sr(path: Path) -> bool:
     """Whether the existing file ``path`` is one d2sr wrote, by what it says of itself: a CSV's header, a
     JSON object's ``made_by``, a PNG's Software text, a Rerun recording's application id, a ROS 1 bag's
     connection from ``CALLER``."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(_PEEK)
-    except OSError:
-        return False
     suffix = path.suffix.lower()
-    if suffix == ".csv":
-        return head.split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8", "replace") in CSV_HEADERS
     if suffix == ".json":
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, ValueError):
             return False
         return isinstance(data, dict) and str(data.get(MADE_BY, "")).startswith("d2sr")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_PEEK)
+    except OSError:
+        return False
+    if suffix == ".csv":
+        return head.split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8", "replace") in CSV_HEADERS
     if suffix == ".png":
         return head.startswith(b"\x89PNG") and _PNG_TEXT in head
     if suffix == ".rrd":

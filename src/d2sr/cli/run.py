@@ -22,13 +22,13 @@ from d2sr.cli.common import (
     Threshold,
     Topic,
 )
-from d2sr.contract import DEFAULT_MODEL, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
+from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import Checked, open_input
-from d2sr.runtime.loop import REPAIR
 from d2sr.runtime.memory import reuse_freed_memory
+from d2sr.runtime.pipeline import check_options
 from d2sr.runtime.stats import stats_table
 from d2sr.ui import console, progress_bar
 
@@ -83,12 +83,7 @@ def run(
         raise ConfigError(f"--controller: unknown {controller!r}; choose from {', '.join(CONTROLLERS)}")
     if controller == "oracle" and source != "sim":
         raise ConfigError("--controller oracle needs the simulated world's global knowledge (source 'sim')")
-    if repair not in REPAIR:
-        raise ConfigError(f"--repair must be one of {', '.join(REPAIR)}, got {repair!r}")
-    if model not in REPAIR_MODELS:
-        raise ConfigError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
-    if threshold is not None:
-        check_probability(threshold, "--threshold")
+    check_options(model, repair, threshold, "--")
     if not 1 <= active_frames <= TOTAL_FRAMES:
         raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
     if not seconds > 0:

@@ -20,7 +20,7 @@ from d2sr.atomic import CALLER, commit, discard, temp_for
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.png import decode_png, encode_png
-from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _open
+from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open
 
 __all__ = ["MASK", "REPAIRED", "BagCopy"]
 
@@ -75,7 +75,7 @@ class BagCopy:
         if self.ros1:
             self.bag: Writer1 | Writer2 = Writer1(self.tmp)
         else:
-            self.bag = Writer2(self.tmp, version=9, storage_plugin=_storage(_root(src)))
+            self.bag = Writer2(self.tmp, version=9, storage_plugin=_storage(_bag_root(src)))
         self.bag.open()
         self.conns = {c.id: self._copy_connection(c) for c in self.reader.connections}
         kind = next(c.msgtype for c in self.reader.connections if c.topic == self.topic)
@@ -166,8 +166,3 @@ class BagCopy:
         if self.tmp is not None:
             discard(self.tmp)
             self.tmp = None
-
-
-def _root(path: Path) -> Path:
-    """A ROS 2 bag's folder (the .db3/.mcap file inside one works as well)."""
-    return path.parent if path.is_file() else path

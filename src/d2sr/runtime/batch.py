@@ -26,7 +26,7 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
-from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
+from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import InputError
 from d2sr.frames import Frame, Intrinsics, detect_format
@@ -35,6 +35,8 @@ from d2sr.frames.checks import checked, checked_counts, open_input
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
+from d2sr.runtime.output import Behind
+from d2sr.runtime.pipeline import check_options, open_models
 
 __all__ = [
     "CSV_HEADER",
@@ -126,23 +128,19 @@ class _Sink(Protocol):
 
 
 class _PngSink:
-    """``<name>.png`` and ``masks/<name>.png`` in a folder, encoded on a thread (at most 4 frames wait)."""
+    """``<name>.png`` and ``masks/<name>.png`` in a folder, encoded ``Behind`` the loop."""
 
-    def __init__(self, root: Path, pool: ThreadPoolExecutor) -> None:
+    def __init__(self, root: Path, writes: Behind) -> None:
         self.folder = FrameFolder(root, REPAIRED)
-        self.pool = pool
-        self.pending: deque[Future[None]] = deque()
+        self.writes = writes
         self.rows: list[dict[str, Any]] = []
 
     def write(self, frame: Frame, depth: np.ndarray, mask: np.ndarray, repaired: bool) -> None:
-        self.pending.append(self.pool.submit(self.folder.write, frame.name, depth=depth, masks=mask))
-        while len(self.pending) > 4:  # bounded: a slow disk must not pile frames up in memory
-            self.pending.popleft().result()
+        self.writes.submit(self.folder.write, frame.name, depth=depth, masks=mask)
         self.rows.append({"name": frame.name, "timestamp_ns": frame.timestamp_ns, "repaired": repaired})
 
     def finish(self, scale: float, intrinsics: Intrinsics | None) -> None:
-        for p in self.pending:
-            p.result()
+        self.writes.drain()
         self.folder.finish(scale, intrinsics, self.rows)
 
 
@@ -150,8 +148,12 @@ class _PngSink:
 def _open_sink(kind: str, out: Path, input: Path, reader: Any) -> Iterator[_Sink]:
     """The output, in place only when the block ends without error (nothing half-written otherwise)."""
     if kind == "png":
-        with atomic_dir(out) as tmp, ThreadPoolExecutor(1) as pool:
-            yield _PngSink(tmp, pool)
+        with atomic_dir(out) as tmp:
+            writes = Behind()
+            try:
+                yield _PngSink(tmp, writes)
+            finally:
+                writes.close()
         return
     from d2sr.frames.bagcopy import BagCopy
 
@@ -162,13 +164,6 @@ def _open_sink(kind: str, out: Path, input: Path, reader: Any) -> Iterator[_Sink
         bag.abort()
         raise
     bag.close()
-
-
-def _options(model: str, threshold: float | None) -> None:
-    if model not in REPAIR_MODELS:
-        raise InputError(f"--model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
-    if threshold is not None:
-        check_probability(threshold, "--threshold")
 
 
 def detect_recording(
@@ -188,9 +183,8 @@ def detect_recording(
     """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
     detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``).
     ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
-    from d2sr.runtime.pipeline import open_models
-
-    _options(DEFAULT_MODEL, threshold)
+    if threshold is not None:
+        check_probability(threshold, "--threshold")
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
     reuse_freed_memory()
     net = open_models(None, Path(models), backend)
@@ -236,11 +230,10 @@ def recover_recording(
     ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``. ``rerun``:
     also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
     ``every``) come out bit for bit as they went in."""
-    from d2sr.runtime.pipeline import open_models
     from d2sr.runtime.viewer import LIVE, RerunLog
 
-    _options(model, threshold)
-    kind = _out_format(input, format, topic)
+    check_options(model, "all" if every else "flagged", threshold, "--")
+    kind = _out_format(input, format)
     check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=[input])
     if rerun is not None and rerun != LIVE:
         check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
@@ -284,7 +277,7 @@ def recover_recording(
     return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale)
 
 
-def _out_format(input: Path, format: str, topic: str | None) -> str:
+def _out_format(input: Path, format: str) -> str:
     """png, ros1 or ros2: what recover writes for this input."""
     if format not in FORMATS:
         raise InputError(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")

@@ -13,6 +13,7 @@ import csv
 import json
 import shutil
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +25,7 @@ from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
 from d2sr.runtime.loop import Result
 from d2sr.ui import NA
 
-__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink"]
+__all__ = ["LOG_COLUMNS", "Behind", "RunFolder", "SensorSink"]
 
 LOG_COLUMNS = [
     "sensor",
@@ -40,6 +41,29 @@ LOG_COLUMNS = [
     "true_share",
     "ms",
 ]
+
+
+class Behind:
+    """Work on a thread of its own, at most ``depth`` items behind the caller: PNG encoding overlaps the
+    next frame's inference, and a slow disk cannot pile frames up in memory."""
+
+    def __init__(self, depth: int = 4) -> None:
+        self._pool = ThreadPoolExecutor(1)
+        self._pending: deque[Future[None]] = deque()
+        self._depth = depth
+
+    def submit(self, fn: Callable[..., None], *args: Any, **kwargs: Any) -> None:
+        self._pending.append(self._pool.submit(fn, *args, **kwargs))
+        while len(self._pending) > self._depth:
+            self._pending.popleft().result()
+
+    def drain(self) -> None:
+        """Wait for everything handed over (re-raising its errors)."""
+        while self._pending:
+            self._pending.popleft().result()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
 
 
 class RunFolder:
@@ -68,8 +92,7 @@ class RunFolder:
         if new:
             self._csv.writerow(LOG_COLUMNS)
             self._log.flush()
-        self._pool = ThreadPoolExecutor(1)  # PNG encoding overlaps the next frame's inference
-        self._pending: deque[Future[None]] = deque()
+        self._writes = Behind()
 
     def __enter__(self) -> RunFolder:
         return self
@@ -124,9 +147,7 @@ class RunFolder:
 
     def write(self, sensor: int, res: Result) -> None:
         """Queue the frame's PNGs; its log line follows once they are on disk."""
-        self._pending.append(self._pool.submit(self._write, sensor, res))
-        while len(self._pending) > 4:  # bounded: a slow disk must not pile frames up in memory
-            self._pending.popleft().result()
+        self._writes.submit(self._write, sensor, res)
 
     def _write(self, sensor: int, res: Result) -> None:
         name = res.capture.name
@@ -152,8 +173,7 @@ class RunFolder:
         self._log.flush()
 
     def drain(self) -> None:
-        while self._pending:
-            self._pending.popleft().result()
+        self._writes.drain()
 
     def finish(self, summary: dict[str, Any]) -> Path:
         """Write ``summary.json`` and move the complete run into place."""
@@ -164,7 +184,7 @@ class RunFolder:
         return self.out
 
     def close(self) -> None:
-        self._pool.shutdown(wait=True)
+        self._writes.close()
         if not self._log.closed:
             self._log.close()
 

@@ -13,6 +13,7 @@ import itertools
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from d2sr.frames.base import PLAUSIBLE_M, Frame, probe
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import REPAIR, Capture, Result, SensorLoop, Trigger
 
-__all__ = ["Pipeline", "Repaired", "Window", "open_models", "repair"]
+__all__ = ["Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
 
 DEFAULT_ACTIVE = 6  # frames per 1 s period that `d2sr run` and a Pipeline run by default (the paper's 20%)
 
@@ -65,15 +66,60 @@ class Repaired:
     seconds: float = 0.0
 
 
-def _check_options(model: str, repair: str, threshold: float | None, models: Path) -> None:
+class Options(TypedDict, total=False):
+    """How ``repair`` and ``Pipeline`` repair (defaults in brackets):
+
+    - ``model``: ``auto``, ``unet8``, ``unet16``, ``unet32`` or ``unet8-temporal`` [``auto``];
+      ``models``: the folder holding them (``d2sr adapt`` writes one) [the shipped models];
+    - ``repair``: ``flagged`` (frames the detector flags), ``all`` or ``none`` [``flagged``];
+    - ``threshold``: detector probability that flags a frame [the detector's own, 0.5];
+      ``mask_logit``: the recovery mask's threshold, lower repairs more [the model's own];
+      ``passes``: model runs per frame [2];
+    - ``backend``: ``auto`` (onnxruntime when installed), ``onnx`` or ``torch`` [``auto``].
+    """
+
+    model: str
+    models: Path | str
+    repair: str
+    threshold: float | None
+    mask_logit: float | None
+    passes: int
+    backend: str
+
+
+def check_options(model: str, repair: str, threshold: float | None, flag: str = "") -> None:
+    """The model's name, the repair mode and the detector threshold, or a ConfigError naming the option
+    (``flag``: ``--`` where the command line's names are meant)."""
     if model not in REPAIR_MODELS:
-        raise ConfigError(f"model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
+        raise ConfigError(f"{flag}model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
     if repair not in REPAIR:
-        raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {repair!r}")
+        raise ConfigError(f"{flag}repair must be one of {', '.join(REPAIR)}, got {repair!r}")
     if threshold is not None:
-        check_probability(threshold, "threshold")
-    if not Path(models).is_dir():
+        check_probability(threshold, f"{flag}threshold")
+
+
+def _open(options: Options, threads: int | None = None, int8: bool = False) -> tuple[Backend, str]:
+    """The models ``options`` ask for, checked, and the repair mode."""
+    unknown = set(options) - set(Options.__annotations__)
+    if unknown:
+        raise ConfigError(
+            f"unknown option {sorted(unknown)[0]!r}; options: {', '.join(Options.__annotations__)}"
+        )
+    model, mode = options.get("model", DEFAULT_MODEL), options.get("repair", "flagged")
+    check_options(model, mode, options.get("threshold"))
+    models = Path(options.get("models", WEIGHTS))
+    if not models.is_dir():
         raise InputError(f"{models}: no such models folder")
+    net = open_models(
+        model if mode != "none" else None,
+        models,
+        options.get("backend", "auto"),
+        options.get("mask_logit"),
+        options.get("passes", REPAIR_PASSES),
+        threads,
+        int8,
+    )
+    return net, mode
 
 
 @functools.lru_cache(maxsize=4)
@@ -141,50 +187,38 @@ class Pipeline:
 
     - ``depth_scale``: units per metre of uint16 frames (default 1000; raw L515 4000); float frames are
       metres.
-    - ``model``: ``auto`` (default), ``unet8``, ``unet16``, ``unet32`` or ``unet8-temporal``;
-      ``models``: the folder holding them (``d2sr adapt`` writes one).
-    - ``threshold``: detector probability that flags a frame (default: the detector's own, 0.5);
-      ``mask_logit``: the recovery mask's threshold (lower repairs more); ``passes``: model runs per frame.
     - ``controller``, ``active_frames``, ``seed``: the de-synchronization controller; ``trigger``: an
       object with ``set_offset(period, offset)`` that moves the real sensor's window (none: the window is
       only reported).
-    - ``backend``: ``auto`` (onnxruntime when installed), ``onnx`` or ``torch``.
+    - ``threads``: onnxruntime's threads [all cores]; ``int8``: the int8 models (``d2sr export --int8``).
+    - the repair's ``options``: ``Options``.
     """
 
     def __init__(
         self,
         depth_scale: float | None = None,
         *,
-        model: str = DEFAULT_MODEL,
-        models: Path | str = WEIGHTS,
-        repair: str = "flagged",
-        threshold: float | None = None,
-        mask_logit: float | None = None,
-        passes: int = REPAIR_PASSES,
         controller: str = DEFAULT_CONTROLLER,
         active_frames: int = DEFAULT_ACTIVE,
         seed: int = 0,
         trigger: Trigger | None = None,
-        backend: str = "auto",
         threads: int | None = None,
         int8: bool = False,
+        **options: Unpack[Options],
     ) -> None:
-        _check_options(model, repair, threshold, Path(models))
         if controller not in CONTROLLERS or controller == "oracle":
             names = ", ".join(c for c in CONTROLLERS if c != "oracle")
             raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")
         if not 1 <= active_frames <= TOTAL_FRAMES:
             raise ConfigError(f"active_frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
         self.depth_scale = depth_scale
-        self.backend = open_models(
-            model if repair != "none" else None, Path(models), backend, mask_logit, passes, threads, int8
-        )
+        self.backend, mode = _open(options, threads, int8)
         self.loop = SensorLoop(
             self.backend,
             make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed),
             trigger,
-            threshold=threshold,
-            repair=repair,
+            threshold=options.get("threshold"),
+            repair=mode,
         )
         self._count = itertools.count()
         self._probed = False
@@ -218,30 +252,25 @@ class Pipeline:
         return self.window
 
 
-def repair(
-    depth: np.ndarray,
-    depth_scale: float | None = None,
-    *,
-    model: str = DEFAULT_MODEL,
-    models: Path | str = WEIGHTS,
-    repair: str = "flagged",
-    threshold: float | None = None,
-    mask_logit: float | None = None,
-    passes: int = REPAIR_PASSES,
-    backend: str = "auto",
-) -> Repaired:
+def repair(depth: np.ndarray, depth_scale: float | None = None, **options: Unpack[Options]) -> Repaired:
     """Detect and repair one depth frame: the repair ``d2sr recover`` gives that frame alone.
 
     ``depth``: uint16 in sensor units (``depth_scale`` units per metre; default 1000, millimetres) or float
     metres. Returns ``Repaired``: ``.depth`` (the input's dtype and units), ``.mask``, ``.interfered``,
-    ``.score``. ``repair="all"`` repairs the frame even when the detector passes it; the other options are
-    ``Pipeline``'s. Models are opened on the first call and kept for the next ones."""
-    _check_options(model, repair, threshold, Path(models))
+    ``.score``. ``options``: ``Options`` (``repair="all"`` repairs the frame even when the detector passes
+    it). Models are opened on the first call and kept for the next ones; the depth scale is checked on the
+    first frame given at that scale."""
+    net, mode = _open(options)
     frame, scale = _as_frame(depth, depth_scale, "depth")
-    _probe(frame, scale, "depth")
-    net = open_models(model if repair != "none" else None, Path(models), backend, mask_logit, passes)
+    units = (frame.dtype.str, scale)
+    if units not in _PROBED:  # checked once per kind of units: a per-frame check would cost ~8 ms a frame
+        _probe(frame, scale, "depth")
+        _PROBED.add(units)
     loop = SensorLoop(
-        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), None, None, threshold, repair
+        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), None, None, options.get("threshold"), mode
     )
     res = loop.process(Capture(Frame("frame", frame), scale))
     return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds)
+
+
+_PROBED: set[tuple[str, float]] = set()  # (dtype, depth scale) whose first frame passed the check
