@@ -189,3 +189,17 @@ def test_a_ros2_output_folder_follows_the_folder_rules(tmp_path, weights):
     (theirs / "x.txt").write_text("x")
     code, _, err = d2sr_inprocess("recover", str(src), *w, "--out", str(theirs), "--overwrite")
     assert code == 2 and (theirs / "x.txt").read_text() == "x" and len(list(theirs.iterdir())) == 1
+
+
+def test_an_output_inside_the_bag_folder_is_refused_when_the_input_names_its_file(tmp_path, weights):
+    src = tmp_path / "in"
+    _write_bag(src, "mcap")
+    inner = next(src.glob("*.mcap"))
+    before = sorted(p.name for p in src.iterdir())
+    code, _, err = d2sr_inprocess(
+        "recover", str(inner), "--models", str(weights), "--out", str(src / "fixed")
+    )
+    assert code == 2 and "input" in err and sorted(p.name for p in src.iterdir()) == before
+    out = tmp_path / "fixed"
+    assert d2sr_inprocess("recover", str(inner), "--models", str(weights), "--out", str(out))[0] == 0
+    assert TOPIC + "/repaired" in _read(out)

@@ -185,7 +185,7 @@ def detect_recording(
     ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
     if threshold is not None:
         check_probability(threshold, "--threshold")
-    check_out(out, is_dir=False, overwrite=overwrite, inputs=[input])
+    check_out(out, is_dir=False, overwrite=overwrite, inputs=_inputs(input))
     reuse_freed_memory()
     net = open_models(None, Path(models), backend)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
@@ -234,9 +234,11 @@ def recover_recording(
 
     check_options(model, "all" if every else "flagged", threshold, "--")
     kind = _out_format(input, format)
-    check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=[input])
+    check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=_inputs(input))
     if rerun is not None and rerun != LIVE:
-        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=[input, out], option="--rerun")
+        check_out(
+            Path(rerun), is_dir=False, overwrite=overwrite, inputs=[*_inputs(input), out], option="--rerun"
+        )
     reuse_freed_memory()
     workers, threads = _workers()
     # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
@@ -275,6 +277,14 @@ def recover_recording(
                 progress(done, len(reader))
         sink.finish(scale, reader.intrinsics)
     return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale)
+
+
+def _inputs(input: Path) -> list[Path]:
+    """What an output may not be, lie in or hold: the input, and a ROS 2 bag's whole folder when the input
+    names the .db3/.mcap file inside it."""
+    from d2sr.frames.rosbag import _bag_root
+
+    return list(dict.fromkeys([Path(input), _bag_root(Path(input))]))
 
 
 def _out_format(input: Path, format: str) -> str:
