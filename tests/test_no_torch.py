@@ -18,6 +18,8 @@ CORES = [
     "labels.py",
     "atomic.py",
     "runtime",
+    "triggers",
+    "ros2",
     "eval/baselines.py",
     "contract.py",
     "runtime/pipeline.py",

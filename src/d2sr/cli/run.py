@@ -27,6 +27,7 @@ from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import Checked, open_input
+from d2sr.runtime.live import CAMERAS, check_camera, run_live
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import check_options
 from d2sr.runtime.stats import stats_table
@@ -39,7 +40,8 @@ def run(
     source: Annotated[
         str,
         typer.Argument(
-            help="'sim' (a simulated room), 'realsense[:SERIAL]' (live), or a recording.", metavar="SOURCE"
+            help="'sim' (a simulated room), 'realsense[:SERIAL]' / 'orbbec[:SERIAL]' (live) or a recording.",
+            metavar="SOURCE",
         ),
     ],
     out: Annotated[Path, typer.Option(help="Output folder: sensor<i>/depth, sensor<i>/masks, log.csv.")],
@@ -51,6 +53,14 @@ def run(
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
+    trigger: Annotated[
+        str | None,
+        typer.Option(
+            metavar="KIND[:ARG]",
+            help="live: what moves the sensor's window (closed loop): serial:PORT, gpio:CHIP:LINE, "
+            "realsense-emitter or orbbec; serial and gpio take @l515 (default), @d400 or @orbbec.",
+        ),
+    ] = None,
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
@@ -88,7 +98,12 @@ def run(
         raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
-    is_recording = source != "sim" and not source.startswith("realsense")
+    is_live = source.partition(":")[0] in CAMERAS
+    is_recording = source != "sim" and not is_live
+    if trigger is not None and not is_live:
+        raise ConfigError("--trigger needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL])")
+    if is_live:
+        check_camera(source, trigger)
     if source == "sim" and not 1 <= sensors <= 63:
         raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[Path(source)] if is_recording else [])
@@ -122,22 +137,11 @@ def run(
                 net, out, controller, sensors, seconds, active_frames, seed, moving, repair, threshold,
                 progress=lambda f: bar.update(task, completed=f), on_result=on_result,
             )  # fmt: skip
-        elif source.startswith("realsense"):
-            from d2sr.runtime.realsense import run_live
-
-            serial = source.partition(":")[2] or None
+        elif is_live:
             summary = run_live(
-                net,
-                out,
-                controller,
-                serial,
-                seconds,
-                active_frames,
-                repair,
-                threshold,
-                seed,
+                net, out, source, trigger, controller, seconds, active_frames, repair, threshold, seed,
                 on_result=on_result,
-            )
+            )  # fmt: skip
         else:
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(

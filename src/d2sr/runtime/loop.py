@@ -37,6 +37,7 @@ class Capture:
     clean: np.ndarray | None = None
     mask: np.ndarray | None = None
     interfered: bool | None = None
+    counted: bool = True  # False: a frame that arrived after its period closed (repaired, not counted)
 
     @property
     def name(self) -> str:
@@ -165,7 +166,8 @@ class SensorLoop:
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
         self._remember(raw, metres, judge and not flagged)
-        self._buffer(flagged, cap.slot)
+        if cap.counted:
+            self._buffer(flagged, cap.slot)
         return d
 
     def finish(self, d: Decision) -> Result:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +23,9 @@ from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_cont
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, probe
 from d2sr.runtime.backends import Backend
+from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import REPAIR, Capture, Result, SensorLoop, Trigger
+from d2sr.triggers import Actuator, open_trigger
 
 __all__ = ["Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
 
@@ -187,9 +190,12 @@ class Pipeline:
 
     - ``depth_scale``: units per metre of uint16 frames (default 1000; raw L515 4000); float frames are
       metres.
-    - ``controller``, ``active_frames``, ``seed``: the de-synchronization controller; ``trigger``: an
-      object with ``set_offset(period, offset)`` that moves the real sensor's window (none: the window is
-      only reported).
+    - ``controller``, ``active_frames``, ``seed``: the de-synchronization controller; ``trigger``: what
+      moves the real sensor's window (none: the window is only reported). Either a ``d2sr.triggers`` spec
+      (``"serial:/dev/ttyACM0"``, ``"gpio:gpiochip0:17@d400"``, ...) or an ``Actuator``: the loop is then
+      closed, each frame's slot comes from the time ``process`` is called, and periods end on the
+      actuator's clock. Or any object with ``set_offset(period, offset)``, given slots by the caller.
+      Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
     - ``threads``: onnxruntime's threads [all cores]; ``int8``: the int8 models (``d2sr export --int8``).
     - the repair's ``options``: ``Options``.
     """
@@ -201,7 +207,7 @@ class Pipeline:
         controller: str = DEFAULT_CONTROLLER,
         active_frames: int = DEFAULT_ACTIVE,
         seed: int = 0,
-        trigger: Trigger | None = None,
+        trigger: Trigger | str | None = None,
         threads: int | None = None,
         int8: bool = False,
         **options: Unpack[Options],
@@ -213,15 +219,30 @@ class Pipeline:
             raise ConfigError(f"active_frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
         self.depth_scale = depth_scale
         self.backend, mode = _open(options, threads, int8)
+        if isinstance(trigger, str):
+            trigger = open_trigger(trigger, active_frames)
+        actuator = trigger if isinstance(trigger, Actuator) else None
         self.loop = SensorLoop(
             self.backend,
             make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed),
-            trigger,
+            None if actuator is not None else trigger,
             threshold=options.get("threshold"),
             repair=mode,
         )
+        self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()
         self._probed = False
+
+    def close(self) -> None:
+        """Stop the trigger's clock and release its device."""
+        if self.closed is not None:
+            self.closed.actuator.close()
+
+    def __enter__(self) -> Pipeline:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     @property
     def window(self) -> Window:
@@ -230,24 +251,35 @@ class Pipeline:
         return Window(self.loop.period, c.offset, c.active_frames, c.total_frames)
 
     def process(
-        self, depth: np.ndarray, timestamp_ns: int | None = None, slot: int | None = None
+        self,
+        depth: np.ndarray,
+        timestamp_ns: int | None = None,
+        slot: int | None = None,
+        arrival_s: float | None = None,
     ) -> Repaired:
         """Detect, de-synchronize and repair one frame (frames in time order). ``slot``: where the frame
         lies in its 1 s period, for a sensor whose trigger sets it (None: every ``active_frames`` frames
-        make a period)."""
+        make a period; with an actuator, its clock tells from ``arrival_s``, the ``time.monotonic()`` at
+        which the frame reached the host, by default now)."""
+        if slot is not None and self.closed is not None:
+            raise ConfigError("slot: the actuator's clock gives each frame its slot; pass none")
+        arrival = time.monotonic() if arrival_s is None else arrival_s
         k = next(self._count)
         name = f"frame {k}"
         frame, scale = _as_frame(depth, self.depth_scale, name)
         if not self._probed:  # the first frame tells whether the scale makes sense
             _probe(frame, scale, name)
             self._probed = True
-        res = self.loop.process(Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot))
+        cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot)
+        res = self.loop.process(cap) if self.closed is None else self.closed.process(cap, arrival)
         window = Window(res.period, res.offset, self.loop.controller.active_frames, TOTAL_FRAMES)
         return Repaired(_back(depth, res), res.mask, res.flagged, res.score, window, res.seconds)
 
     def end_period(self) -> Window:
         """Close the observation period now (a triggered sensor whose last slots delivered no frame) and
-        return the window the controller chose for the next."""
+        return the window the controller chose for the next. With an actuator its clock does this."""
+        if self.closed is not None:
+            raise ConfigError("end_period: the actuator's clock ends the periods")
         self.loop.end_period()
         return self.window
 
