@@ -81,6 +81,14 @@ RerunOpt = Annotated[
         metavar="FILE.rrd|live",
     ),
 ]
+TriggerOpt = Annotated[
+    str | None,
+    typer.Option(
+        metavar="KIND[:ARG]",
+        help="What moves the sensor's window (closes the loop): serial:PORT, gpio:CHIP:LINE, "
+        "realsense-emitter or orbbec; serial and gpio take @l515 (default), @d400 or @orbbec.",
+    ),
+]
 T = TypeVar("T")
 Cache = Annotated[Path, typer.Option(help="Where generated data sets are kept.")]
 Threshold = Annotated[

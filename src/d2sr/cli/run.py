@@ -21,6 +21,7 @@ from d2sr.cli.common import (
     Scale,
     Threshold,
     Topic,
+    TriggerOpt,
 )
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
@@ -53,14 +54,7 @@ def run(
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
     repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
-    trigger: Annotated[
-        str | None,
-        typer.Option(
-            metavar="KIND[:ARG]",
-            help="live: what moves the sensor's window (closed loop): serial:PORT, gpio:CHIP:LINE, "
-            "realsense-emitter or orbbec; serial and gpio take @l515 (default), @d400 or @orbbec.",
-        ),
-    ] = None,
+    trigger: TriggerOpt = None,
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,

@@ -1,0 +1,63 @@
+"""``d2sr ros2``: the ROS 2 node (Cyclone DDS, no ROS install)."""
+
+from __future__ import annotations
+
+import signal
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from d2sr.cli.common import MaskLogit, ModelDir, ModelName, Passes, Scale, Threshold, TriggerOpt
+from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
+from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
+from d2sr.runtime.pipeline import DEFAULT_ACTIVE
+from d2sr.ui import console, print_line
+
+__all__ = ["ros2"]
+
+
+def ros2(
+    topic: Annotated[str, typer.Option(help="Depth image topic to repair (sensor_msgs/Image).")],
+    depth_scale: Scale = None,
+    qos: Annotated[
+        str, typer.Option(help="Reliability of what the node publishes: reliable or best-effort.")
+    ] = ("reliable"),
+    trigger: TriggerOpt = None,
+    controller: Annotated[
+        str, typer.Option(help=f"Controller: {', '.join(c for c in CONTROLLERS if c != 'oracle')}.")
+    ] = DEFAULT_CONTROLLER,
+    active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")] = DEFAULT_ACTIVE,
+    repair: Annotated[str, typer.Option(help="flagged (default), all or none.")] = "flagged",
+    model: ModelName = DEFAULT_MODEL,
+    models: ModelDir = WEIGHTS,
+    threshold: Threshold = None,
+    mask_logit: MaskLogit = None,
+    passes: Passes = REPAIR_PASSES,
+    seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
+) -> None:
+    """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
+    255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours
+    ROS_DOMAIN_ID; takes reliable and best-effort publishers. Ctrl-C stops it (exit 0).
+
+    Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
+    """
+    from d2sr.ros2 import Ros2Node
+
+    node = Ros2Node(
+        topic, depth_scale, qos, say=print_line, controller=controller, active_frames=active_frames,
+        trigger=trigger, repair=repair, model=model, models=Path(models), threshold=threshold,
+        mask_logit=mask_logit, passes=passes,
+    )  # fmt: skip
+    signal.signal(signal.SIGINT, lambda *_: node.stop())
+    signal.signal(signal.SIGTERM, lambda *_: node.stop())
+    console.print(f"d2sr ros2: {node.topic} -> /repaired, /mask, /status (ROS_DOMAIN_ID {node.domain})")
+    try:
+        stats = node.spin(seconds)
+    finally:
+        node.close()
+    lat = stats.latency_ms()
+    console.print(
+        f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
+        f"skipped); in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99"
+    )

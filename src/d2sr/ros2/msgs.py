@@ -1,0 +1,88 @@
+"""ROS 2 message types as Cyclone DDS IDL structs, in the layout ROS 2 puts on the wire (XCDR1, little
+endian). ``Image`` keeps Cyclone's type information (so ROS 2 nodes match it) but encodes and decodes its
+pixels through rosbags' CDR codec: Cyclone's generic one packs a 640x480 depth image byte by byte (35 ms)
+and returns a list; rosbags gives the same bytes in well under a millisecond and a numpy array back."""
+
+from dataclasses import dataclass, field
+from functools import cache
+from typing import Any
+
+import numpy as np
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import int32, sequence, uint8, uint32
+
+__all__ = ["DiagnosticStatus", "Header", "Image", "KeyValue", "Time"]
+
+IMAGE = "sensor_msgs/msg/Image"
+
+
+@cache
+def _store() -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time = field(default_factory=Time)
+    frame_id: str = ""
+
+
+@dataclass
+class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
+    header: Header = field(default_factory=Header)
+    height: uint32 = 0
+    width: uint32 = 0
+    encoding: str = ""
+    is_bigendian: uint8 = 0
+    step: uint32 = 0
+    data: sequence[uint8] = field(default_factory=list)  # a numpy uint8 array on d2sr's side
+
+    def serialize(self, buffer: Any = None, endianness: Any = None, use_version_2: Any = None) -> bytes:
+        ts = _store()
+        t = ts.types
+        msg = t[IMAGE](
+            header=t["std_msgs/msg/Header"](
+                stamp=t["builtin_interfaces/msg/Time"](
+                    sec=self.header.stamp.sec, nanosec=self.header.stamp.nanosec
+                ),
+                frame_id=self.header.frame_id,
+            ),
+            height=self.height,
+            width=self.width,
+            encoding=self.encoding,
+            is_bigendian=self.is_bigendian,
+            step=self.step,
+            data=np.ascontiguousarray(self.data, dtype=np.uint8).reshape(-1),
+        )
+        return bytes(ts.serialize_cdr(msg, IMAGE))
+
+    @classmethod
+    def deserialize(cls, data: bytes, has_header: bool = True, use_version_2: Any = None) -> "Image":
+        m = _store().deserialize_cdr(data, IMAGE)
+        stamp = Time(m.header.stamp.sec, m.header.stamp.nanosec)
+        return cls(
+            Header(stamp, m.header.frame_id), m.height, m.width, m.encoding, m.is_bigendian, m.step, m.data
+        )
+
+
+@dataclass
+class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
+    key: str = ""
+    value: str = ""
+
+
+@dataclass
+class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
+    level: uint8 = 0  # diagnostic_msgs' byte: 0 OK, 1 WARN, 2 ERROR, 3 STALE
+    name: str = ""
+    message: str = ""
+    hardware_id: str = ""
+    values: sequence[KeyValue] = field(default_factory=list)

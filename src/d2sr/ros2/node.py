@@ -1,0 +1,210 @@
+"""The node: subscribe to a depth topic, run each frame through a ``d2sr.Pipeline`` (closed through a
+trigger when given one), publish ``<topic>/repaired``, ``<topic>/mask`` and ``<topic>/status``."""
+
+from __future__ import annotations
+
+import os
+import re
+import statistics
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from d2sr.errors import ConfigError, InputError
+
+__all__ = ["ENCODINGS", "QOS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
+
+#: Depth encodings the node takes (REP 118: 16-bit in millimetres unless told, float in metres).
+ENCODINGS: dict[str, np.dtype[Any]] = {
+    "16UC1": np.dtype(np.uint16),
+    "mono16": np.dtype(np.uint16),
+    "32FC1": np.dtype(np.float32),
+}
+QOS = ("reliable", "best-effort")
+_NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
+
+
+def dds_topic(name: str) -> str:
+    """ROS 2 topic ``/a/b`` (or ``a/b``) -> DDS topic ``rt/a/b``, or a ConfigError for a name ROS refuses."""
+    if not _NAME.match(name):
+        raise ConfigError(f"--topic: {name!r} is not a ROS 2 topic name (letters, digits, _ and /)")
+    return "rt/" + name.lstrip("/")
+
+
+def domain_id() -> int:
+    """``ROS_DOMAIN_ID`` (0 when unset), as ROS 2 reads it."""
+    raw = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
+    if not raw.isdigit() or int(raw) > 232:
+        raise ConfigError(f"ROS_DOMAIN_ID must be a number in 0..232, got {raw!r}")
+    return int(raw)
+
+
+@dataclass
+class Stats:
+    """What a node did: frames in, out, refused (an encoding it does not take), flagged; seconds each frame
+    spent in the node, from taken off the reader to its last message written."""
+
+    received: int = 0
+    published: int = 0
+    refused: int = 0
+    flagged: int = 0
+    seconds: list[float] = field(default_factory=list)
+
+    def latency_ms(self) -> dict[str, float]:
+        ms = sorted(s * 1e3 for s in self.seconds)
+        if not ms:
+            return {"median": float("nan"), "p99": float("nan")}
+        return {"median": statistics.median(ms), "p99": ms[min(len(ms) - 1, int(0.99 * len(ms)))]}
+
+
+class Ros2Node:
+    """``topic``: the depth image topic; ``depth_scale``: units per metre of 16-bit images (default 1000,
+    REP 118's millimetres); ``qos``: the publishers' reliability (the subscriber takes both kinds);
+    ``pipeline``: keyword arguments of ``d2sr.Pipeline`` (controller, active_frames, trigger, model, ...);
+    ``say``: where warnings go (one line each)."""
+
+    def __init__(
+        self,
+        topic: str,
+        depth_scale: float | None = None,
+        qos: str = "reliable",
+        domain: int | None = None,
+        say: Callable[[str], None] | None = None,
+        **pipeline: Any,
+    ) -> None:
+        if qos not in QOS:
+            raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
+        self.topic = "/" + topic.lstrip("/")
+        name = dds_topic(topic)
+        try:
+            from cyclonedds.core import Policy, Qos, WaitSet
+            from cyclonedds.domain import DomainParticipant
+            from cyclonedds.pub import DataWriter
+            from cyclonedds.sub import DataReader
+            from cyclonedds.topic import Topic
+            from cyclonedds.util import duration
+        except ImportError:
+            raise InputError("d2sr ros2 needs Cyclone DDS: pip install 'd2sr[ros2]'") from None
+        from d2sr.ros2.msgs import DiagnosticStatus, Image
+        from d2sr.runtime.pipeline import Pipeline
+
+        self.pipeline = Pipeline(depth_scale, **pipeline)
+        self.depth_scale = depth_scale
+        self.say = say or (lambda line: None)
+        self.stats = Stats()
+        self._warned: set[str] = set()
+        self.domain = domain_id() if domain is None else domain
+        self.participant = DomainParticipant(self.domain)
+        # A best-effort reader matches reliable and best-effort publishers alike.
+        listen = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(4))
+        if qos == "reliable":
+            speak = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(4))
+        else:
+            speak = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(4))
+        image_in = Topic(self.participant, name, Image)
+        self.reader = DataReader(self.participant, image_in, qos=listen)
+        self.repaired = DataWriter(
+            self.participant, Topic(self.participant, f"{name}/repaired", Image), qos=speak
+        )
+        self.mask = DataWriter(self.participant, Topic(self.participant, f"{name}/mask", Image), qos=speak)
+        self.status = DataWriter(
+            self.participant, Topic(self.participant, f"{name}/status", DiagnosticStatus), qos=speak
+        )
+        self._waitset = WaitSet(self.participant)
+        self._waitset.attach(self.reader)
+        self._stop = threading.Event()
+        self._duration = duration
+
+    def stop(self) -> None:
+        """Ask ``spin`` to return (safe from a signal handler or another thread)."""
+        self._stop.set()
+
+    def spin(self, seconds: float | None = None) -> Stats:
+        """Take, repair and publish until ``stop`` (or for ``seconds``)."""
+        end = None if seconds is None else time.monotonic() + seconds
+        while not self._stop.is_set() and (end is None or time.monotonic() < end):
+            self._waitset.wait(self._duration(milliseconds=100))
+            for sample in self.reader.take(N=4):
+                if getattr(sample, "sample_info", None) is not None and not sample.sample_info.valid_data:
+                    continue
+                self.handle(sample, time.monotonic())
+        return self.stats
+
+    def close(self) -> None:
+        self.pipeline.close()
+        self._waitset.detach(self.reader)
+
+    def handle(self, msg: Any, taken: float) -> None:
+        """One image message: repaired, mask and status out, or a warning (once per encoding) if refused."""
+        from d2sr.ros2.msgs import Image
+
+        self.stats.received += 1
+        depth = self._depth(msg)
+        if depth is None:
+            self.stats.refused += 1
+            return
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        try:
+            r = self.pipeline.process(depth, stamp, arrival_s=taken)
+        except InputError as exc:  # e.g. a --depth-scale given for a float topic: say so, keep running
+            self._warn(f"{self.topic}: {exc}; skipped")
+            self.stats.refused += 1
+            return
+        h, w = depth.shape
+        out = np.ascontiguousarray(r.depth)
+        self.repaired.write(
+            Image(msg.header, h, w, msg.encoding, 0, w * out.itemsize, out.view(np.uint8).reshape(-1))
+        )
+        mask = np.where(r.mask, 255, 0).astype(np.uint8)
+        self.mask.write(Image(msg.header, h, w, "mono8", 0, w, mask.reshape(-1)))
+        self.status.write(self._status(msg, r, int(r.mask.sum())))
+        self.stats.published += 1
+        self.stats.flagged += r.interfered
+        self.stats.seconds.append(time.monotonic() - taken)
+
+    def _depth(self, msg: Any) -> np.ndarray | None:
+        dtype = ENCODINGS.get(msg.encoding)
+        if dtype is None:
+            self._warn(f"{self.topic}: encoding {msg.encoding!r} is not a depth image d2sr takes "
+                       f"({', '.join(ENCODINGS)}); those messages are skipped")  # fmt: skip
+            return None
+        data = np.asarray(msg.data, np.uint8)
+        row = msg.width * dtype.itemsize
+        if msg.height == 0 or msg.step < row or data.size < msg.step * msg.height:
+            self._warn(f"{self.topic}: an image's size, step and data disagree; skipped")
+            return None
+        rows = data[: msg.step * msg.height].reshape(msg.height, msg.step)[:, :row]
+        depth = np.ascontiguousarray(rows).view(dtype.newbyteorder(">" if msg.is_bigendian else "<"))
+        return depth.astype(dtype, copy=False)
+
+    def _status(self, msg: Any, r: Any, repaired: int) -> Any:
+        from d2sr.ros2.msgs import DiagnosticStatus, KeyValue
+
+        w = r.window
+        values = {
+            "stamp": f"{msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}",
+            "interfered": str(r.interfered).lower(),
+            "score": f"{r.score:.4f}",
+            "repaired_pixels": str(repaired),
+            "synthesized": "false",
+            "period": str(w.period),
+            "window_offset": str(w.offset),
+            "active_frames": str(w.active_frames),
+            "total_frames": str(w.total_frames),
+        }
+        return DiagnosticStatus(
+            1 if r.interfered else 0,
+            "d2sr",
+            "interfered" if r.interfered else "clean",
+            self.topic,
+            [KeyValue(k, v) for k, v in values.items()],
+        )
+
+    def _warn(self, line: str) -> None:
+        if line not in self._warned:
+            self._warned.add(line)
+            self.say(line)

@@ -1,0 +1,187 @@
+"""d2sr ros2: the messages' CDR bytes against rosbags' serializer, topic and domain rules, and the node in a
+process of its own against a separate DDS participant with its own IDL (bench/ros2_peer.py)."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_typestore
+
+from d2sr.errors import ConfigError
+from d2sr.ros2 import dds_topic
+from d2sr.ros2.msgs import DiagnosticStatus, Header, Image, KeyValue, Time
+from d2sr.ros2.node import domain_id
+from helpers import d2sr_inprocess
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+import ros2_peer
+
+TS = get_typestore(Stores.ROS2_HUMBLE)
+T = TS.types
+
+
+def _rosbags_image(depth: np.ndarray, encoding: str):
+    h, w = depth.shape
+    return T["sensor_msgs/msg/Image"](
+        header=T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=7, nanosec=11), frame_id="cam"
+        ),
+        height=h, width=w, encoding=encoding, is_bigendian=0, step=w * depth.itemsize,
+        data=np.ascontiguousarray(depth).view(np.uint8).reshape(-1),
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_image_bytes_are_rosbags_bytes_both_ways(dtype):
+    depth = np.random.default_rng(0).integers(0, 9000, (6, 10)).astype(dtype)
+    ours = Image(Header(Time(7, 11), "cam"), 6, 10, "16UC1" if dtype == np.uint16 else "32FC1", 0,
+                 10 * depth.itemsize, depth.view(np.uint8).reshape(-1))  # fmt: skip
+    wire = ours.serialize()
+    theirs = TS.serialize_cdr(_rosbags_image(depth, ours.encoding), "sensor_msgs/msg/Image")
+    assert wire == bytes(theirs)
+    peer = ros2_peer.image(depth, 7, 11, "cam")  # Cyclone's own serializer, the peer's own IDL
+    assert peer.serialize() == wire
+    back = Image.deserialize(wire)
+    assert back.header == Header(Time(7, 11), "cam") and back.encoding == ours.encoding
+    assert np.array_equal(np.asarray(back.data).view(dtype).reshape(6, 10), depth)
+
+
+def test_status_bytes_are_rosbags_bytes():
+    ours = DiagnosticStatus(
+        1, "d2sr", "interfered", "/cam", [KeyValue("score", "0.9"), KeyValue("period", "3")]
+    )
+    kv = T["diagnostic_msgs/msg/KeyValue"]
+    theirs = T["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=1, name="d2sr", message="interfered", hardware_id="/cam",
+        values=[kv(key="score", value="0.9"), kv(key="period", value="3")],
+    )  # fmt: skip
+    assert ours.serialize() == bytes(TS.serialize_cdr(theirs, "diagnostic_msgs/msg/DiagnosticStatus"))
+
+
+def test_ros_names_and_domains():
+    assert dds_topic("/camera/depth/image_rect_raw") == "rt/camera/depth/image_rect_raw"
+    assert dds_topic("cam/depth") == "rt/cam/depth"
+    for bad in ("", "/", "/cam//depth", "/cam/9depth", "/cam depth"):
+        with pytest.raises(ConfigError, match="is not a ROS 2 topic name"):
+            dds_topic(bad)
+    os.environ["ROS_DOMAIN_ID"] = "12"
+    try:
+        assert domain_id() == 12
+        os.environ["ROS_DOMAIN_ID"] = "300"
+        with pytest.raises(ConfigError, match=r"ROS_DOMAIN_ID must be a number in 0\.\.232"):
+            domain_id()
+    finally:
+        del os.environ["ROS_DOMAIN_ID"]
+    assert domain_id() == 0
+
+
+def test_bad_options_are_one_line_errors():
+    code, _, err = d2sr_inprocess("ros2", "--topic", "/cam depth")
+    assert code == 2 and err.count("\n") == 1 and "is not a ROS 2 topic name" in err
+    code, _, err = d2sr_inprocess("ros2", "--topic", "/cam", "--qos", "fast")
+    assert code == 2 and "--qos must be one of reliable, best-effort" in err
+
+
+def _room(seed: int) -> np.ndarray:
+    h, w = 480, 640
+    rng = np.random.default_rng(seed)
+    rows = np.arange(h, dtype=np.float32)[:, None]
+    metres = np.broadcast_to(np.where(rows > h * 0.6, 1.2 + 2.0 * (h - rows) / h, 3.2), (h, w)).copy()
+    metres[h // 3 : h // 2, w // 4 : w // 2] = 1.8
+    metres += rng.normal(0, 0.003, (h, w)).astype(np.float32)
+    metres[rng.random((h, w)) < 0.3] = 0
+    return (metres * 4000).astype(np.uint16)
+
+
+def _node(domain: int, *args: str) -> subprocess.Popen:
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    cmd = [sys.executable, "-m", "d2sr", "ros2", "--topic", "/camera/depth/image_rect_raw", *args]
+    return subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _exchange(peer: ros2_peer.Peer, frames: list[np.ndarray], hz: float) -> dict[str, list]:
+    end = time.monotonic() + 30
+    while not peer.matched():
+        assert time.monotonic() < end, "the node never matched the peer's topics"
+        time.sleep(0.05)
+    for k, f in enumerate(frames):
+        peer.writer.write(ros2_peer.image(f, 1000 + k, 500))
+        time.sleep(1 / hz)
+    got: dict[str, list] = {"repaired": [], "mask": [], "status": []}
+    end = time.monotonic() + 10
+    while time.monotonic() < end and min(len(v) for v in got.values()) < len(frames):
+        for key, new in peer.take().items():
+            got[key] += new
+        time.sleep(0.05)
+    return got
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("reliable", [True, False])
+def test_node_in_its_own_process_repairs_what_a_separate_participant_publishes(reliable):
+    domain = random.randint(100, 200)
+    node = _node(domain, "--depth-scale", "4000", "--qos", "reliable" if reliable else "best-effort")
+    peer = ros2_peer.Peer(domain, reliable=reliable)
+    from d2sr.sim.interference import corrupt
+
+    frames = []
+    for k in range(8):
+        f = _room(2 * k)
+        if k % 2:
+            where = np.zeros(f.shape, bool)
+            where[150:260, :] = True
+            f = corrupt(f, 4000.0, where, np.random.default_rng(k))[0]
+        frames.append(f)
+    try:
+        got = _exchange(peer, frames, hz=10)
+    finally:
+        node.send_signal(signal.SIGINT)
+        out, err = node.communicate(timeout=30)
+    assert node.returncode == 0, err
+    assert "8 frames in, 8 out" in " ".join(out.split())
+    stamps = sorted(m.header.stamp.sec for m in got["repaired"])
+    assert stamps == list(range(1000, 1008))  # every frame, its stamp kept
+    assert sorted(m.header.stamp.sec for m in got["mask"]) == stamps
+    by_stamp = {m.header.stamp.sec: m for m in got["repaired"]}
+    masks = {m.header.stamp.sec: ros2_peer.pixels(m) for m in got["mask"]}
+    for k, f in enumerate(frames):
+        rep = by_stamp[1000 + k]
+        assert rep.encoding == "16UC1" and rep.header.stamp.nanosec == 500
+        assert rep.header.frame_id == "camera_depth_optical_frame"
+        mask = masks[1000 + k]
+        assert set(np.unique(mask)) <= {0, 255}
+        out_px = ros2_peer.pixels(rep)
+        assert np.array_equal(out_px[mask == 0], f[mask == 0])  # only the mask changed
+    status = {m.values[0].value: m for m in got["status"]}
+    assert len(status) == 8
+    flags = [dict((kv.key, kv.value) for kv in m.values)["interfered"] for m in got["status"]]
+    assert flags.count("true") >= 3  # the corrupted frames are flagged
+    first = dict((kv.key, kv.value) for kv in got["status"][0].values)
+    assert first["synthesized"] == "false" and int(first["active_frames"]) == 6
+
+
+@pytest.mark.slow
+def test_node_keeps_float_metres_and_their_nan():
+    domain = random.randint(100, 200)
+    node = _node(domain)
+    peer = ros2_peer.Peer(domain)
+    metres = _room(0).astype(np.float32) / 4000
+    metres[metres == 0] = np.nan
+    try:
+        got = _exchange(peer, [metres], hz=10)
+    finally:
+        node.send_signal(signal.SIGINT)
+        node.communicate(timeout=30)
+    assert node.returncode == 0
+    (rep,) = got["repaired"]
+    assert rep.encoding == "32FC1"
+    out = ros2_peer.pixels(rep)
+    assert np.array_equal(np.isnan(out), np.isnan(metres))  # clean frame: nothing moved, NaN kept
