@@ -12,7 +12,7 @@ from d2sr.cli.common import MaskLogit, ModelDir, ModelName, Passes, Scale, Thres
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.runtime.pipeline import DEFAULT_ACTIVE
-from d2sr.ui import console, print_line
+from d2sr.ui import print_line
 
 __all__ = ["ros2"]
 
@@ -51,13 +51,13 @@ def ros2(
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
-    console.print(f"d2sr ros2: {node.topic} -> /repaired, /mask, /status (ROS_DOMAIN_ID {node.domain})")
+    print_line(f"d2sr ros2: {node.topic} -> /repaired, /mask, /status (ROS_DOMAIN_ID {node.domain})")
     try:
         stats = node.spin(seconds)
     finally:
         node.close()
     lat = stats.latency_ms()
-    console.print(
+    print_line(
         f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
         f"skipped); in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99"
     )

@@ -112,7 +112,7 @@ def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Ite
             yield running.popleft().result()
 
 
-def _workers() -> tuple[int, int | None]:
+def repair_workers() -> tuple[int, int | None]:
     """(frames repaired at once, onnxruntime threads each): on 2 cores, two frames on one thread each
     repair 1.4-1.5x the frames a second of one frame on two (the guard and write-back run on one core, and
     the model scales poorly). torch has threads of its own: one frame at a time."""
@@ -240,7 +240,7 @@ def recover_recording(
             Path(rerun), is_dir=False, overwrite=overwrite, inputs=[*_inputs(input), out], option="--rerun"
         )
     reuse_freed_memory()
-    workers, threads = _workers()
+    workers, threads = repair_workers()
     # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
     # needs to know which frames were clean.
     net = open_models(

@@ -8,7 +8,7 @@ from __future__ import annotations
 import threading
 import time
 
-from d2sr.runtime.loop import Capture, Result, SensorLoop
+from d2sr.runtime.loop import Capture, Decision, Result, SensorLoop
 from d2sr.triggers import Actuator
 
 __all__ = ["ClosedLoop"]
@@ -29,13 +29,17 @@ class ClosedLoop:
 
     def process(self, cap: Capture, arrival_s: float | None = None) -> Result:
         """One frame that reached the host at ``arrival_s`` (``time.monotonic``; None: now)."""
+        return self.loop.finish(self.decide(cap, arrival_s))
+
+    def decide(self, cap: Capture, arrival_s: float | None = None) -> Decision:
+        """``SensorLoop.decide`` for a frame that reached the host at ``arrival_s``, in its slot."""
         period, slot = self.actuator.locate(time.monotonic() if arrival_s is None else arrival_s)
         with self._lock:
             self._end_before(period)
             cap.slot = slot
             cap.counted = period == self.loop.period
             self.late += not cap.counted
-            return self.loop.process(cap)
+            return self.loop.decide(cap)
 
     def _settled(self, period: int) -> None:
         with self._lock:

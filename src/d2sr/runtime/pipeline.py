@@ -24,10 +24,10 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, probe
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
-from d2sr.runtime.loop import REPAIR, Capture, Result, SensorLoop, Trigger
+from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
 from d2sr.triggers import Actuator, open_trigger
 
-__all__ = ["Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
+__all__ = ["Decided", "Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
 
 DEFAULT_ACTIVE = 6  # frames per 1 s period that `d2sr run` and a Pipeline run by default (the paper's 20%)
 
@@ -67,6 +67,14 @@ class Repaired:
     score: float
     window: Window | None = None
     seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class Decided:
+    """A frame ``Pipeline.decide`` judged, waiting for ``Pipeline.finish``."""
+
+    depth: np.ndarray
+    decision: Decision
 
 
 class Options(TypedDict, total=False):
@@ -261,6 +269,18 @@ class Pipeline:
         lies in its 1 s period, for a sensor whose trigger sets it (None: every ``active_frames`` frames
         make a period; with an actuator, its clock tells from ``arrival_s``, the ``time.monotonic()`` at
         which the frame reached the host, by default now)."""
+        return self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
+
+    def decide(
+        self,
+        depth: np.ndarray,
+        timestamp_ns: int | None = None,
+        slot: int | None = None,
+        arrival_s: float | None = None,
+    ) -> Decided:
+        """The first half of ``process``, which must run in frame order: the detector's verdict and the
+        controller's window. ``finish`` then repairs; several decided frames may be finished at once (on
+        threads), so a live stream keeps its rate on several cores."""
         if slot is not None and self.closed is not None:
             raise ConfigError("slot: the actuator's clock gives each frame its slot; pass none")
         arrival = time.monotonic() if arrival_s is None else arrival_s
@@ -271,9 +291,14 @@ class Pipeline:
             _probe(frame, scale, name)
             self._probed = True
         cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot)
-        res = self.loop.process(cap) if self.closed is None else self.closed.process(cap, arrival)
+        decision = self.loop.decide(cap) if self.closed is None else self.closed.decide(cap, arrival)
+        return Decided(depth, decision)
+
+    def finish(self, decided: Decided) -> Repaired:
+        """The second half of ``process``: the repair of a decided frame."""
+        res = self.loop.finish(decided.decision)
         window = Window(res.period, res.offset, self.loop.controller.active_frames, TOTAL_FRAMES)
-        return Repaired(_back(depth, res), res.mask, res.flagged, res.score, window, res.seconds)
+        return Repaired(_back(decided.depth, res), res.mask, res.flagged, res.score, window, res.seconds)
 
     def end_period(self) -> Window:
         """Close the observation period now (a triggered sensor whose last slots delivered no frame) and
