@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import glob
 import os
-import select
+import sys
 import threading
 import time
-import tty
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,53 +21,10 @@ from d2sr.triggers import SYNC_INPUTS, device_window, open_trigger, parse_trigge
 from d2sr.triggers.firmware.d2sr_trigger import Core
 from helpers import d2sr_inprocess
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+from trigger_board import Board
+
 SCALE = 4000.0
-
-
-class Board:
-    """The firmware's Core on the far end of a pseudo-terminal, as a microcontroller on USB would run it;
-    ``on_edge(level, period, slot)`` is the camera's sync input."""
-
-    def __init__(self, on_edge=None, answer: bool = True) -> None:
-        self.master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        self.path = os.ttyname(self._slave)
-        self.edges: list[tuple[float, int, int, int]] = []
-        self.on_edge = on_edge
-        self.answer = answer
-        self._stop = threading.Event()
-        self.core = Core(self._write, lambda: time.monotonic_ns() // 1000, self._send)
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _write(self, level: int) -> None:
-        if not hasattr(self, "core"):
-            return  # the Core's own line reset in its constructor
-        edge = (time.monotonic(), level, self.core.period, self.core.slot)
-        self.edges.append(edge)
-        if self.on_edge is not None:
-            self.on_edge(*edge[1:])
-
-    def _send(self, text: str) -> None:
-        os.write(self.master, (text + "\n").encode())
-
-    def _run(self) -> None:
-        buf = b""
-        while not self._stop.is_set():
-            wait = self.core.poll()
-            ready, _, _ = select.select([self.master], [], [], min(wait, 5000) / 1e6)
-            if ready:
-                buf += os.read(self.master, 1024)
-                *lines, buf = buf.split(b"\n")
-                for line in lines:
-                    if self.answer:
-                        self.core.line(line.decode())
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join()
-        os.close(self.master)
-        os.close(self._slave)
 
 
 class Clock:

@@ -1,0 +1,85 @@
+"""Benchmark: the serial trigger against its firmware's own protocol code on the far end of a pseudo-terminal
+(bench/trigger_board.py; no board is plugged in here).
+
+* ``round_trip``: ``--pings`` PING commands, each timed from the host's write to reading the reply the
+  firmware writes once its line is up: the command-to-pulse round trip (median, p99, max).
+* ``slots``: ``--seconds`` of the clock with a 6-slot window: how far each pulse's rising edge lies from its
+  slot's ideal start (the board's own clock), and from the host's estimate of it (``SlotClock``), which
+  decides each frame's slot.
+
+A real board adds its USB CDC transfer (about 1 ms each way at full speed) and its MicroPython loop
+(select.poll, up to 1 ms); docs/hardware.md says what was and was not measured on hardware.
+
+Run:  .venv/bin/python bench/trigger_roundtrip.py --json docs/results/trigger_roundtrip.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.triggers import open_trigger
+from trigger_board import Board
+
+HERE = Path(__file__).resolve().parents[1]
+
+
+def ms(values: list[float]) -> dict[str, float]:
+    v = sorted(x * 1e3 for x in values)
+    p99 = v[min(len(v) - 1, int(0.99 * len(v)))]
+    return {
+        "n": len(v),
+        "median_ms": round(statistics.median(v), 3),
+        "p99_ms": round(p99, 3),
+        "max_ms": round(v[-1], 3),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pings", type=int, default=1000)
+    ap.add_argument("--seconds", type=float, default=10.0)
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
+    board = Board()
+    try:
+        with open_trigger(f"serial:{board.path}@d400", active_frames=6) as act:
+            trips = act.round_trips(args.pings)
+            act.set_offset(0, 10)
+            act.start()
+            time.sleep(args.seconds)
+            pulses = list(act.pulses)
+            slot_s = act.clock.slot_s
+            host_start = act.clock.start_s
+        starts = [e for e in board.edges if e[1] == 1][args.pings :]  # after the PINGs' own pulses
+        first = starts[0]
+        board_err = [
+            (t - first[0]) - ((p - first[2]) * 30 + (s - first[3])) * slot_s for t, _, p, s in starts
+        ]
+        host_err = [p.host_s - (host_start + (p.period * 30 + p.slot) * slot_s) for p in pulses]
+    finally:
+        board.close()
+    result = {
+        "command": "python bench/trigger_roundtrip.py " + " ".join(sys.argv[1:]),
+        "commit": commit.strip(),
+        "cpu": cpu(),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        "transport": "pseudo-terminal (os.openpty + pyserial), firmware Core in a host thread",
+        "round_trip": ms(trips),
+        "pulse_late_vs_board_clock": ms([abs(e) for e in board_err]),
+        "report_late_vs_host_estimate": ms(host_err),
+        "pulses": len(starts),
+    }
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()
