@@ -126,6 +126,7 @@ def test_bad_input_is_one_d2sr_error(call, message):
         call()
 
 
+@pytest.mark.slow  # a subprocess: not in make test-fast
 def test_import_d2sr_is_light_and_lists_its_names():
     import subprocess
     import sys

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from d2sr.contract import agreement
-from d2sr.desync import make_controller
+from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
@@ -245,7 +245,7 @@ def net():
 @pytest.mark.slow  # a long simulation: not in make test-fast
 def test_closed_loop_in_a_room_desynchronizes_and_repairs(net):
     static = run_sim(net, None, "static", sensors=3, seconds=8, seed=0)
-    ours = run_sim(net, None, "damped", sensors=3, seconds=8, seed=0)
+    ours = run_sim(net, None, DEFAULT_CONTROLLER, sensors=3, seconds=8, seed=0)
     s, o = static["all"], ours["all"]
     assert s["frames"] == o["frames"] == 3 * 8 * 6
     assert s["interfered_ratio"] > 0.15  # the seed-0 room: two sensors start on the same slots
@@ -402,6 +402,7 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 """
 
 
+@pytest.mark.slow  # a subprocess: not in make test-fast
 def test_frame_buffers_freed_in_a_loop_are_reused_not_faulted_in_again():
     # recover, detect and run: a frame-size buffer freed at one frame serves the next, instead of being
     # unmapped and faulted in again page by page (about 5 ms of system time per worst-case frame).

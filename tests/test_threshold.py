@@ -46,6 +46,7 @@ def test_threshold_writes_the_same_weights_with_the_rule_kept(tmp_path):
     assert "Traceback" not in again.stderr + inside.stderr
 
 
+@pytest.mark.slow  # a subprocess: not in make test-fast
 def test_threshold_refuses_what_is_not_a_recovery_model(tmp_path):
     res = d2sr("threshold", str(WEIGHTS / "detector.safetensors"), "--out", str(tmp_path / "o"))
     assert (

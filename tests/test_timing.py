@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from d2sr.desync import make_controller
+from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.errors import ConfigError
 from d2sr.sim import OverlapGraph, TimingConfig, simulate
 
@@ -121,7 +121,7 @@ def test_oracle_time_shares_perfectly_with_slack():
 
 def test_default_controller_converges_with_slack():
     run = simulate(
-        OverlapGraph.complete(3).replicate(10), "damped", TimingConfig(active_frames=6), 40, seed=4
+        OverlapGraph.complete(3).replicate(10), DEFAULT_CONTROLLER, TimingConfig(active_frames=6), 40, seed=4
     )
     assert run.ratio(start=20) <= 0.05
 
