@@ -19,6 +19,7 @@ CORES = [
     "atomic.py",
     "runtime",
     "triggers",
+    "synth",
     "ros2",
     "eval/baselines.py",
     "contract.py",

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from d2sr import __version__
-from d2sr.cli import bench, data, desync, evaluate, ros2, run, show, stages, train
+from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 
@@ -24,6 +24,7 @@ app.add_typer(eval_app, name="eval")
 COMMANDS: dict[str, Callable[..., None]] = {
     "detect": stages.detect,
     "recover": stages.recover,
+    "fill": fill.fill,
     "run": run.run,
     "ros2": ros2.ros2,
     "demo": show.demo,

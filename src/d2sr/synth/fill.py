@@ -1,0 +1,126 @@
+"""Frames the laser skipped, synthesized: the last real depth moved to where the camera is now. Where the
+camera went comes from the caller's odometry, or from the colour stream (each skipped frame's pose chained
+from the previous one's, so baselines stay short), or is unknown: then the last real frame is held."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from d2sr.errors import InputError
+from d2sr.frames.base import Intrinsics
+from d2sr.synth.motion import ColourMotion, Keyframe
+from d2sr.synth.warp import Pose, fill_from_background, fill_radius, guess_intrinsics, warp_depth
+
+__all__ = ["METHODS", "Filler", "Synthesized"]
+
+#: How a frame was made: the sensor's own, the caller's poses, the colour stream, the last real frame
+#: held, or nothing to go on (no real frame yet).
+METHODS = ("real", "warp-pose", "warp-colour", "hold", "none")
+HOLD_CONFIDENCE = 0.5  # a held frame is right only where nothing moved: said, not hidden
+
+
+@dataclass(frozen=True)
+class Synthesized:
+    """A frame out of the filler: ``depth`` in metres (float32, 0 = no value), ``confidence`` per pixel in
+    [0, 1] (1: the sensor's own or warped from it; lower: filled from the background, or held), the
+    ``method`` that made it and the frames since the last real one."""
+
+    depth: np.ndarray
+    confidence: np.ndarray
+    method: str
+    since_real: int
+
+
+class Filler:
+    """One sensor's synthesis state. Call ``real`` with every frame the laser made and ``synthesize`` for
+    every frame it skipped, in time order. ``colour``: the colour frame at the same time (BGR or grey,
+    same size as the depth); ``pose``: the camera's pose in the caller's world frame (camera to world);
+    ``intrinsics``: the depth camera's (depth aligned to colour), guessed when None; ``radius``: pixels a
+    hole is filled from its background side (None: 5% of the width)."""
+
+    def __init__(self, intrinsics: Intrinsics | None = None, radius: int | None = None) -> None:
+        self.intrinsics = intrinsics
+        self.radius = radius
+        self._motion: ColourMotion | None = None
+        self._source: np.ndarray | None = None  # the last real frame, metres
+        self._source_pose: Pose | None = None  # its world pose (odometry)
+        self._key: Keyframe | None = None  # the previous frame's features with depth
+        self._moved = Pose.identity()  # last real camera -> previous frame's camera
+        self._since = 0
+
+    def real(
+        self, metres: np.ndarray, colour: np.ndarray | None = None, pose: Pose | None = None
+    ) -> Synthesized:
+        """A frame the sensor measured: it becomes the source of the next synthesized ones (and comes back
+        as it went in, confidence 1 where it has a value)."""
+        metres = self._checked(metres, colour)
+        self._source, self._source_pose = metres, pose
+        self._moved, self._since = Pose.identity(), 0
+        self._key = self._keyframe(colour, metres)
+        return Synthesized(metres, (metres > 0).astype(np.float32), "real", 0)
+
+    def synthesize(self, colour: np.ndarray | None = None, pose: Pose | None = None) -> Synthesized:
+        """The frame the sensor would have measured now."""
+        self._since += 1
+        if self._source is None:
+            raise InputError("no real frame yet: the filler has nothing to synthesize from")
+        source = self._source
+        if pose is not None and self._source_pose is not None:
+            moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
+        elif colour is not None:
+            moved, method = self._colour_pose(colour), "warp-colour"
+        else:
+            conf = np.where(source > 0, HOLD_CONFIDENCE, 0).astype(np.float32)
+            return Synthesized(source, conf, "hold", self._since)
+        k = self._k(source.shape)
+        warped = warp_depth(source, moved, k)
+        self._moved = moved
+        if colour is not None:
+            self._key = self._keyframe(colour, warped)
+        radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
+        depth, conf = fill_from_background(warped, radius)
+        return Synthesized(depth, conf, method, self._since)
+
+    def _colour_pose(self, colour: np.ndarray) -> Pose:
+        """Last real camera -> this camera: the previous frame's pose followed by the step to this one; the
+        previous pose again when the step cannot be trusted."""
+        grey = _grey(colour)
+        motion = self._motion_for(grey.shape)
+        step = motion.pose(self._key, grey) if self._key is not None else None
+        return self._moved if step is None else self._moved.then(step)
+
+    def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
+        if colour is None:
+            return None
+        grey = _grey(colour)
+        return self._motion_for(grey.shape).keyframe(grey, metres)
+
+    def _motion_for(self, shape: tuple[int, ...]) -> ColourMotion:
+        if self._motion is None:
+            self._motion = ColourMotion(self._k(shape))
+        return self._motion
+
+    def _k(self, shape: tuple[int, ...]) -> Intrinsics:
+        h, w = shape[:2]
+        if self.intrinsics is None:
+            self.intrinsics = guess_intrinsics(w, h)
+        elif (self.intrinsics.width, self.intrinsics.height) != (w, h):
+            self.intrinsics = self.intrinsics.scaled(w, h)
+        return self.intrinsics
+
+    def _checked(self, metres: np.ndarray, colour: np.ndarray | None) -> np.ndarray:
+        if metres.ndim != 2:
+            raise InputError(f"depth must be a 2-D image, got shape {metres.shape}")
+        if colour is not None and colour.shape[:2] != metres.shape:
+            raise InputError(
+                f"colour {colour.shape[1]}x{colour.shape[0]} and depth {metres.shape[1]}x{metres.shape[0]} "
+                "differ in size: the depth must be aligned to the colour camera"
+            )
+        return np.where(np.isfinite(metres), metres, 0).astype(np.float32)
+
+
+def _grey(colour: np.ndarray) -> np.ndarray:
+    return colour if colour.ndim == 2 else cv2.cvtColor(colour, cv2.COLOR_BGR2GRAY)

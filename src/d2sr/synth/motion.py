@@ -1,0 +1,71 @@
+"""Camera motion from the colour stream: ORB features of a frame whose depth is known, matched in the next
+colour frame, and OpenCV's RANSAC PnP. Colour keeps streaming while the laser is off, and laser
+interference does not touch it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from d2sr.frames.base import Intrinsics
+from d2sr.synth.warp import Pose
+
+__all__ = ["ColourMotion", "Keyframe"]
+
+MIN_INLIERS = 12  # fewer RANSAC inliers than this and the pose is not trusted
+
+
+@dataclass
+class Keyframe:
+    """A colour frame with depth: its features and their 3-D points (its camera's frame, metres)."""
+
+    points: np.ndarray  # (N, 3)
+    descriptors: np.ndarray  # (N, 32) ORB
+
+
+class ColourMotion:
+    """Pose of the current colour frame relative to a keyframe (a frame with depth)."""
+
+    def __init__(self, k: Intrinsics, features: int = 2000) -> None:
+        self.k = k
+        self.orb = cv2.ORB.create(features)
+        self.matcher = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
+        self.camera = np.array([[k.fx, 0, k.px], [0, k.fy, k.py], [0, 0, 1.0]])
+
+    def keyframe(self, grey: np.ndarray, metres: np.ndarray) -> Keyframe | None:
+        """Features of ``grey`` that have depth in ``metres`` (same size), or None with too few."""
+        kps, desc = self.orb.detectAndCompute(grey, None)
+        if desc is None:
+            return None
+        uv = np.array([kp.pt for kp in kps])
+        ui, vi = np.rint(uv[:, 0]).astype(int), np.rint(uv[:, 1]).astype(int)
+        h, w = metres.shape
+        inside = (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
+        z = np.zeros(len(kps))
+        z[inside] = metres[vi[inside], ui[inside]]
+        ok = z > 0
+        if ok.sum() < MIN_INLIERS:
+            return None
+        k = self.k
+        pts = np.stack([(uv[ok, 0] - k.px) * z[ok] / k.fx, (uv[ok, 1] - k.py) * z[ok] / k.fy, z[ok]], axis=1)
+        return Keyframe(pts, desc[ok])
+
+    def pose(self, key: Keyframe, grey: np.ndarray) -> Pose | None:
+        """The motion from ``key``'s camera to the camera of ``grey``, or None when it cannot be trusted."""
+        kps, desc = self.orb.detectAndCompute(grey, None)
+        if desc is None:
+            return None
+        matches = self.matcher.match(key.descriptors, desc)
+        if len(matches) < MIN_INLIERS:
+            return None
+        obj = key.points[[m.queryIdx for m in matches]]
+        img = np.array([kps[m.trainIdx].pt for m in matches], np.float64)
+        ok, rvec, tvec, inliers = cv2.solvePnPRansac(
+            obj, img, self.camera, None, reprojectionError=3.0, iterationsCount=200
+        )
+        if not ok or inliers is None or len(inliers) < MIN_INLIERS:
+            return None
+        rot, _ = cv2.Rodrigues(rvec)
+        return Pose(rot, tvec.reshape(3))

@@ -1,0 +1,148 @@
+"""``d2sr fill``: a recording as a duty-cycled sensor would have delivered it, with every frame the laser
+skipped synthesized. Frames in slots ``offset .. offset + n - 1`` of every 30 are kept exactly as they are;
+every other frame is written synthesized under its own name, with its per-pixel confidence, and
+``fill.csv`` lists each frame: kept or synthesized, how, and how much of it has a value."""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.atomic import atomic_dir, check_out
+from d2sr.desync import TOTAL_FRAMES
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames.checks import checked_counts, open_input
+from d2sr.frames.layout import FrameFolder
+from d2sr.synth.fill import Filler
+
+__all__ = ["FILLED", "FillSummary", "colour_frames", "fill_recording", "kept"]
+
+FILLED = {"depth": "", "confidence": "confidence"}  # stream -> sub-folder of a fill output
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+
+
+@dataclass(frozen=True)
+class FillSummary:
+    frames: int
+    kept: int
+    synthesized: int
+    method: str  # how the synthesized frames were made (the most common way)
+    out: Path
+    intrinsics: str  # "recorded" or "guessed"
+
+
+def kept(index: int, active_frames: int, offset: int, total: int = TOTAL_FRAMES) -> bool:
+    """Whether frame ``index`` lies in the window of slots ``offset .. offset + active_frames - 1``."""
+    return (index % total - offset) % total < active_frames
+
+
+def colour_frames(folder: Path) -> list[Path]:
+    """The colour images of ``folder`` in name order."""
+    if not folder.is_dir():
+        raise InputError(f"--rgb {folder}: no such folder")
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise InputError(f"--rgb {folder}: no .png or .jpg colour frames")
+    return files
+
+
+def fill_recording(
+    input: Path,
+    out: Path,
+    active_frames: int,
+    *,
+    offset: int = 0,
+    rgb: Path | None = None,
+    depth_scale: float | None = None,
+    topic: str | None = None,
+    overwrite: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+    say: Callable[[str], object] | None = None,
+) -> FillSummary:
+    """Keep the window's frames of ``input`` and synthesize the others into the PNG folder ``out``: from the
+    colour frames of ``rgb`` (paired in name order; extra ones are ignored) when given, else by holding the
+    last kept frame."""
+    if not 1 <= active_frames <= TOTAL_FRAMES:
+        raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
+    if not 0 <= offset < TOTAL_FRAMES:
+        raise ConfigError(f"--offset must be in 0..{TOTAL_FRAMES - 1}, got {offset}")
+    check_out(out, is_dir=True, overwrite=overwrite, inputs=[input, rgb])
+    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, say=say)
+    colours = colour_frames(rgb) if rgb is not None else None
+    if colours is not None and len(colours) < len(reader):
+        raise InputError(f"--rgb {rgb}: {len(colours)} colour frames for {len(reader)} depth frames")
+    filler = Filler(reader.intrinsics)
+    rows: list[dict[str, object]] = []
+    methods: dict[str, int] = {}
+    with atomic_dir(out) as tmp:
+        folder = FrameFolder(tmp, FILLED)
+        for i, frame in enumerate(checked_counts(reader, scale, "frame")):
+            if frame.depth.dtype != np.uint16:
+                raise InputError(f"{frame.name}: d2sr fill writes 16-bit frames; this recording's are metres")
+            colour = _colour(colours[i]) if colours is not None else None
+            metres = frame.depth.astype(np.float32) / np.float32(scale)
+            if kept(i, active_frames, offset):
+                filler.real(metres, colour)
+                folder.write(frame.name, depth=frame.depth, confidence=_confidence(frame.depth > 0))
+                rows.append(_row(frame.name, i, "real", 0, frame.depth > 0, frame.depth > 0))
+                continue
+            try:
+                s = filler.synthesize(colour)
+            except InputError:  # nothing real yet (a window that starts after the recording does)
+                empty = np.zeros_like(frame.depth)
+                folder.write(frame.name, depth=empty, confidence=np.zeros(empty.shape, np.uint8))
+                rows.append(_row(frame.name, i, "none", 0, empty > 0, empty > 0))
+                continue
+            depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
+            folder.write(frame.name, depth=depth, confidence=_confidence(s.confidence))
+            rows.append(_row(frame.name, i, s.method, s.since_real, depth > 0, s.confidence))
+            methods[s.method] = methods.get(s.method, 0) + 1
+            if progress is not None:
+                progress(i + 1, len(reader))
+        folder.finish(scale, reader.intrinsics, [{"name": r["frame"]} for r in rows])
+        (tmp / "fill.csv").write_text(_csv(rows))
+    k = filler.intrinsics
+    recorded = reader.intrinsics is not None
+    if say is not None and not recorded and k is not None and colours is not None:
+        say(f"intrinsics not recorded: guessed fx = fy = {k.fx:.0f} px, centre ({k.px:.1f}, {k.py:.1f})")
+    n_kept = sum(r["synthesized"] == 0 for r in rows)
+    method = max(methods, key=lambda m: methods[m]) if methods else "none"
+    intrinsics = "recorded" if recorded else "guessed"
+    return FillSummary(len(rows), n_kept, len(rows) - n_kept, method, Path(out), intrinsics)
+
+
+def _colour(path: Path) -> np.ndarray:
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise InputError(f"{path}: not a readable colour image")
+    return img
+
+
+def _confidence(conf: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(conf.astype(np.float32) * 255), 0, 255).astype(np.uint8)
+
+
+def _row(name: str, i: int, method: str, since: int, has: np.ndarray, conf: np.ndarray) -> dict[str, object]:
+    return {
+        "frame": name,
+        "slot": i % TOTAL_FRAMES,
+        "synthesized": int(method != "real"),
+        "method": method,
+        "frames_since_real": since,
+        "coverage": round(float(has.mean()), 4),
+        "mean_confidence": round(float(np.asarray(conf, np.float32).mean()), 4),
+    }
+
+
+def _csv(rows: list[dict[str, object]]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["frame"])
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()

@@ -1,0 +1,178 @@
+"""Frame synthesis (d2sr.synth, d2sr fill): the warp against rendered ground truth, the colour path on a
+textured wall seen from two poses, the recording job's outputs and refusals."""
+
+from __future__ import annotations
+
+import csv
+
+import cv2
+import numpy as np
+import pytest
+
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import Intrinsics
+from d2sr.synth import Filler, Pose, fill_recording, warp_depth
+from d2sr.synth.recording import kept
+from d2sr.synth.warp import fill_from_background
+from helpers import d2sr_inprocess
+
+K = Intrinsics(320, 240, 300.0, 300.0, 159.5, 119.5)
+
+
+def _render(t: np.ndarray) -> np.ndarray:
+    """Depth (m) of a wall at z = 3 with a box (z = 2, a square in the middle) for a camera translated by
+    ``t`` (no rotation): each pixel's ray meets the nearest surface."""
+    v, u = np.mgrid[0 : K.height, 0 : K.width].astype(np.float64)
+    dx, dy = (u - K.px) / K.fx, (v - K.py) / K.fy
+    depth = np.full(u.shape, 3.0 - t[2])
+    zb = 2.0 - t[2]
+    x, y = dx * zb + t[0], dy * zb + t[1]
+    box = (np.abs(x) < 0.4) & (np.abs(y) < 0.4)
+    depth[box] = zb
+    return depth.astype(np.float32)
+
+
+def test_identity_warp_gives_the_frame_back():
+    d = _render(np.zeros(3))
+    assert np.allclose(warp_depth(d, Pose.identity(), K), d, atol=1e-5)
+
+
+def test_warp_matches_what_the_moved_camera_sees():
+    t = np.array([0.06, -0.02, 0.05])
+    before, after = _render(np.zeros(3)), _render(t)
+    warped = warp_depth(before, Pose(np.eye(3), -t), K)  # points move opposite to the camera
+    has = warped > 0
+    assert has.mean() > 0.9  # the move uncovers a sliver beside the box and an edge strip
+    err = np.abs(warped[has] - after[has])
+    assert np.mean(err < 0.02) > 0.99  # all but the box's edge pixels, which rounding puts on either side
+    filled, conf = fill_from_background(warped, 16)
+    assert (filled > 0).mean() > has.mean() and np.all(conf[has] == 1) and np.all(conf[~has] < 1)
+    new = (filled > 0) & ~has
+    assert np.median(np.abs(filled[new] - after[new])) < 0.05  # uncovered wall filled as wall
+
+
+def test_filler_follows_odometry_and_holds_without_it():
+    f = Filler(K)
+    before, after = _render(np.zeros(3)), _render(np.array([0.08, 0.0, 0.0]))
+    assert f.real(before, pose=Pose.identity()).method == "real"
+    s = f.synthesize(pose=Pose(np.eye(3), np.array([0.08, 0.0, 0.0])))  # camera to world
+    has = s.confidence == 1
+    assert s.method == "warp-pose" and s.since_real == 1 and has.mean() > 0.9
+    assert np.mean(np.abs(s.depth[has] - after[has]) < 0.02) > 0.99
+    held = f.synthesize()
+    assert held.method == "hold" and np.array_equal(held.depth, before) and held.confidence.max() == 0.5
+
+
+def _texture(seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    small = rng.integers(0, 255, (60, 80), dtype=np.uint8)
+    return cv2.GaussianBlur(
+        cv2.resize(small, (K.width * 2, K.height * 2), interpolation=cv2.INTER_NEAREST), (3, 3), 0
+    )
+
+
+def _colour_of_wall(t: np.ndarray, tex: np.ndarray) -> np.ndarray:
+    """A textured wall at z = 3 seen by a camera translated by ``t``: the texture mapped through the plane's
+    homography (the texture spans 2x the first view, centred)."""
+    z = 3.0 - t[2]
+    # pixel -> wall point -> texture pixel
+    v, u = np.mgrid[0 : K.height, 0 : K.width].astype(np.float32)
+    x = (u - K.px) / K.fx * z + t[0]
+    y = (v - K.py) / K.fy * z + t[1]
+    tu = (x / 3.0 * K.fx + K.px) + K.width / 2
+    tv = (y / 3.0 * K.fy + K.py) + K.height / 2
+    return cv2.remap(tex, tu.astype(np.float32), tv.astype(np.float32), cv2.INTER_LINEAR)
+
+
+def test_colour_path_finds_the_motion_of_a_textured_wall():
+    tex = _texture()
+    wall = np.full((K.height, K.width), 3.0, np.float32)
+    f = Filler(K)
+    f.real(wall, _colour_of_wall(np.zeros(3), tex))
+    t = np.array([0.0, 0.0, 0.0])
+    for step in range(1, 6):  # the camera walks 4 cm a frame towards the wall
+        t = np.array([0.0, 0.0, 0.04 * step])
+        s = f.synthesize(_colour_of_wall(t, tex))
+        assert s.method == "warp-colour"
+    has = s.confidence == 1
+    assert has.mean() > 0.8
+    assert np.abs(np.median(s.depth[has]) - (3.0 - t[2])) < 0.03  # 20 cm closer, seen from colour alone
+
+
+def test_window_slots():
+    assert [kept(i, 6, 0) for i in (0, 5, 6, 29, 30, 35, 36)] == [True, True, False, False, True, True, False]
+    assert [kept(i, 6, 27) for i in (26, 27, 29, 30, 32, 33)] == [False, True, True, True, True, False]
+
+
+def _sequence(tmp_path, n: int = 40, colour: bool = True):
+    depth_dir, rgb_dir = tmp_path / "depth", tmp_path / "rgb"
+    depth_dir.mkdir()
+    rgb_dir.mkdir()
+    tex = _texture(1)
+    for i in range(n):
+        t = np.array([0.004 * i, 0.0, 0.0])
+        d = np.rint(np.full((K.height, K.width), 3.0 - t[2]) * 1000).astype(np.uint16)
+        d[::37, ::41] = 0  # missing returns
+        cv2.imwrite(str(depth_dir / f"depth{i:05d}.png"), d)
+        if colour:
+            cv2.imwrite(str(rgb_dir / f"rgb{i:05d}.jpg"), _colour_of_wall(t, tex))
+    return depth_dir, rgb_dir
+
+
+def test_fill_keeps_the_window_and_synthesizes_the_rest(tmp_path):
+    depth_dir, rgb_dir = _sequence(tmp_path)
+    summary = fill_recording(depth_dir, tmp_path / "out", 6, offset=2, rgb=rgb_dir)
+    out = tmp_path / "out"
+    assert (summary.frames, summary.kept, summary.synthesized) == (40, 6 + 6, 28)
+    rows = list(csv.DictReader((out / "fill.csv").open()))
+    assert [r["synthesized"] for r in rows[:9]] == ["1", "1", "0", "0", "0", "0", "0", "0", "1"]
+    assert (
+        rows[0]["method"] == "none"
+        and rows[8]["method"] == "warp-colour"
+        and rows[8]["frames_since_real"] == "1"
+    )
+    for r in rows:
+        src = cv2.imread(str(depth_dir / f"{r['frame']}.png"), cv2.IMREAD_UNCHANGED)
+        got = cv2.imread(str(out / f"{r['frame']}.png"), cv2.IMREAD_UNCHANGED)
+        conf = cv2.imread(str(out / "confidence" / f"{r['frame']}.png"), cv2.IMREAD_UNCHANGED)
+        assert got.dtype == np.uint16 and conf.dtype == np.uint8 and got.shape == src.shape
+        if r["synthesized"] == "0":
+            assert np.array_equal(got, src)  # kept frames exactly as they were
+        elif r["method"] == "warp-colour":
+            near = conf == 255
+            assert np.abs(got[near].astype(int) - 3000).max() <= 45  # 1.5%: the motion is estimated
+
+
+def test_fill_without_colour_holds_the_last_kept_frame(tmp_path):
+    depth_dir, _ = _sequence(tmp_path, n=12, colour=False)
+    code, out, err = d2sr_inprocess(
+        "fill", str(depth_dir), "--active-frames", "6", "--out", str(tmp_path / "o")
+    )
+    assert code == 0, err
+    assert "12 frames: 6 kept, 6 synthesized (hold;" in out
+    last = cv2.imread(str(depth_dir / "depth00005.png"), cv2.IMREAD_UNCHANGED)
+    assert np.array_equal(cv2.imread(str(tmp_path / "o" / "depth00009.png"), cv2.IMREAD_UNCHANGED), last)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--active-frames", "0"], "--active-frames must be in 1..30"),
+        (["--active-frames", "6", "--offset", "30"], "--offset must be in 0..29"),
+        (["--active-frames", "6", "--rgb", "NOPE"], "no such folder"),
+    ],
+)
+def test_fill_refuses_bad_settings(tmp_path, args, message):
+    depth_dir, _ = _sequence(tmp_path, n=3, colour=False)
+    args = [str(tmp_path / "nope") if a == "NOPE" else a for a in args]
+    code, _, err = d2sr_inprocess("fill", str(depth_dir), *args, "--out", str(tmp_path / "o"))
+    assert code == 2 and message in err and err.count("\n") == 1 and not (tmp_path / "o").exists()
+
+
+def test_fill_refuses_too_few_colour_frames(tmp_path):
+    depth_dir, rgb_dir = _sequence(tmp_path, n=5)
+    (rgb_dir / "rgb00004.jpg").unlink()
+    with pytest.raises(InputError, match="4 colour frames for 5 depth frames"):
+        fill_recording(depth_dir, tmp_path / "o", 2, rgb=rgb_dir)
+    with pytest.raises(ConfigError):
+        fill_recording(depth_dir, tmp_path / "o", 31)
