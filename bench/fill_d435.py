@@ -57,7 +57,7 @@ class Pool:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
-    output_args(ap)
+    output_args(ap, plot="RMSE by frames since the last real one (the paper's Fig. 11), PNG")
     args = ap.parse_args()
     check_output(ap, args)
     seq = args.data / "d435"
@@ -107,6 +107,30 @@ def main() -> None:
         })  # fmt: skip
         print(result["runs"][-1], flush=True)
     print(write_result(result, args.json))
+    if args.plot is not None:
+        plot(result, args.plot)
+
+
+def plot(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from d2sr.eval.plots import save
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for run in result["runs"]:
+        gaps = sorted(run["rmse_cm_by_frames_since_real"], key=int)
+        ax.plot([int(g) for g in gaps], [run["rmse_cm_by_frames_since_real"][g] for g in gaps], marker="o",
+                ms=3, label=f"d2sr fill, {run['active_frames']} of 30 kept")  # fmt: skip
+        ax.axhline(run["hold_last_rmse_cm"], ls="--", lw=1, color=ax.lines[-1].get_color(),
+                   label=f"hold-last, {run['active_frames']} of 30 (all gaps)")  # fmt: skip
+    ax.set(xlabel="frames since the last real frame", ylabel="RMSE (cm)", ylim=(0, None),
+           title="Synthesized frames against the real ones, hand-held D435")  # fmt: skip
+    ax.legend(fontsize=7)
+    fig.text(0.01, -0.02, result["command"], fontsize=6)
+    save(fig, path)
 
 
 if __name__ == "__main__":
