@@ -80,6 +80,7 @@ def main() -> None:
             seconds = time.perf_counter() - t
             ours, hold = Pool(), Pool()
             by_gap: dict[int, Pool] = {}
+            hold_gap: dict[int, Pool] = {}
             identical = True
             for i, f in enumerate(files):
                 got = read(out / f.name)
@@ -90,6 +91,7 @@ def main() -> None:
                 ours.add(got, real[i])
                 hold.add(held, real[i])
                 by_gap.setdefault(i % 30 - n + 1, Pool()).add(got, real[i])
+                hold_gap.setdefault(i % 30 - n + 1, Pool()).add(held, real[i])
         result["runs"].append({
             "active_frames": n,
             "synthesized": summary.synthesized,
@@ -103,6 +105,7 @@ def main() -> None:
             "hold_last_coverage": hold.coverage(),
             "coverage_vs_hold_last": round(ours.coverage() / hold.coverage(), 3),
             "rmse_cm_by_frames_since_real": {k: p.rmse_cm() for k, p in sorted(by_gap.items())},
+            "hold_last_rmse_cm_by_frames_since_real": {k: p.rmse_cm() for k, p in sorted(hold_gap.items())},
             "frames_per_second": round(len(files) / seconds, 1),
         })  # fmt: skip
         print(result["runs"][-1], flush=True)
@@ -124,12 +127,14 @@ def plot(result: dict, path: Path) -> None:
         gaps = sorted(run["rmse_cm_by_frames_since_real"], key=int)
         ax.plot([int(g) for g in gaps], [run["rmse_cm_by_frames_since_real"][g] for g in gaps], marker="o",
                 ms=3, label=f"d2sr fill, {run['active_frames']} of 30 kept")  # fmt: skip
-        ax.axhline(run["hold_last_rmse_cm"], ls="--", lw=1, color=ax.lines[-1].get_color(),
-                   label=f"hold-last, {run['active_frames']} of 30 (all gaps)")  # fmt: skip
+        held = run["hold_last_rmse_cm_by_frames_since_real"]
+        colour = ax.lines[-1].get_color()
+        ax.plot([int(g) for g in gaps], [held[g] for g in gaps], ls="--", lw=1, color=colour,
+                label=f"hold-last, {run['active_frames']} of 30 kept")  # fmt: skip
     ax.set(xlabel="frames since the last real frame", ylabel="RMSE (cm)", ylim=(0, None),
            title="Synthesized frames against the real ones, hand-held D435")  # fmt: skip
     ax.legend(fontsize=7)
-    fig.text(0.01, -0.02, result["command"], fontsize=6)
+    fig.text(0.01, -0.06, result["command"], fontsize=6)
     save(fig, path)
 
 
