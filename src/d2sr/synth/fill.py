@@ -5,6 +5,7 @@ from the previous one's, so baselines stay short), or is unknown: then the last 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -48,6 +49,7 @@ class Filler:
         self._source: np.ndarray | None = None  # the last real frame, metres
         self._source_pose: Pose | None = None  # its world pose (odometry)
         self._key: Keyframe | None = None  # the previous frame's features with depth
+        self._found: tuple[Any, np.ndarray | None] | None = None  # this frame's features (colour path)
         self._moved = Pose.identity()  # last real camera -> previous frame's camera
         self._since = 0
 
@@ -68,6 +70,7 @@ class Filler:
         if self._source is None:
             raise InputError("no real frame yet: the filler has nothing to synthesize from")
         source = self._source
+        self._found = None
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
         elif colour is not None:
@@ -78,8 +81,8 @@ class Filler:
         k = self._k(source.shape)
         warped = warp_depth(source, moved, k)
         self._moved = moved
-        if colour is not None:
-            self._key = self._keyframe(colour, warped)
+        if self._found is not None:
+            self._key = self._motion_for(warped.shape).keyframe(self._found, warped)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
         return Synthesized(depth, conf, method, self._since)
@@ -89,14 +92,16 @@ class Filler:
         previous pose again when the step cannot be trusted."""
         grey = _grey(colour)
         motion = self._motion_for(grey.shape)
-        step = motion.pose(self._key, grey) if self._key is not None else None
+        self._found = motion.features(grey)
+        step = motion.pose(self._key, self._found) if self._key is not None else None
         return self._moved if step is None else self._moved.then(step)
 
     def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
         if colour is None:
             return None
         grey = _grey(colour)
-        return self._motion_for(grey.shape).keyframe(grey, metres)
+        motion = self._motion_for(grey.shape)
+        return motion.keyframe(motion.features(grey), metres)
 
     def _motion_for(self, shape: tuple[int, ...]) -> ColourMotion:
         if self._motion is None:

@@ -5,6 +5,7 @@ interference does not touch it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -15,6 +16,7 @@ from d2sr.synth.warp import Pose
 __all__ = ["ColourMotion", "Keyframe"]
 
 MIN_INLIERS = 12  # fewer RANSAC inliers than this and the pose is not trusted
+RATIO = 0.8  # a match must beat the second best by this ratio
 
 
 @dataclass
@@ -28,15 +30,21 @@ class Keyframe:
 class ColourMotion:
     """Pose of the current colour frame relative to a keyframe (a frame with depth)."""
 
-    def __init__(self, k: Intrinsics, features: int = 2000) -> None:
+    def __init__(self, k: Intrinsics, features: int = 1000) -> None:
         self.k = k
         self.orb = cv2.ORB.create(features)
-        self.matcher = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
+        self.matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
         self.camera = np.array([[k.fx, 0, k.px], [0, k.fy, k.py], [0, 0, 1.0]])
 
-    def keyframe(self, grey: np.ndarray, metres: np.ndarray) -> Keyframe | None:
-        """Features of ``grey`` that have depth in ``metres`` (same size), or None with too few."""
+    def features(self, grey: np.ndarray) -> tuple[Any, np.ndarray | None]:
+        """ORB keypoints and descriptors of a grey image, computed once and used twice (``pose`` of this
+        frame, then ``keyframe`` for the next)."""
         kps, desc = self.orb.detectAndCompute(grey, None)
+        return kps, desc
+
+    def keyframe(self, found: tuple[Any, np.ndarray | None], metres: np.ndarray) -> Keyframe | None:
+        """The ``features`` of a frame that have depth in ``metres`` (same size), or None with too few."""
+        kps, desc = found
         if desc is None:
             return None
         uv = np.array([kp.pt for kp in kps])
@@ -52,12 +60,15 @@ class ColourMotion:
         pts = np.stack([(uv[ok, 0] - k.px) * z[ok] / k.fx, (uv[ok, 1] - k.py) * z[ok] / k.fy, z[ok]], axis=1)
         return Keyframe(pts, desc[ok])
 
-    def pose(self, key: Keyframe, grey: np.ndarray) -> Pose | None:
-        """The motion from ``key``'s camera to the camera of ``grey``, or None when it cannot be trusted."""
-        kps, desc = self.orb.detectAndCompute(grey, None)
+    def pose(self, key: Keyframe, found: tuple[Any, np.ndarray | None]) -> Pose | None:
+        """The motion from ``key``'s camera to the camera of a frame with ``features``, or None when it
+        cannot be trusted."""
+        kps, desc = found
         if desc is None:
             return None
-        matches = self.matcher.match(key.descriptors, desc)
+        pairs = self.matcher.knnMatch(key.descriptors, desc, k=2)
+        # Lowe's ratio test: one pass instead of a cross-checked two
+        matches = [p[0] for p in pairs if len(p) == 2 and p[0].distance < RATIO * p[1].distance]
         if len(matches) < MIN_INLIERS:
             return None
         obj = key.points[[m.queryIdx for m in matches]]

@@ -55,15 +55,20 @@ def warp_depth(metres: np.ndarray, pose: Pose, k: Intrinsics) -> np.ndarray:
     each pixel, single-pixel cracks between projected points are closed, and what the move uncovered is 0."""
     h, w = metres.shape
     v, u = np.nonzero(metres > 0)
-    z = metres[v, u].astype(np.float64)
-    pts = np.stack([(u - k.px) * z / k.fx, (v - k.py) * z / k.fy, z], axis=1) @ pose.R.T + pose.t
-    ahead = pts[:, 2] > 0.05
-    pts = pts[ahead]
-    uu = np.rint(pts[:, 0] / pts[:, 2] * k.fx + k.px).astype(np.int64)
-    vv = np.rint(pts[:, 1] / pts[:, 2] * k.fy + k.py).astype(np.int64)
+    z = metres[v, u].astype(np.float32)
+    rot, t = pose.R.astype(np.float32), pose.t.astype(np.float32)
+    x = (u.astype(np.float32) - np.float32(k.px)) * z / np.float32(k.fx)
+    y = (v.astype(np.float32) - np.float32(k.py)) * z / np.float32(k.fy)
+    zz = rot[2, 0] * x + rot[2, 1] * y + rot[2, 2] * z + t[2]
+    ahead = zz > 0.05
+    x, y, z, zz = x[ahead], y[ahead], z[ahead], zz[ahead]
+    xx = rot[0, 0] * x + rot[0, 1] * y + rot[0, 2] * z + t[0]
+    yy = rot[1, 0] * x + rot[1, 1] * y + rot[1, 2] * z + t[1]
+    uu = np.rint(xx / zz * np.float32(k.fx) + np.float32(k.px)).astype(np.int64)
+    vv = np.rint(yy / zz * np.float32(k.fy) + np.float32(k.py)).astype(np.int64)
     inside = (uu >= 0) & (uu < w) & (vv >= 0) & (vv < h)
-    out = np.full(h * w, np.inf)
-    np.minimum.at(out, vv[inside] * w + uu[inside], pts[inside, 2])
+    out = np.full(h * w, np.inf, np.float32)  # float32 throughout: minimum.at is 30x slower on a cast
+    np.minimum.at(out, vv[inside] * w + uu[inside], zz[inside])
     out = out.reshape(h, w)
     empty = np.isinf(out)
     nearest = cv2.erode(np.where(empty, 1e9, out).astype(np.float32), np.ones((3, 3), np.uint8))
@@ -74,18 +79,19 @@ def warp_depth(metres: np.ndarray, pose: Pose, k: Intrinsics) -> np.ndarray:
 
 
 def fill_from_background(metres: np.ndarray, radius: int) -> tuple[np.ndarray, np.ndarray]:
-    """Holes grown over from their farther side, one pixel a step for ``radius`` steps (what a move
-    uncovers is mostly background). Returns the filled depth and each pixel's confidence: 1 where it was
+    """Holes grown over from their farther side for ``radius`` pixels (what a move uncovers is mostly
+    background): each hole pixel within ``radius`` (chessboard distance) of a value takes the farthest
+    value within that distance. Returns the filled depth and each pixel's confidence: 1 where it was
     warped, falling linearly to 0 at ``radius`` for filled ones, 0 where still empty."""
     out = metres.astype(np.float32).copy()
-    conf = (out > 0).astype(np.float32)
-    kernel = np.ones((3, 3), np.uint8)
-    for step in range(1, radius + 1):
-        hole = out == 0
-        if not hole.any():
-            break
-        grown = cv2.dilate(out, kernel)
-        new = hole & (grown > 0)
-        out[new] = grown[new]
-        conf[new] = 1.0 - step / (radius + 1)
+    hole = out == 0
+    conf = (~hole).astype(np.float32)
+    if not hole.any() or hole.all():
+        return out, conf
+    # One dilation with a (2r + 1) square equals r steps of a 3x3 one; the distance sets the confidence.
+    dist = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_C, 3)
+    far = cv2.dilate(out, np.ones((2 * radius + 1, 2 * radius + 1), np.uint8))
+    new = hole & (dist <= radius) & (far > 0)
+    out[new] = far[new]
+    conf[new] = 1.0 - dist[new] / (radius + 1)
     return out, conf
