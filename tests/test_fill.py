@@ -176,3 +176,24 @@ def test_fill_refuses_too_few_colour_frames(tmp_path):
         fill_recording(depth_dir, tmp_path / "o", 2, rgb=rgb_dir)
     with pytest.raises(ConfigError):
         fill_recording(depth_dir, tmp_path / "o", 31)
+
+
+def test_pipeline_synthesizes_skipped_slots_in_the_callers_units():
+    import d2sr
+
+    tex = _texture(2)
+    p = d2sr.Pipeline(depth_scale=1000, intrinsics=K, repair="none")
+    with pytest.raises(InputError, match="no frame processed yet"):
+        p.synthesize()
+    wall = np.full((K.height, K.width), 3000, np.uint16)
+    r = p.process(wall, colour=_colour_of_wall(np.zeros(3), tex))
+    assert np.array_equal(r.depth, wall)
+    t = np.array([0.0, 0.0, 0.1])
+    s = p.synthesize(_colour_of_wall(t, tex))
+    assert s.method == "warp-colour" and s.depth.dtype == np.uint16 and s.since_real == 1
+    near = s.confidence == 1
+    assert abs(int(np.median(s.depth[near])) - 2900) <= 30
+    f = d2sr.Pipeline(intrinsics=K, repair="none")
+    f.process(wall.astype(np.float32) / 1000)
+    held = f.synthesize()
+    assert held.method == "hold" and held.depth.dtype == np.float32 and np.allclose(held.depth, 3.0)

@@ -14,17 +14,18 @@ import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypedDict, Unpack
+from typing import Any, TypedDict, Unpack
 
 import numpy as np
 
 from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import PLAUSIBLE_M, Frame, probe
+from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
+from d2sr.synth import Filler, Pose, Synthesized
 from d2sr.triggers import Actuator, open_trigger
 
 __all__ = ["Decided", "Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
@@ -205,6 +206,7 @@ class Pipeline:
       actuator's clock. Or any object with ``set_offset(period, offset)``, given slots by the caller.
       Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
     - ``threads``: onnxruntime's threads [all cores]; ``int8``: the int8 models (``d2sr export --int8``).
+    - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
     - the repair's ``options``: ``Options``.
     """
 
@@ -218,6 +220,7 @@ class Pipeline:
         trigger: Trigger | str | None = None,
         threads: int | None = None,
         int8: bool = False,
+        intrinsics: Intrinsics | None = None,
         **options: Unpack[Options],
     ) -> None:
         if controller not in CONTROLLERS or controller == "oracle":
@@ -240,6 +243,11 @@ class Pipeline:
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()
         self._probed = False
+        self._filler = Filler(intrinsics)
+        # the last processed frame (repaired), its colour, dtype and scale: what synthesize starts from
+        self._last: tuple[np.ndarray, np.ndarray | None, np.dtype[Any], float] | None = None
+        self._last_pose: Pose | None = None
+        self._fed = False
 
     def close(self) -> None:
         """Stop the trigger's clock and release its device."""
@@ -264,12 +272,42 @@ class Pipeline:
         timestamp_ns: int | None = None,
         slot: int | None = None,
         arrival_s: float | None = None,
+        colour: np.ndarray | None = None,
+        pose: Pose | None = None,
     ) -> Repaired:
         """Detect, de-synchronize and repair one frame (frames in time order). ``slot``: where the frame
         lies in its 1 s period, for a sensor whose trigger sets it (None: every ``active_frames`` frames
         make a period; with an actuator, its clock tells from ``arrival_s``, the ``time.monotonic()`` at
-        which the frame reached the host, by default now)."""
-        return self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
+        which the frame reached the host, by default now). ``colour``: the colour frame taken with it (depth
+        aligned to colour), ``pose``: the camera's pose (odometry), which ``synthesize`` follows the camera
+        with."""
+        r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
+        scale = 1.0 if depth.dtype.kind == "f" else (self.depth_scale or 1000.0)
+        # Kept for synthesize (a copy: camera drivers reuse their buffers); the filler sees it only then.
+        self._last = (r.depth.copy(), None if colour is None else colour.copy(), depth.dtype, scale)
+        self._last_pose = pose
+        self._fed = False
+        return r
+
+    def synthesize(self, colour: np.ndarray | None = None, pose: Pose | None = None) -> Synthesized:
+        """The frame the sensor would have given in a slot its laser skipped, from the last processed one
+        (repaired) and the camera's motion: ``colour`` (the colour frame now) or ``pose`` (the camera's pose
+        in the caller's world, for every frame; ``d2sr.synth.Pose``); with neither, that frame is held.
+        ``depth`` comes back in the last frame's dtype and units (no value: 0, or NaN for float);
+        ``confidence`` per pixel, ``method`` and ``since_real`` say how it was made (``d2sr.synth``)."""
+        if self._last is None:
+            raise InputError("synthesize: no frame processed yet to synthesize from")
+        last, last_colour, dtype, scale = self._last
+        if not self._fed:
+            metres = np.where(np.isfinite(last), last, 0).astype(np.float32) / np.float32(scale)
+            self._filler.real(metres, last_colour, self._last_pose)
+            self._fed = True
+        s = self._filler.synthesize(colour, pose)
+        if dtype.kind == "f":
+            depth = np.where(s.depth > 0, s.depth, np.nan).astype(dtype)
+        else:
+            depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
+        return Synthesized(depth, s.confidence, s.method, s.since_real)
 
     def decide(
         self,
