@@ -270,7 +270,8 @@ def test_the_emitter_follows_the_window_on_a_software_device():
     assert len(lit) <= 6 + act.lead + 2  # off elsewhere
     assert not window & other
     assert any(flag for *_, flag in log[:60])
-    assert not any(flag for p, *_, flag in log if p == log[-1][0] - 1)
+    # the window's own frames are clean now (a frame in a lead slot, emitter on early, may still be hit)
+    assert not any(flag for p, s, _, flag in log if p == log[-1][0] - 1 and s in window)
 
 
 def test_orbbec_names_exist_in_the_installed_sdk():
