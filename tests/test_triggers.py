@@ -327,3 +327,29 @@ def test_gpio_drives_a_real_line():
         info = gpiod.Chip(chip_path(chip)).get_line_info(int(line))
         assert info.used and info.consumer == "d2sr"
         assert [p.slot for p in act.pulses][:6] == list(range(6))
+
+
+def test_trigger_check_runs_a_board_without_a_camera():
+    board = Board()
+    try:
+        code, out, err = d2sr_inprocess("trigger", "check", f"serial:{board.path}@d400", "--seconds", "2.2",
+                                        "--pings", "20")  # fmt: skip
+    finally:
+        board.close()
+    assert code == 0, err
+    assert "round trip, command to pulse:" in out
+    assert "2 periods: 12 of 12 active slots reported" in out
+    code, _, err = d2sr_inprocess("trigger", "check", "orbbec")
+    assert code == 2 and "needs its camera" in err
+
+
+def test_trigger_firmware_is_written_for_the_board(tmp_path):
+    code, out, err = d2sr_inprocess("trigger", "firmware", "--out", str(tmp_path / "fw"))
+    assert code == 0 and "main.py" in out, err
+    from d2sr.triggers.firmware import FOLDER
+
+    for name in ("d2sr_trigger.py", "main.py"):
+        assert (tmp_path / "fw" / name).read_bytes() == (FOLDER / name).read_bytes()
+    compile((tmp_path / "fw" / "main.py").read_text(), "main.py", "exec")  # valid Python for the board
+    code, _, err = d2sr_inprocess("trigger", "firmware", "--out", str(tmp_path / "fw"))
+    assert code == 2 and "--overwrite" in err  # never over a folder without asking

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from d2sr import __version__
-from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train
+from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train, trigger
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 
@@ -19,8 +19,12 @@ __all__ = ["app", "main"]
 app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
 desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
 eval_app = typer.Typer(help="Evaluations that write JSON and plots.", no_args_is_help=True)
+trigger_app = typer.Typer(
+    help="Stage 2's trigger lines: check a board, get its firmware.", no_args_is_help=True
+)
 app.add_typer(desync_app, name="desync")
 app.add_typer(eval_app, name="eval")
+app.add_typer(trigger_app, name="trigger")
 COMMANDS: dict[str, Callable[..., None]] = {
     "detect": stages.detect,
     "recover": stages.recover,
@@ -52,7 +56,8 @@ EVAL: dict[str, Callable[..., None]] = {
     "labels": evaluate.labels,
     "generalization": evaluate.generalization,
 }
-for group, commands in ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL)):
+TRIGGER: dict[str, Callable[..., None]] = {"check": trigger.check, "firmware": trigger.firmware}
+for group, commands in ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL), (trigger_app, TRIGGER)):
     for name, fn in commands.items():
         group.command(name)(fn)
 
