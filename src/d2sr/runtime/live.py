@@ -71,6 +71,7 @@ def _realsense(serial: str | None, actuator: Actuator | None, trigger: str | Non
 
 
 def _realsense_frames(pipe: Any, profile: Any, seconds: float) -> LiveFrames:
+    rs = import_rs()
     scale = 1.0 / profile.get_device().first_depth_sensor().get_depth_scale()
     end = time.monotonic() + seconds
     try:
@@ -78,8 +79,8 @@ def _realsense_frames(pipe: Any, profile: Any, seconds: float) -> LiveFrames:
             ok, fs = pipe.try_wait_for_frames(200)
             if not ok:
                 continue  # a triggered camera sends nothing outside its window
-            arrival = time.monotonic()
             d = fs.get_depth_frame()
+            arrival = _arrival(d, rs)
             stamp = int(d.get_timestamp() * 1e6)
             yield (
                 Frame(f"{d.get_frame_number():08d}", np.asanyarray(d.get_data()).copy(), stamp),
@@ -88,6 +89,16 @@ def _realsense_frames(pipe: Any, profile: Any, seconds: float) -> LiveFrames:
             )
     finally:
         pipe.stop()
+
+
+def _arrival(frame: Any, rs: Any) -> float:
+    """When a frame reached the host, on ``time.monotonic``: the driver's time of arrival where the frame
+    carries it (a loop that lags would otherwise stamp queued frames late and put them in later slots)."""
+    toa = rs.frame_metadata_value.time_of_arrival
+    now = time.monotonic()
+    if frame.supports_frame_metadata(toa):
+        return now - (time.time() - float(frame.get_frame_metadata(toa)) / 1000.0)
+    return now
 
 
 def _camera(

@@ -55,11 +55,13 @@ class SlotClock:
         guess = host_s - (period * self.total + slot) * self.slot_s
         self.start_s = guess if self.start_s is None else min(self.start_s, guess)
 
-    def at(self, host_s: float) -> tuple[int, int]:
-        """(period, slot) at host time ``host_s``."""
+    def at(self, host_s: float, nearest: bool = False) -> tuple[int, int]:
+        """(period, slot) at host time ``host_s``: the slot running then, or (``nearest``) the slot whose
+        start lies nearest to it."""
         if self.start_s is None:
             raise RuntimeError("the slot clock has not started")
-        k = math.floor((host_s - self.start_s) / self.slot_s + 1e-9)
+        x = (host_s - self.start_s) / self.slot_s
+        k = round(x) if nearest else math.floor(x + 1e-9)
         return k // self.total, k % self.total
 
 
@@ -98,9 +100,11 @@ class Actuator:
         self.send("START 0")
 
     def locate(self, arrival_s: float) -> tuple[int, int]:
-        """The (period, slot) of a frame that reached the host at ``arrival_s`` (``time.monotonic``)."""
+        """The (period, slot) of a frame that reached the host at ``arrival_s`` (``time.monotonic``): the
+        slot whose start lies nearest to its arrival less the latency, so jitter either way of half a slot
+        (17 ms) still finds it."""
         with self._lock:
-            return self.clock.at(arrival_s - self.latency_s)
+            return self.clock.at(arrival_s - self.latency_s, nearest=True)
 
     def settled_period(self, now_s: float | None = None) -> int:
         """The last period whose frames can no longer arrive is the one before this."""

@@ -89,7 +89,9 @@ def orbbec_frames(pipe: Any, seconds: float) -> Iterator[tuple[Frame, float, flo
             depth = frames.get_depth_frame() if frames is not None else None
             if depth is None:
                 continue
-            arrival = time.monotonic()
+            # the SDK's system (host) timestamp of the frame, on time.monotonic: a lagging loop would
+            # otherwise stamp queued frames late and put them in later slots
+            arrival = time.monotonic() - (time.time() - depth.get_system_timestamp_us() / 1e6)
             h, w = depth.get_height(), depth.get_width()
             data = np.frombuffer(depth.get_data(), np.uint16).reshape(h, w).copy()
             scale = 1000.0 / float(depth.get_depth_scale())  # the SDK gives millimetres per unit
