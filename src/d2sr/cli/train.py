@@ -130,7 +130,12 @@ def export(
     ] = None,
     int8: Annotated[
         bool,
-        typer.Option("--int8", metavar="", help="Also write <model>.int8.onnx (static int8, onnxruntime)."),
+        typer.Option(
+            "--int8",
+            metavar="",
+            help="Also write <model>.int8.onnx (static int8, onnxruntime; experimental: see "
+            "docs/results/int8_real.json).",
+        ),
     ] = False,
     overwrite: Overwrite = False,
 ) -> None:
