@@ -38,3 +38,17 @@ def d2sr_inprocess(*args: str) -> tuple[int, str, str]:
     finally:
         sys.argv = argv
     return code, " ".join(out.getvalue().split()), err.getvalue()
+
+
+def room(seed: int = 0, shape: tuple[int, int] = (480, 640), scale: float = 4000.0):
+    """A wall, a floor and a box in L515 units (``scale`` per metre), with the sensor's missing returns."""
+    import numpy as np
+
+    h, w = shape
+    rng = np.random.default_rng(seed)
+    rows = np.arange(h, dtype=np.float32)[:, None]
+    metres = np.broadcast_to(np.where(rows > h * 0.6, 1.2 + 2.0 * (h - rows) / h, 3.2), shape).copy()
+    metres[h // 3 : h // 2, w // 4 : w // 2] = 1.8
+    metres += rng.normal(0, 0.003, shape).astype(np.float32)
+    metres[rng.random(shape) < 0.3] = 0
+    return (metres * scale).astype(np.uint16)

@@ -11,25 +11,13 @@ import pytest
 import d2sr
 from d2sr.frames.png import encode_png
 from d2sr.sim.interference import corrupt
-from helpers import d2sr_inprocess
+from helpers import d2sr_inprocess, room
 
 SCALE = 4000.0
 
 
-def _room(seed: int = 0, shape: tuple[int, int] = (480, 640)) -> np.ndarray:
-    """A wall, a floor and a box in L515 units, with the sensor's missing returns."""
-    h, w = shape
-    rng = np.random.default_rng(seed)
-    rows = np.arange(h, dtype=np.float32)[:, None]
-    metres = np.broadcast_to(np.where(rows > h * 0.6, 1.2 + 2.0 * (h - rows) / h, 3.2), shape).copy()
-    metres[h // 3 : h // 2, w // 4 : w // 2] = 1.8
-    metres += rng.normal(0, 0.003, shape).astype(np.float32)
-    metres[rng.random(shape) < 0.3] = 0
-    return (metres * SCALE).astype(np.uint16)
-
-
 def _interfered(seed: int = 0) -> np.ndarray:
-    clean = _room(seed)
+    clean = room(seed)
     where = np.zeros(clean.shape, bool)
     where[150:260, :] = True
     frame, _ = corrupt(clean, SCALE, where, np.random.default_rng(seed))
@@ -77,7 +65,7 @@ def test_pipeline_runs_a_sequence_and_reports_its_window():
     p = d2sr.Pipeline(depth_scale=SCALE, active_frames=6)
     windows = []
     for i in range(13):
-        frame = _interfered(i) if i % 2 else _room(i)
+        frame = _interfered(i) if i % 2 else room(i)
         r = p.process(frame, timestamp_ns=i * 33_000_000)
         assert r.depth.dtype == np.uint16 and r.window is not None
         assert np.array_equal(r.depth[~r.mask], frame[~r.mask])
@@ -90,7 +78,7 @@ def test_pipeline_runs_a_sequence_and_reports_its_window():
 
 
 def test_pipeline_repairs_as_recover_does_over_a_sequence(tmp_path):
-    frames = [_interfered(i) if i % 3 else _room(i) for i in range(6)]
+    frames = [_interfered(i) if i % 3 else room(i) for i in range(6)]
     src = tmp_path / "in"
     src.mkdir()
     for i, f in enumerate(frames):
@@ -111,12 +99,12 @@ def test_pipeline_repairs_as_recover_does_over_a_sequence(tmp_path):
         (lambda: d2sr.repair(np.ones((48, 64), np.float32), depth_scale=1000), "metres"),
         (lambda: d2sr.repair(-np.ones((48, 64), np.float32)), "negative"),
         (lambda: d2sr.repair([[1, 2]]), "numpy array"),
-        (lambda: d2sr.repair(_room(), depth_scale=0), "positive"),
-        (lambda: d2sr.repair(_room(), depth_scale=1), "scale"),  # a median of 2500 m
-        (lambda: d2sr.repair(_room(), model="unet9"), "unknown"),
-        (lambda: d2sr.repair(_room(), repair="some"), "repair"),
-        (lambda: d2sr.repair(_room(), threshold=2.0), "threshold"),
-        (lambda: d2sr.repair(_room(), models=Path("/nonexistent")), "no such"),
+        (lambda: d2sr.repair(room(), depth_scale=0), "positive"),
+        (lambda: d2sr.repair(room(), depth_scale=1), "scale"),  # a median of 2500 m
+        (lambda: d2sr.repair(room(), model="unet9"), "unknown"),
+        (lambda: d2sr.repair(room(), repair="some"), "repair"),
+        (lambda: d2sr.repair(room(), threshold=2.0), "threshold"),
+        (lambda: d2sr.repair(room(), models=Path("/nonexistent")), "no such"),
         (lambda: d2sr.Pipeline(controller="oracle"), "controller"),
         (lambda: d2sr.Pipeline(active_frames=0), "active_frames"),
     ],

@@ -19,7 +19,7 @@ from d2sr.errors import ConfigError
 from d2sr.ros2 import dds_topic
 from d2sr.ros2.msgs import DiagnosticStatus, Header, Image, KeyValue, Time
 from d2sr.ros2.node import domain_id
-from helpers import d2sr_inprocess
+from helpers import d2sr_inprocess, room
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 import ros2_peer
@@ -90,17 +90,6 @@ def test_bad_options_are_one_line_errors():
     assert code == 2 and "--qos must be one of reliable, best-effort" in err
 
 
-def _room(seed: int) -> np.ndarray:
-    h, w = 480, 640
-    rng = np.random.default_rng(seed)
-    rows = np.arange(h, dtype=np.float32)[:, None]
-    metres = np.broadcast_to(np.where(rows > h * 0.6, 1.2 + 2.0 * (h - rows) / h, 3.2), (h, w)).copy()
-    metres[h // 3 : h // 2, w // 4 : w // 2] = 1.8
-    metres += rng.normal(0, 0.003, (h, w)).astype(np.float32)
-    metres[rng.random((h, w)) < 0.3] = 0
-    return (metres * 4000).astype(np.uint16)
-
-
 def _node(domain: int, *args: str) -> subprocess.Popen:
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
     cmd = [sys.executable, "-m", "d2sr", "ros2", "--topic", "/camera/depth/image_rect_raw", *args]
@@ -134,7 +123,7 @@ def test_node_in_its_own_process_repairs_what_a_separate_participant_publishes(r
 
     frames = []
     for k in range(8):
-        f = _room(2 * k)
+        f = room(2 * k)
         if k % 2:
             where = np.zeros(f.shape, bool)
             where[150:260, :] = True
@@ -173,7 +162,7 @@ def test_node_keeps_float_metres_and_their_nan():
     domain = random.randint(100, 200)
     node = _node(domain)
     peer = ros2_peer.Peer(domain)
-    metres = _room(0).astype(np.float32) / 4000
+    metres = room(0).astype(np.float32) / 4000
     metres[metres == 0] = np.nan
     try:
         got = _exchange(peer, [metres], hz=10)

@@ -19,7 +19,7 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.sim.interference import corrupt
 from d2sr.triggers import SYNC_INPUTS, device_window, open_trigger, parse_trigger
 from d2sr.triggers.firmware.d2sr_trigger import Core
-from helpers import d2sr_inprocess
+from helpers import d2sr_inprocess, room
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from trigger_board import Board
@@ -139,26 +139,14 @@ def test_serial_port_without_the_firmware_is_a_one_line_error():
         board.close()
 
 
-def _room(seed: int, shape: tuple[int, int] = (480, 640)) -> np.ndarray:
-    """A wall, a floor and a box in L515 units, with the sensor's missing returns (as test_api's)."""
-    h, w = shape
-    rng = np.random.default_rng(seed)
-    rows = np.arange(h, dtype=np.float32)[:, None]
-    metres = np.broadcast_to(np.where(rows > h * 0.6, 1.2 + 2.0 * (h - rows) / h, 3.2), shape).copy()
-    metres[h // 3 : h // 2, w // 4 : w // 2] = 1.8
-    metres += rng.normal(0, 0.003, shape).astype(np.float32)
-    metres[rng.random(shape) < 0.3] = 0
-    return (metres * SCALE).astype(np.uint16)
-
-
 def _interfered(seed: int) -> np.ndarray:
-    clean = _room(seed)
+    clean = room(seed)
     where = np.zeros(clean.shape, bool)
     where[150:260, :] = True
     return corrupt(clean, SCALE, where, np.random.default_rng(seed))[0]
 
 
-CLEAN = [_room(k) for k in (0, 2, 5)]  # rooms the detector passes alone (test_detector_sees_the_frames)
+CLEAN = [room(k) for k in (0, 2, 5)]  # rooms the detector passes alone (test_detector_sees_the_frames)
 INTERFERED = [_interfered(k) for k in range(3)]
 
 

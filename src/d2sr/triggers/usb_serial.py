@@ -5,7 +5,6 @@ slot clock and drives the camera's sync input; the host sends it the window. The
 from __future__ import annotations
 
 import contextlib
-import statistics
 import threading
 import time
 from dataclasses import dataclass, field
@@ -124,12 +123,6 @@ class SerialActuator(Actuator):
                     with self._cv:
                         self._replies.append((text, now))
                         self._cv.notify_all()
-
-
-def summary_ms(seconds: list[float]) -> dict[str, float]:
-    """Median and p99 of a list of durations, in ms."""
-    ms = sorted(s * 1e3 for s in seconds)
-    return {"median_ms": statistics.median(ms), "p99_ms": ms[min(len(ms) - 1, int(0.99 * len(ms)))]}
 
 
 def _first_line(exc: BaseException) -> str:
