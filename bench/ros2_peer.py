@@ -81,11 +81,15 @@ def image(
     stamps of the same frame only rewrite the stamp's 8 bytes (right after the 4-byte CDR header)."""
     key = (id(depth), frame_id)
     if key not in _SERIALIZED:
-        enc = {np.dtype(np.uint16): "16UC1", np.dtype(np.float32): "32FC1"}[depth.dtype]
-        h, w = depth.shape
+        # uint16 / float32 depth, or uint8 colour (HxWx3 bgr8, HxW mono8)
+        enc = {np.dtype(np.uint16): "16UC1", np.dtype(np.float32): "32FC1"}.get(depth.dtype)
+        if enc is None:
+            enc = "bgr8" if depth.ndim == 3 else "mono8"
+        h, w = depth.shape[:2]
+        step = w * depth.itemsize * (depth.shape[2] if depth.ndim == 3 else 1)
         data = list(np.ascontiguousarray(depth).view(np.uint8).reshape(-1))
         _SERIALIZED[key] = (
-            Ready(Header(Time(0, 0), frame_id), h, w, enc, 0, w * depth.itemsize, data),
+            Ready(Header(Time(0, 0), frame_id), h, w, enc, 0, step, data),
             depth,
         )
     template = _SERIALIZED[key][0]
@@ -110,7 +114,11 @@ class Peer:
     (a reliable reader does not match a best-effort writer)."""
 
     def __init__(
-        self, domain: int, topic: str = "/camera/depth/image_rect_raw", reliable: bool = True
+        self,
+        domain: int,
+        topic: str = "/camera/depth/image_rect_raw",
+        reliable: bool = True,
+        colour_topic: str | None = None,
     ) -> None:
         self.dp = DomainParticipant(domain)
         name = "rt" + topic
@@ -124,10 +132,19 @@ class Peer:
             "mask": DataReader(self.dp, Topic(self.dp, name + "/mask", Image), qos=keep),
             "status": DataReader(self.dp, Topic(self.dp, name + "/status", DiagnosticStatus), qos=keep),
         }
+        self.colour = None
+        if colour_topic is not None:
+            qos = Qos(rel, Policy.History.KeepLast(8))
+            self.colour = DataWriter(self.dp, Topic(self.dp, "rt" + colour_topic, Image), qos=qos)
+            self.readers["confidence"] = DataReader(
+                self.dp, Topic(self.dp, name + "/confidence", Image), qos=keep
+            )
 
     def matched(self) -> bool:
-        """The node subscribes to our topic and we to all three of its."""
+        """The node subscribes to our topics and we to all of its."""
         if not self.writer.get_matched_subscriptions():
+            return False
+        if self.colour is not None and not self.colour.get_matched_subscriptions():
             return False
         return all(r.get_matched_publications() for r in self.readers.values())
 

@@ -174,3 +174,50 @@ def test_node_keeps_float_metres_and_their_nan():
     assert rep.encoding == "32FC1"
     out = ros2_peer.pixels(rep)
     assert np.array_equal(np.isnan(out), np.isnan(metres))  # clean frame: nothing moved, NaN kept
+
+
+@pytest.mark.slow
+def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
+    """Colour at 30 Hz, depth only in slots 0-5 of every 30 (a camera walking past a textured wall): every
+    colour frame without depth comes back as a synthesized depth frame, marked so, with its confidence."""
+    from test_fill import _colour_of_wall, _texture
+
+    domain = random.randint(100, 200)
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    cmd = [sys.executable, "-m", "d2sr", "ros2", "--topic", "/camera/depth/image_rect_raw", "--repair",
+           "none", "--colour-topic", "/camera/color/image_raw", "--depth-scale", "1000"]  # fmt: skip
+    node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    peer = ros2_peer.Peer(domain, colour_topic="/camera/color/image_raw")
+    tex = _texture(3)
+    wall = np.full((240, 320), 3000, np.uint16)
+    colours = [_colour_of_wall(np.array([0.004 * k, 0.0, 0.0]), tex) for k in range(45)]
+    try:
+        end = time.monotonic() + 30
+        while not peer.matched():
+            assert time.monotonic() < end, "the node never matched the peer's topics"
+            time.sleep(0.05)
+        peer.listen()
+        for k in range(45):
+            peer.colour.write(ros2_peer.image(colours[k], 2000, k * 33_333_333))
+            if k % 30 < 6:
+                peer.writer.write(ros2_peer.image(wall, 2000, k * 33_333_333))
+            time.sleep(1 / 30)
+        end = time.monotonic() + 10
+        while time.monotonic() < end and len(peer.got["repaired"]) < 45:
+            time.sleep(0.05)
+        peer.stop()
+    finally:
+        node.send_signal(signal.SIGINT)
+        _, err = node.communicate(timeout=30)
+    assert node.returncode == 0, err
+    status = [dict((kv.key, kv.value) for kv in m.values) for m in peer.got["status"]]
+    synth = [s for s in status if s["synthesized"] == "true"]
+    assert len(peer.got["repaired"]) >= 40 and 30 <= len(synth) <= 33  # 45 slots, 12 with depth
+    assert {s["method"] for s in synth} == {"warp-colour"}
+    assert len(peer.got["confidence"]) == len(synth)
+    by_stamp = {m.header.stamp.nanosec: ros2_peer.pixels(m) for m in peer.got["repaired"]}
+    conf = {m.header.stamp.nanosec: ros2_peer.pixels(m) for m in peer.got["confidence"]}
+    for nano, c in conf.items():
+        d = by_stamp[nano]
+        sure = c == 255
+        assert sure.mean() > 0.5 and np.abs(d[sure].astype(int) - 3000).max() <= 45

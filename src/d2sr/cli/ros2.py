@@ -24,6 +24,13 @@ def ros2(
         str, typer.Option(help="Reliability of what the node publishes: reliable or best-effort.")
     ] = ("reliable"),
     trigger: TriggerOpt = None,
+    colour_topic: Annotated[
+        str | None,
+        typer.Option(
+            help="Colour topic (bgr8/rgb8/mono8, depth aligned to it): each colour frame with no depth frame "
+            "of its stamp gets a synthesized one on TOPIC/repaired (TOPIC/confidence, status synthesized)."
+        ),
+    ] = None,
     controller: Annotated[
         str, typer.Option(help=f"Controller: {', '.join(c for c in CONTROLLERS if c != 'oracle')}.")
     ] = DEFAULT_CONTROLLER,
@@ -45,9 +52,9 @@ def ros2(
     from d2sr.ros2 import Ros2Node
 
     node = Ros2Node(
-        topic, depth_scale, qos, say=print_line, controller=controller, active_frames=active_frames,
-        trigger=trigger, repair=repair, model=model, models=Path(models), threshold=threshold,
-        mask_logit=mask_logit, passes=passes,
+        topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,
+        active_frames=active_frames, trigger=trigger, repair=repair, model=model, models=Path(models),
+        threshold=threshold, mask_logit=mask_logit, passes=passes,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
@@ -59,5 +66,6 @@ def ros2(
     lat = stats.latency_ms()
     print_line(
         f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
-        f"skipped); in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99"
+        f"skipped, {stats.synthesized} synthesized); in the node {lat['median']:.1f} ms median, "
+        f"{lat['p99']:.1f} ms p99"
     )

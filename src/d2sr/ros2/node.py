@@ -28,6 +28,8 @@ ENCODINGS: dict[str, np.dtype[Any]] = {
     "32FC1": np.dtype(np.float32),
 }
 QOS = ("reliable", "best-effort")
+PAIR_NS = 10_000_000  # a colour and a depth frame whose stamps differ by less are one moment
+WAIT_S = 0.1  # how long a colour frame waits for its depth frame before the laser is taken to be off
 _NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -55,6 +57,7 @@ class Stats:
     published: int = 0
     refused: int = 0
     flagged: int = 0
+    synthesized: int = 0
     seconds: list[float] = field(default_factory=list)
 
     def latency_ms(self) -> dict[str, float]:
@@ -77,6 +80,7 @@ class Ros2Node:
         qos: str = "reliable",
         domain: int | None = None,
         say: Callable[[str], None] | None = None,
+        colour_topic: str | None = None,
         **pipeline: Any,
     ) -> None:
         if qos not in QOS:
@@ -134,8 +138,25 @@ class Ros2Node:
         )
         self._waitset = WaitSet(self.participant)
         # Wake on data (a reader attached alone wakes only on its status changes).
-        self._ready = ReadCondition(self.reader, SampleState.Any | ViewState.Any | InstanceState.Any)
-        self._waitset.attach(self._ready)
+        any_state = SampleState.Any | ViewState.Any | InstanceState.Any
+        self._ready = [ReadCondition(self.reader, any_state)]
+        # Colour, for the frames the laser skips: each colour frame with no depth frame of its stamp gets a
+        # synthesized one (d2sr.synth), published on /repaired, marked in /status, with /confidence.
+        self.colour_reader = None
+        if colour_topic is not None:
+            colour_in = Topic(self.participant, dds_topic(colour_topic), Image)
+            self.colour_reader = DataReader(self.participant, colour_in, qos=listen)
+            self._ready.append(ReadCondition(self.colour_reader, any_state))
+            self.confidence = DataWriter(
+                self.participant, Topic(self.participant, f"{name}/confidence", Image), qos=speak
+            )
+        for cond in self._ready:
+            self._waitset.attach(cond)
+        # recent colour frames (stamp, header, image, arrival): all, for pairing; pending, for synthesis
+        self._colours: deque[tuple[int, Any, np.ndarray, float]] = deque(maxlen=90)
+        self._pending: deque[tuple[int, Any, np.ndarray, float]] = deque(maxlen=90)
+        self._depth_stamps: deque[int] = deque(maxlen=90)
+        self._last_real = -1  # stamp of the newest depth frame kept as synthesis's source
         self._stop = threading.Event()
         self._duration = duration
 
@@ -152,7 +173,12 @@ class Ros2Node:
                 if getattr(sample, "sample_info", None) is not None and not sample.sample_info.valid_data:
                     continue
                 self.handle(sample, time.monotonic())
+            if self.colour_reader is not None:
+                for sample in self.colour_reader.take(N=8):
+                    if getattr(sample, "sample_info", None) is None or sample.sample_info.valid_data:
+                        self._colour(sample, time.monotonic())
             self._publish_done()
+            self._synthesize_due(time.monotonic())
         while self._running:
             self._publish_done(wait=True)
         return self.stats
@@ -160,7 +186,8 @@ class Ros2Node:
     def close(self) -> None:
         self._pool.shutdown(wait=True)
         self.pipeline.close()
-        self._waitset.detach(self._ready)
+        for cond in self._ready:
+            self._waitset.detach(cond)
 
     def handle(self, msg: Any, taken: float) -> None:
         """One image message: judged now, repaired on a worker, published in order once repaired (or a
@@ -171,6 +198,7 @@ class Ros2Node:
             self.stats.refused += 1
             return
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        self._depth_stamps.append(stamp)
         try:
             decided = self.pipeline.decide(depth, stamp, arrival_s=taken)
         except InputError as exc:  # e.g. a --depth-scale given for a float topic: say so, keep running
@@ -184,8 +212,87 @@ class Ros2Node:
     def _publish_done(self, wait: bool = False) -> None:
         while self._running and (wait or self._running[0][2].done()):
             msg, taken, future = self._running.popleft()
-            self._publish(msg, taken, future.result())
+            r = future.result()
+            self._publish(msg, taken, r)
+            if self.colour_reader is not None:
+                stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+                self.pipeline.keep(r, self._colour_at(stamp))
+                self._last_real = max(self._last_real, stamp)
             wait = False
+
+    def _colour(self, msg: Any, taken: float) -> None:
+        """A colour frame: kept for pairing with its depth frame, or for synthesis if none comes."""
+        channels = {"bgr8": 3, "rgb8": 3, "mono8": 1}.get(msg.encoding)
+        if channels is None:
+            self._warn(f"colour encoding {msg.encoding!r} is not bgr8, rgb8 or mono8; colour skipped")
+            return
+        data = np.asarray(msg.data, np.uint8)
+        row = msg.width * channels
+        if msg.step < row or data.size < msg.step * msg.height:
+            self._warn("a colour image's size, step and data disagree; skipped")
+            return
+        img = np.ascontiguousarray(data[: msg.step * msg.height].reshape(msg.height, msg.step)[:, :row])
+        img = (
+            img.reshape(msg.height, msg.width, channels)
+            if channels == 3
+            else img.reshape(msg.height, msg.width)
+        )
+        if msg.encoding == "rgb8":
+            img = img[:, :, ::-1]
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        self._colours.append((stamp, msg.header, img, taken))
+        self._pending.append((stamp, msg.header, img, taken))
+
+    def _colour_at(self, stamp: int) -> np.ndarray | None:
+        for s, _, img, _ in self._colours:
+            if abs(s - stamp) <= PAIR_NS:
+                return img
+        return None
+
+    def _synthesize_due(self, now: float) -> None:
+        """Colour frames older than ``WAIT_S`` with no depth frame of their stamp: the laser skipped them."""
+        while self._pending and now - self._pending[0][3] >= WAIT_S:
+            stamp, header, img, taken = self._pending.popleft()
+            if any(abs(s - stamp) <= PAIR_NS for s in self._depth_stamps) or stamp < self._last_real:
+                continue  # a real frame has it, or synthesis's source is newer than it
+            try:
+                s = self.pipeline.synthesize(img)
+            except InputError:
+                continue  # no real frame yet
+            self._publish_synthesized(header, s, taken)
+
+    def _publish_synthesized(self, header: Any, s: Any, taken: float) -> None:
+        from d2sr.ros2.msgs import Image
+
+        out = np.ascontiguousarray(s.depth)
+        h, w = out.shape
+        enc = "32FC1" if out.dtype.kind == "f" else "16UC1"
+        self.repaired.write(Image(header, h, w, enc, 0, w * out.itemsize, out.view(np.uint8).reshape(-1)))
+        self.mask.write(Image(header, h, w, "mono8", 0, w, np.zeros(h * w, np.uint8)))
+        conf = np.clip(np.rint(s.confidence * 255), 0, 255).astype(np.uint8)
+        self.confidence.write(Image(header, h, w, "mono8", 0, w, conf.reshape(-1)))
+        self.status.write(self._synth_status(header, s))
+        self.stats.synthesized += 1
+
+    def _synth_status(self, header: Any, s: Any) -> Any:
+        from d2sr.ros2.msgs import DiagnosticStatus, KeyValue
+
+        w = self.pipeline.window
+        values = {
+            "stamp": f"{header.stamp.sec}.{header.stamp.nanosec:09d}",
+            "interfered": "false",
+            "synthesized": "true",
+            "method": s.method,
+            "frames_since_real": str(s.since_real),
+            "mean_confidence": f"{float(s.confidence.mean()):.3f}",
+            "period": str(w.period),
+            "window_offset": str(w.offset),
+            "active_frames": str(w.active_frames),
+            "total_frames": str(w.total_frames),
+        }
+        return DiagnosticStatus(
+            0, "d2sr", "synthesized", self.topic, [KeyValue(k, v) for k, v in values.items()]
+        )
 
     def _warm_up(self) -> None:
         """One frame through the models before the first message, so it pays no start-up cost."""

@@ -282,12 +282,17 @@ class Pipeline:
         aligned to colour), ``pose``: the camera's pose (odometry), which ``synthesize`` follows the camera
         with."""
         r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
-        scale = 1.0 if depth.dtype.kind == "f" else (self.depth_scale or 1000.0)
-        # Kept for synthesize (a copy: camera drivers reuse their buffers); the filler sees it only then.
-        self._last = (r.depth.copy(), None if colour is None else colour.copy(), depth.dtype, scale)
+        self.keep(r, colour, pose)
+        return r
+
+    def keep(self, r: Repaired, colour: np.ndarray | None = None, pose: Pose | None = None) -> None:
+        """Remember a finished frame as the one ``synthesize`` starts from (``process`` does this; callers of
+        ``decide``/``finish`` call it in frame order)."""
+        scale = 1.0 if r.depth.dtype.kind == "f" else (self.depth_scale or 1000.0)
+        # A copy: camera drivers reuse their buffers. The filler sees it only when synthesize needs it.
+        self._last = (r.depth.copy(), None if colour is None else colour.copy(), r.depth.dtype, scale)
         self._last_pose = pose
         self._fed = False
-        return r
 
     def synthesize(self, colour: np.ndarray | None = None, pose: Pose | None = None) -> Synthesized:
         """The frame the sensor would have given in a slot its laser skipped, from the last processed one
