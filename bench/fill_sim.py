@@ -1,0 +1,129 @@
+"""Benchmark: frame synthesis on the simulator's moving robot, where every skipped slot has ground truth (the
+paper's Fig. 11 for our methods). The robot drives its loop through a generated room; slots 0..n-1 of every
+30 are real (the rendered depth), the others are synthesized and compared with what the robot's camera
+would have measured then. Methods: hold-last, and the warp by odometry (the trajectory's poses, as a
+robot's odometry would give them). The simulator renders no colour, so the colour path is measured on the
+real D435 (bench/fill_d435.py).
+
+RMSE pooled over pixels with depth in both the synthesized and the true frame; coverage = share of the true
+frame's pixels given a value.
+
+Run:  .venv/bin/python bench/fill_sim.py --json docs/results/fill_sim.json --plot docs/results/fill_sim.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.frames.base import Intrinsics
+from d2sr.sim.scene import Renderer
+from d2sr.sim.world import make_rig
+from d2sr.synth import Filler, Pose
+
+HERE = Path(__file__).resolve().parents[1]
+
+
+class Pool:
+    def __init__(self) -> None:
+        self.se = self.both = self.true = 0.0
+
+    def add(self, pred: np.ndarray, true: np.ndarray) -> None:
+        ok = true > 0
+        both = ok & (pred > 0)
+        self.se += float(((pred - true)[both] ** 2).sum())
+        self.both += float(both.sum())
+        self.true += float(ok.sum())
+
+    def rmse_cm(self) -> float:
+        return round(100 * float(np.sqrt(self.se / max(self.both, 1))), 2)
+
+    def coverage(self) -> float:
+        return round(self.both / max(self.true, 1), 4)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=20.0)
+    ap.add_argument("--rooms", type=int, default=3)
+    output_args(ap, plot="RMSE by frames since the last real one, PNG")
+    args = ap.parse_args()
+    check_output(ap, args)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
+    result: dict = {
+        "command": "python bench/fill_sim.py " + " ".join(sys.argv[1:]),
+        "commit": commit.strip(),
+        "cpu": cpu(),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        "data": f"{args.rooms} generated rooms (seeds 0..{args.rooms - 1}), the moving robot, "
+        f"{args.seconds:g} s each",
+        "runs": [],
+    }
+    for n in (15, 6):
+        pools = {m: Pool() for m in ("hold", "warp-pose")}
+        gaps: dict[str, dict[int, Pool]] = {m: {} for m in pools}
+        for seed in range(args.rooms):
+            rig = make_rig(seed, sensors=2, moving_robot=True)
+            cam = Renderer(rig.room, rig.intr)
+            k = rig.intr  # the renderer's pixel centres sit half a pixel off the warp's convention
+            intr = Intrinsics(k.width, k.height, k.fx, k.fy, k.px - 0.5, k.py - 0.5)
+            warp, last = Filler(intr), None
+            for i in range(round(args.seconds * 30)):
+                t = i / 30
+                p = rig.pose(1, t)
+                cam.move(p)
+                true = cam.render(t).depth.astype(np.float32)
+                true[~np.isfinite(true)] = 0
+                pose = Pose(p.axes().T, p.position)  # camera to world
+                if i % 30 < n:
+                    warp.real(true, pose=pose)
+                    last = true
+                    continue
+                gap = i % 30 - n + 1
+                for method, pred in (("hold", last), ("warp-pose", warp.synthesize(pose=pose).depth)):
+                    pools[method].add(pred, true)
+                    gaps[method].setdefault(gap, Pool()).add(pred, true)
+        result["runs"].append({
+            "active_frames": n,
+            **{f"{m}_rmse_cm": p.rmse_cm() for m, p in pools.items()},
+            **{f"{m}_coverage": p.coverage() for m, p in pools.items()},
+            "rmse_cm_by_frames_since_real": {
+                m: {g: p.rmse_cm() for g, p in sorted(d.items())} for m, d in gaps.items()
+            },
+        })  # fmt: skip
+        print({k: v for k, v in result["runs"][-1].items() if "by_frames" not in k}, flush=True)
+    print(write_result(result, args.json))
+    if args.plot is not None:
+        plot(result, args.plot)
+
+
+def plot(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from d2sr.eval.plots import save
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for run in result["runs"]:
+        for method, style in (("warp-pose", "-"), ("hold", "--")):
+            curve = run["rmse_cm_by_frames_since_real"][method]
+            gaps = sorted(curve, key=int)
+            ax.plot([int(g) for g in gaps], [curve[g] for g in gaps], style, marker="o", ms=2,
+                    label=f"{method}, {run['active_frames']} of 30 kept")  # fmt: skip
+    ax.set(xlabel="frames since the last real frame", ylabel="RMSE (cm)", ylim=(0, None),
+           title="Synthesized frames on the simulator's moving robot (ground truth)")  # fmt: skip
+    ax.legend(fontsize=7)
+    fig.text(0.01, -0.06, result["command"], fontsize=6)
+    save(fig, path)
+
+
+if __name__ == "__main__":
+    main()
