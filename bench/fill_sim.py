@@ -14,38 +14,16 @@ Run:  .venv/bin/python bench/fill_sim.py --json docs/results/fill_sim.json --plo
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-from datetime import UTC, datetime
-from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, provenance, write_result
 from d2sr.frames.base import Intrinsics
 from d2sr.sim.scene import Renderer
 from d2sr.sim.world import make_rig
 from d2sr.synth import Filler, Pose
-
-HERE = Path(__file__).resolve().parents[1]
-
-
-class Pool:
-    def __init__(self) -> None:
-        self.se = self.both = self.true = 0.0
-
-    def add(self, pred: np.ndarray, true: np.ndarray) -> None:
-        ok = true > 0
-        both = ok & (pred > 0)
-        self.se += float(((pred - true)[both] ** 2).sum())
-        self.both += float(both.sum())
-        self.true += float(ok.sum())
-
-    def rmse_cm(self) -> float:
-        return round(100 * float(np.sqrt(self.se / max(self.both, 1))), 2)
-
-    def coverage(self) -> float:
-        return round(self.both / max(self.true, 1), 4)
+from fill_eval import Pool, plot_curves
 
 
 def main() -> None:
@@ -55,12 +33,8 @@ def main() -> None:
     output_args(ap, plot="RMSE by frames since the last real one, PNG")
     args = ap.parse_args()
     check_output(ap, args)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     result: dict = {
-        "command": "python bench/fill_sim.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        **provenance("bench/fill_sim.py", sys.argv[1:]),
         "data": f"{args.rooms} generated rooms (seeds 0..{args.rooms - 1}), the moving robot, "
         f"{args.seconds:g} s each",
         "runs": [],
@@ -100,29 +74,13 @@ def main() -> None:
         print({k: v for k, v in result["runs"][-1].items() if "by_frames" not in k}, flush=True)
     print(write_result(result, args.json))
     if args.plot is not None:
-        plot(result, args.plot)
-
-
-def plot(result: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from d2sr.eval.plots import save
-
-    fig, ax = plt.subplots(figsize=(6.4, 3.6))
-    for run in result["runs"]:
-        for method, style in (("warp-pose", "-"), ("hold", "--")):
-            curve = run["rmse_cm_by_frames_since_real"][method]
-            gaps = sorted(curve, key=int)
-            ax.plot([int(g) for g in gaps], [curve[g] for g in gaps], style, marker="o", ms=2,
-                    label=f"{method}, {run['active_frames']} of 30 kept")  # fmt: skip
-    ax.set(xlabel="frames since the last real frame", ylabel="RMSE (cm)", ylim=(0, None),
-           title="Synthesized frames on the simulator's moving robot (ground truth)")  # fmt: skip
-    ax.legend(fontsize=7)
-    fig.text(0.01, -0.06, result["command"], fontsize=6)
-    save(fig, path)
+        curves = [
+            (f"{m}, {run['active_frames']} of 30 kept", "-" if m == "warp-pose" else "--", curve)
+            for run in result["runs"]
+            for m, curve in run["rmse_cm_by_frames_since_real"].items()
+        ]
+        title = "Synthesized frames on the simulator's moving robot (ground truth)"
+        plot_curves(curves, title, result["command"], args.plot)
 
 
 if __name__ == "__main__":

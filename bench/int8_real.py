@@ -11,22 +11,18 @@ from __future__ import annotations
 import argparse
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-from datetime import UTC, datetime
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, provenance, write_result
 from d2sr.contract import THRESHOLD, WEIGHTS, repair_frame
 from d2sr.models.onnx.quantize import quantize
 from d2sr.runtime.backends import open_backend
 from held_out import outside_interference
-
-HERE = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
@@ -36,7 +32,6 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     files = sorted((args.data / "l515" / "dev1").glob("*.png"))[: args.frames]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -66,10 +61,7 @@ def main() -> None:
                 out, _ = repair_frame(x, pred[0], mask[0], 4000.0)
                 se[key] += float((((out.astype(np.float64) - clean) / 4000)[ok] ** 2).sum())
     result = {
-        "command": "python bench/int8_real.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        **provenance("bench/int8_real.py", sys.argv[1:]),
         "data": f"{len(files)} real L515 dev1 frames, every other with outside interference (held_out.py)",
         "models": "shipped detector and unet8, quantized here (16 generated calibration frames)",
         "detector_verdicts_differing": f"{flips} of {len(files)}",

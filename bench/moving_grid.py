@@ -9,19 +9,14 @@ Run:  .venv/bin/python bench/moving_grid.py --json docs/results/desync/moving_gr
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-from datetime import UTC, datetime
-from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, provenance, write_result
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.assumptions import settings
 from d2sr.eval.desync import Cell, run_cell
-
-HERE = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
@@ -30,7 +25,6 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     cells = []
     for sensors in (3, 5):
         for fps in (6, 10, 15):
@@ -51,10 +45,7 @@ def main() -> None:
                 print(cells[-1], flush=True)
     losing = [c for c in cells if c["diff_points"] > 0.3]
     result = {
-        "command": "python bench/moving_grid.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        **provenance("bench/moving_grid.py", sys.argv[1:]),
         "default": DEFAULT_CONTROLLER,
         "settings": settings(12),
         "cells_losing_over_0.3": len(losing),

@@ -24,16 +24,14 @@ import statistics
 import subprocess
 import sys
 import time
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
 import ros2_peer
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, provenance, write_result
 from held_out import outside_interference
 
-HERE = Path(__file__).resolve().parents[1]
 TOPIC = "/camera/depth/image_rect_raw"
 
 
@@ -108,12 +106,8 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     result: dict = {
-        "command": "python bench/ros2_loopback.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        **provenance("bench/ros2_loopback.py", sys.argv[1:]),
         "data": "L515 dev1 (real captures), every other frame with outside interference (bench/held_out.py)",
     }
     rng = random.Random()

@@ -17,17 +17,12 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import subprocess
 import sys
 import time
-from datetime import UTC, datetime
-from pathlib import Path
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, provenance, write_result
 from d2sr.triggers import open_trigger
 from trigger_board import Board
-
-HERE = Path(__file__).resolve().parents[1]
 
 
 def ms(values: list[float]) -> dict[str, float]:
@@ -48,7 +43,6 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     board = Board()
     try:
         with open_trigger(f"serial:{board.path}@d400", active_frames=6) as act:
@@ -68,10 +62,7 @@ def main() -> None:
     finally:
         board.close()
     result = {
-        "command": "python bench/trigger_roundtrip.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        **provenance("bench/trigger_roundtrip.py", sys.argv[1:]),
         "transport": "pseudo-terminal (os.openpty + pyserial), firmware Core in a host thread",
         "round_trip": ms(trips),
         "pulse_late_vs_board_clock": ms([abs(e) for e in board_err]),

@@ -222,3 +222,11 @@ def test_overwrite_replaces_a_single_file_only_when_d2sr_wrote_it(tmp_path, weig
         code, err = _run([*args, str(target), "--overwrite"])  # d2sr's own file: replaced
         assert code == 0, (name, err)
         assert target.read_bytes()[:3] == first[:3]
+
+
+def test_a_benchmark_records_the_run_that_made_it():
+    from d2sr.bench import provenance
+
+    p = provenance("bench/x.py", ["--json", "r.json"])
+    assert p["command"] == "python bench/x.py --json r.json"
+    assert len(p["commit"].split("+")[0]) == 40 and p["cpu"] and len(p["date"]) == 10

@@ -26,6 +26,7 @@ __all__ = [
     "check_output",
     "cpu",
     "output_args",
+    "provenance",
     "write_result",
 ]
 
@@ -71,6 +72,32 @@ def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
                 check_out(path, is_dir=False, overwrite=args.overwrite, option=f"--{option}")
             except D2SRError as exc:
                 ap.error(str(exc))
+
+
+def provenance(script: str, argv: list[str]) -> dict[str, str]:
+    """What a committed result records about the run that made it: the command, the git commit of the
+    tree it ran in (with ``+changes`` when that tree differed from it), the CPU and the date."""
+    import subprocess
+    from datetime import UTC, datetime
+
+    root = Path(__file__).resolve().parents[2]
+
+    def git(*args: str) -> str:
+        try:
+            done = subprocess.run(["git", *args], capture_output=True, text=True, cwd=root, check=False)
+        except OSError:
+            return ""
+        return done.stdout.strip() if done.returncode == 0 else ""
+
+    commit = git("rev-parse", "HEAD") or "unknown"
+    if commit != "unknown" and git("status", "--porcelain", "--untracked-files=no", "src"):
+        commit += "+changes"
+    return {
+        "command": " ".join(["python", script, *argv]),
+        "commit": commit,
+        "cpu": cpu(),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+    }
 
 
 def write_result(result: dict, path: Path | None) -> str:
