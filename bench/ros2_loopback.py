@@ -20,7 +20,6 @@ import os
 import random
 import re
 import signal
-import statistics
 import subprocess
 import sys
 import time
@@ -30,6 +29,7 @@ import numpy as np
 
 import ros2_peer
 from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.runtime.stats import median_p99_ms
 from held_out import outside_interference
 
 TOPIC = "/camera/depth/image_rect_raw"
@@ -86,11 +86,8 @@ def exchange(domain: int, sent: list[np.ndarray], hz: float) -> tuple[dict, dict
 
 
 def ms(values: list[float]) -> dict[str, float]:
-    v = sorted(x * 1e3 for x in values)
-    return {
-        "median_ms": round(statistics.median(v), 2),
-        "p99_ms": round(v[min(len(v) - 1, int(0.99 * len(v)))], 2),
-    }
+    median, p99 = median_p99_ms(values)
+    return {"median_ms": round(median, 2), "p99_ms": round(p99, 2)}
 
 
 def node_latency(stdout: str) -> dict[str, float]:

@@ -16,23 +16,22 @@ Run:  .venv/bin/python bench/trigger_roundtrip.py --json docs/results/trigger_ro
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
 
 from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.runtime.stats import median_p99_ms
 from d2sr.triggers import open_trigger
 from trigger_board import Board
 
 
 def ms(values: list[float]) -> dict[str, float]:
-    v = sorted(x * 1e3 for x in values)
-    p99 = v[min(len(v) - 1, int(0.99 * len(v)))]
+    median, p99 = median_p99_ms(values)
     return {
-        "n": len(v),
-        "median_ms": round(statistics.median(v), 3),
+        "n": len(values),
+        "median_ms": round(median, 3),
         "p99_ms": round(p99, 3),
-        "max_ms": round(v[-1], 3),
+        "max_ms": round(max(values) * 1e3, 3),
     }
 
 

@@ -5,7 +5,8 @@ The library in a few names (``docs/api.md`` has runnable examples):
 - ``repair(depth, depth_scale=None, **options)``: one frame detected and repaired (``Repaired``).
 - ``Pipeline(depth_scale=None, **options)``: one sensor's loop; ``.process(depth, timestamp_ns=None)``.
 - ``recover_recording(input, out, ...)``, ``detect_recording(input, out, ...)``: a recording in, a
-  recording out (what ``d2sr recover`` and ``d2sr detect`` run).
+  recording out (what ``d2sr recover`` and ``d2sr detect`` run); ``fill_recording(input, out,
+  active_frames, ...)``: the frames a duty-cycled laser skipped, synthesized (``d2sr fill``).
 - ``open_frames(path)``: read any supported recording; ``make_controller(name, ...)``: a de-synchronization
   controller on its own.
 - ``D2SRError`` and its kinds ``InputError``, ``ConfigError``, ``OutputError``: what d2sr raises on purpose.
@@ -28,6 +29,7 @@ _WHERE = {
     "recover_recording": "d2sr.runtime.batch",
     "detect_recording": "d2sr.runtime.batch",
     "Summary": "d2sr.runtime.batch",
+    "fill_recording": "d2sr.synth",
     "open_frames": "d2sr.frames",
     "make_controller": "d2sr.desync",
     "D2SRError": "d2sr.errors",
@@ -47,6 +49,7 @@ __all__ = [
     "Window",
     "__version__",
     "detect_recording",
+    "fill_recording",
     "make_controller",
     "open_frames",
     "recover_recording",
@@ -59,6 +62,7 @@ if TYPE_CHECKING:
     from d2sr.frames import open_frames
     from d2sr.runtime.batch import Summary, detect_recording, recover_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
+    from d2sr.synth import fill_recording
 
 
 def __getattr__(name: str) -> Any:

@@ -81,6 +81,8 @@ RerunOpt = Annotated[
         metavar="FILE.rrd|live",
     ),
 ]
+ActiveFrames = Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")]
+RepairOpt = Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")]
 TriggerOpt = Annotated[
     str | None,
     typer.Option(

@@ -33,7 +33,7 @@ def fill(
 
     Example: d2sr fill d435/ --rgb d435/rgb --active-frames 6 --out filled/
     """
-    from d2sr.synth import fill_recording
+    from d2sr import fill_recording
 
     with progress_bar() as bar:
         task = bar.add_task(f"{input.name}: filling", total=1.0)

@@ -8,7 +8,17 @@ from typing import Annotated
 
 import typer
 
-from d2sr.cli.common import MaskLogit, ModelDir, ModelName, Passes, Scale, Threshold, TriggerOpt
+from d2sr.cli.common import (
+    ActiveFrames,
+    MaskLogit,
+    ModelDir,
+    ModelName,
+    Passes,
+    RepairOpt,
+    Scale,
+    Threshold,
+    TriggerOpt,
+)
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.runtime.pipeline import DEFAULT_ACTIVE
@@ -34,8 +44,8 @@ def ros2(
     controller: Annotated[
         str, typer.Option(help=f"Controller: {', '.join(c for c in CONTROLLERS if c != 'oracle')}.")
     ] = DEFAULT_CONTROLLER,
-    active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")] = DEFAULT_ACTIVE,
-    repair: Annotated[str, typer.Option(help="flagged (default), all or none.")] = "flagged",
+    active_frames: ActiveFrames = DEFAULT_ACTIVE,
+    repair: RepairOpt = "flagged",
     model: ModelName = DEFAULT_MODEL,
     models: ModelDir = WEIGHTS,
     threshold: Threshold = None,

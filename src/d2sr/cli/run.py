@@ -10,6 +10,7 @@ import typer
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import (
+    ActiveFrames,
     BackendOpt,
     MaskLogit,
     MaxRange,
@@ -17,6 +18,7 @@ from d2sr.cli.common import (
     ModelName,
     Overwrite,
     Passes,
+    RepairOpt,
     RerunOpt,
     Scale,
     Threshold,
@@ -30,7 +32,7 @@ from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import Checked, open_input
 from d2sr.runtime.live import CAMERAS, check_camera, run_live
 from d2sr.runtime.memory import reuse_freed_memory
-from d2sr.runtime.pipeline import check_options
+from d2sr.runtime.pipeline import DEFAULT_ACTIVE, check_options
 from d2sr.runtime.stats import stats_table
 from d2sr.ui import console, progress_bar
 
@@ -49,11 +51,11 @@ def run(
     controller: Annotated[
         str, typer.Option(help=f"Controller: {', '.join(CONTROLLERS)}.")
     ] = DEFAULT_CONTROLLER,
-    active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")] = 6,
+    active_frames: ActiveFrames = DEFAULT_ACTIVE,
     sensors: Annotated[int, typer.Option(help="sim: sensors in the room.")] = 3,
     seconds: Annotated[float, typer.Option(help="sim / live: seconds to run.")] = 20.0,
     moving: Annotated[bool, typer.Option(metavar="", help="sim: the last sensor rides a robot.")] = False,
-    repair: Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")] = "flagged",
+    repair: RepairOpt = "flagged",
     trigger: TriggerOpt = None,
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,

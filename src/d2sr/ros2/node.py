@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import statistics
 import threading
 import time
 from collections import deque
@@ -18,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.errors import ConfigError, InputError
+from d2sr.runtime.stats import median_p99_ms
 
 __all__ = ["ENCODINGS", "QOS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
 
@@ -61,10 +61,8 @@ class Stats:
     seconds: list[float] = field(default_factory=list)
 
     def latency_ms(self) -> dict[str, float]:
-        ms = sorted(s * 1e3 for s in self.seconds)
-        if not ms:
-            return {"median": float("nan"), "p99": float("nan")}
-        return {"median": statistics.median(ms), "p99": ms[min(len(ms) - 1, int(0.99 * len(ms)))]}
+        median, p99 = median_p99_ms(self.seconds)
+        return {"median": median, "p99": p99}
 
 
 class Ros2Node:

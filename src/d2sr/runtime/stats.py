@@ -3,6 +3,7 @@ knows it), depth error before and after repair, and processing time."""
 
 from __future__ import annotations
 
+import statistics
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -12,7 +13,7 @@ from rich.table import Table
 from d2sr.runtime.loop import Result
 from d2sr.ui import NA
 
-__all__ = ["RunStats", "stats_table"]
+__all__ = ["RunStats", "median_p99_ms", "stats_table"]
 
 BINS = 20_000  # up to 2 s
 
@@ -97,3 +98,11 @@ def stats_table(summary: dict[str, Any], title: str) -> Table:
     for name, s in [*rows, ("all", summary["all"])]:
         t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
     return t
+
+
+def median_p99_ms(seconds: list[float]) -> tuple[float, float]:
+    """Median and 99th percentile (nearest rank) of durations, in ms; NaN for none."""
+    ms = sorted(x * 1e3 for x in seconds)
+    if not ms:
+        return float("nan"), float("nan")
+    return statistics.median(ms), ms[min(len(ms) - 1, int(0.99 * len(ms)))]

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -105,12 +104,6 @@ class Actuator:
         (17 ms) still finds it."""
         with self._lock:
             return self.clock.at(arrival_s - self.latency_s, nearest=True)
-
-    def settled_period(self, now_s: float | None = None) -> int:
-        """The last period whose frames can no longer arrive is the one before this."""
-        now = time.monotonic() if now_s is None else now_s
-        with self._lock:
-            return self.clock.at(now - self.latency_s)[0]
 
     def close(self) -> None:
         """Stop the device's clock and release it."""

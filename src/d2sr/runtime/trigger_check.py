@@ -3,11 +3,11 @@ the command-to-pulse round trip (serial), and the slot clock run for a while wit
 
 from __future__ import annotations
 
-import statistics
 import time
 from dataclasses import dataclass
 
 from d2sr.errors import ConfigError
+from d2sr.runtime.stats import median_p99_ms
 from d2sr.triggers import open_trigger, parse_trigger
 
 __all__ = ["TriggerCheck", "check_trigger"]
@@ -33,11 +33,6 @@ class TriggerCheck:
         return out
 
 
-def _ms(values: list[float]) -> tuple[float, float]:
-    v = sorted(x * 1e3 for x in values) or [float("nan")]
-    return statistics.median(v), v[min(len(v) - 1, int(0.99 * len(v)))]
-
-
 def check_trigger(spec: str, active_frames: int = 6, seconds: float = 3.0, pings: int = 100) -> TriggerCheck:
     """Open ``spec`` (``serial:`` or ``gpio:``), time ``pings`` round trips (serial), then run the clock with
     a window of ``active_frames`` slots for ``seconds`` and count what it reported."""
@@ -58,4 +53,11 @@ def check_trigger(spec: str, active_frames: int = 6, seconds: float = 3.0, pings
     late = [p.host_s - start - (p.period * act.total + p.slot) * clock.slot_s for p in pulses]
     seen = sum(p.period < periods for p in pulses)
     per_period = min(act.total, active_frames + act.lead)
-    return TriggerCheck(kind, _ms(trips) if trips else None, periods, seen, periods * per_period, _ms(late))
+    return TriggerCheck(
+        kind,
+        median_p99_ms(trips) if trips else None,
+        periods,
+        seen,
+        periods * per_period,
+        median_p99_ms(late),
+    )
