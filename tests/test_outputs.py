@@ -43,10 +43,12 @@ def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
         "bench": ["bench", "--json", out],
         "demo": ["demo", "--out", out],
         "export": ["export", str(weights / "unet8.safetensors"), "--out", out],
+        "fill": ["fill", s, "--active-frames", "6", "--out", out],
+        "trigger firmware": ["trigger", "firmware", "--out", out],
     }
 
 
-READS_INPUT = ("detect", "recover", "run", "label", "calibrate", "view", "adapt")
+READS_INPUT = ("detect", "recover", "run", "label", "calibrate", "view", "adapt", "fill")
 COMMANDS = list(_args(Path("x"), "o", Path("w")))
 
 
