@@ -24,7 +24,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, write_result
 from held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
@@ -97,11 +97,10 @@ def main() -> None:
             subprocess.run([*git, "remove", "--force", str(ref)], check=False)
     rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in trees}
     result = {
-        "command": " ".join(["d2sr recover IN", *options, "--depth-scale 4000 --out OUT"]),
+        "measured": " ".join(["d2sr recover IN", *options, "--depth-scale 4000 --out OUT"]),
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "ref": args.ref,
         "runs": args.runs,
-        "cpu": cpu(),
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
         "fps": rate,
         "speedup": round(rate["this"] / rate[args.ref], 3),

@@ -62,7 +62,11 @@ def main() -> None:
     if scales.size != 1:
         raise SystemExit(f"the moving set has several depth scales: {scales}")
     sets = {"still": (*still, 4000.0), "moving": (list(ms.frames), list(ms.clean), float(scales[0]))}
-    result: dict = {"models": str(args.models or "shipped"), "set": args.set, "mask_logit": args.mask_logit}
+    result: dict = {
+        "model_folder": str(args.models or "shipped"),
+        "set": args.set,
+        "mask_logit": args.mask_logit,
+    }
     with tempfile.TemporaryDirectory() as t:
         for name, (bad, good, scale) in sets.items():
             hit = sum(bool((b != c).any()) for b, c in zip(bad, good, strict=True))

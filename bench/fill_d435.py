@@ -13,7 +13,6 @@ Run:  .venv/bin/python bench/fill_d435.py --data ../shared/data --json docs/resu
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +20,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
+from d2sr.provenance import command_line
 from d2sr.synth import fill_recording
 from fill_eval import Pool, plot_curves
 
@@ -42,7 +42,6 @@ def main() -> None:
     files = sorted(seq.glob("depth*.png"))
     real = [read(f) for f in files]
     result: dict = {
-        **provenance("bench/fill_d435.py", sys.argv[1:]),
         "data": f"{seq} ({len(files)} frames, hand-held D435, depth aligned to colour; development sequence)",
         "runs": [],
     }
@@ -91,7 +90,7 @@ def main() -> None:
             curves.append((f"d2sr fill, {n} of 30 kept", "-", run["rmse_cm_by_frames_since_real"]))
             curves.append((f"hold-last, {n} of 30 kept", "--", run["hold_last_rmse_cm_by_frames_since_real"]))
         title = "Synthesized frames against the real ones, hand-held D435"
-        plot_curves(curves, title, result["command"], args.plot)
+        plot_curves(curves, title, command_line(), args.plot)
 
 
 if __name__ == "__main__":

@@ -14,12 +14,12 @@ Run:  .venv/bin/python bench/fill_sim.py --json docs/results/fill_sim.json --plo
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
 
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.frames.base import Intrinsics
+from d2sr.provenance import command_line
 from d2sr.sim.scene import Renderer
 from d2sr.sim.world import make_rig
 from d2sr.synth import Filler, Pose
@@ -34,7 +34,6 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     result: dict = {
-        **provenance("bench/fill_sim.py", sys.argv[1:]),
         "data": f"{args.rooms} generated rooms (seeds 0..{args.rooms - 1}), the moving robot, "
         f"{args.seconds:g} s each",
         "runs": [],
@@ -80,7 +79,7 @@ def main() -> None:
             for m, curve in run["rmse_cm_by_frames_since_real"].items()
         ]
         title = "Synthesized frames on the simulator's moving robot (ground truth)"
-        plot_curves(curves, title, result["command"], args.plot)
+        plot_curves(curves, title, command_line(), args.plot)
 
 
 if __name__ == "__main__":

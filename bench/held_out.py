@@ -330,6 +330,40 @@ SETS = {
 # Sets only an explicit --set runs (D, E and F each until the decision it was written for;
 # docs/research/decisions.md).
 SEALED: set[str] = set()
+# What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
+# development set; a set is held out only while sealed, until the one measurement it was written for.
+STATUS = {
+    "a": "development: chose the default's mask logit and REPAIR_PASSES = 2; judged about eight trials",
+    "b": "development: written to check a threshold read off set A; judged trials since",
+    "c": "development: written to judge what sets A and B chose; judged trials since",
+    "d": "development: sealed until 2026-11-26, when it confirmed unet8-shell (chosen on A, B); open since",
+    "e": "development: sealed until 2026-11-26, when it decided unet32 (decisions.md); open since",
+    "f": "development: sealed until 2026-11-26, when it decided recover's default auto (decisions.md); "
+    "open since",
+}
+# Said on every result that uses the real L515 frames (issue 45).
+CALIBRATION = (
+    "the simulator's L515 noise model, which generated the models' training data, was fitted to the same "
+    "dev0 and dev1 captures"
+)
+
+
+def set_data(which: str) -> dict[str, str]:
+    """The ``data`` a result on set ``which`` records: its name, frames, status and the calibration
+    overlap."""
+    return {
+        "set": f"outside set {which.upper()} ({', '.join(KINDS[which])}), bench/held_out.py",
+        "frames": "120 real L515 frames (dev0 after the person has left, dev1), every other one corrupted",
+        "status": "sealed" if which in SEALED else STATUS[which],
+        "calibration": CALIBRATION,
+    }
+
+
+def used_models(model: str | None) -> list[str]:
+    """The models a ``d2sr recover --model MODEL`` run (with its detector) reads, to hash them."""
+    if model in (None, "auto"):
+        return ["detector", "unet8", "unet8-temporal"]
+    return ["detector", model]
 
 
 def open_sets() -> list[str]:
@@ -417,6 +451,9 @@ def scored(
     ``kinds`` (each frame's interference model), the detector's recall, the mask's and the RMSE change also
     per model (``by_kind``)."""
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
+    if kinds:  # the frames the set meant to corrupt; those the corruption left unchanged count apart
+        meant = np.array([bool(k) for k in kinds])
+        unchanged = {"corrupted": int(meant.sum()), "left_unchanged": int((meant & ~truth).sum())}
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
     d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
@@ -454,6 +491,8 @@ def scored(
     dr = float((pred & truth).sum()) / max(float(truth.sum()), 1)
     return {
         "frames": len(clean),
+        "interfered": int(truth.sum()),
+        **(unchanged if kinds else {}),
         "detector_precision": round(dp, 4),
         "detector_recall": round(dr, 4),
         "rmse_cm_before": round(100 * np.sqrt(err_in / max(valid, 1)), 2),
@@ -525,7 +564,7 @@ def main() -> None:
         ["--mask-logit", f"{args.mask_logit:g}"] if args.mask_logit is not None else []
     )
     result: dict = {
-        "models": str(args.models or "shipped"),
+        "model_folder": str(args.models or "shipped"),
         "model": args.model or "default",
         "set": args.set,
     }
@@ -554,7 +593,10 @@ def main() -> None:
             )
             result["adapt_shipped"] = _scored(tmp, "d435-rest-shipped", rest, 1000.0, models)
             print("adapt", result["adapt"], "shipped", result["adapt_shipped"], flush=True)
-    print(write_result(result, args.json))
+    data = set_data(args.set)
+    if args.adapt:
+        data["adapt"] = "193 clean D435 frames: adapt on the first 100, test on the other 93"
+    print(write_result(result, args.json, models=used_models(args.model), folder=args.models, data=data))
 
 
 if __name__ == "__main__":

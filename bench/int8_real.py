@@ -11,14 +11,13 @@ from __future__ import annotations
 import argparse
 import shutil
 import statistics
-import sys
 import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import THRESHOLD, WEIGHTS, repair_frame
 from d2sr.models.onnx.quantize import quantize
 from d2sr.runtime.backends import open_backend
@@ -61,9 +60,8 @@ def main() -> None:
                 out, _ = repair_frame(x, pred[0], mask[0], 4000.0)
                 se[key] += float((((out.astype(np.float64) - clean) / 4000)[ok] ** 2).sum())
     result = {
-        **provenance("bench/int8_real.py", sys.argv[1:]),
         "data": f"{len(files)} real L515 dev1 frames, every other with outside interference (held_out.py)",
-        "models": "shipped detector and unet8, quantized here (16 generated calibration frames)",
+        "quantized": "the shipped detector and unet8 (16 generated calibration frames)",
         "detector_verdicts_differing": f"{flips} of {len(files)}",
         "detector_score_diff_median": round(statistics.median(diffs), 4),
         "detector_score_diff_max": round(max(diffs), 4),

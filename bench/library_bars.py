@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 
 import d2sr
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, write_result
 from held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
@@ -53,11 +53,7 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     frames = worst_case(args.data)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout
     result: dict = {
-        "command": "python bench/library_bars.py " + " ".join(sys.argv[1:]),
-        "commit": commit.strip(),
-        "cpu": cpu(),
         "frames": len(frames),
     }
     with tempfile.TemporaryDirectory() as tmp:

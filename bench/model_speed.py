@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 
 from against import HERE, _recover, fps, write_inputs
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, write_result
 from held_out import worst_case
 
 # name: recover's options after --all (the default first: the one the others are compared with)
@@ -49,11 +49,10 @@ def main() -> None:
                     print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
     rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in OPTIONS}
     result = {
-        "command": "d2sr recover IN --all OPTIONS --depth-scale 4000 --out OUT",
+        "measured": "d2sr recover IN --all OPTIONS --depth-scale 4000 --out OUT",
         "options": {name: " ".join(o) for name, o in OPTIONS.items()},
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "runs": args.runs,
-        "cpu": cpu(),
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
         "fps": rate,
         "ratio_to_default": {name: round(f / rate["default"], 3) for name, f in rate.items()},

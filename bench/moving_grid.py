@@ -9,11 +9,10 @@ Run:  .venv/bin/python bench/moving_grid.py --json docs/results/desync/moving_gr
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
 
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.assumptions import settings
 from d2sr.eval.desync import Cell, run_cell
@@ -45,7 +44,6 @@ def main() -> None:
                 print(cells[-1], flush=True)
     losing = [c for c in cells if c["diff_points"] > 0.3]
     result = {
-        **provenance("bench/moving_grid.py", sys.argv[1:]),
         "default": DEFAULT_CONTROLLER,
         "settings": settings(12),
         "cells_losing_over_0.3": len(losing),

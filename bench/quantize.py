@@ -43,13 +43,13 @@ def main() -> None:
     ts = generated_set(Path("out/data"))
     ts.frames, ts.clean, ts.hard = ts.frames[: args.frames], ts.clean[: args.frames], ts.hard[: args.frames]
     ts.__dict__.pop("labels", None)
-    result: dict = {"benchmark": "int8 vs fp32, onnxruntime, 640x480, batch 1", "models": {}}
+    result: dict = {"benchmark": "int8 vs fp32, onnxruntime, 640x480, batch 1", "per_model": {}}
     with tempfile.TemporaryDirectory() as tmp:
         wdir = Path(tmp)
         for name in ("detector", "unet8"):
             shutil.copy(WEIGHTS / f"{name}.onnx", wdir / f"{name}.onnx")
             quantize(wdir / f"{name}.onnx")
-            result["models"][name] = {
+            result["per_model"][name] = {
                 "fp32_mb": round((wdir / f"{name}.onnx").stat().st_size / 2**20, 3),
                 "int8_mb": round(int8_path(wdir / f"{name}.onnx").stat().st_size / 2**20, 3),
             }
@@ -57,11 +57,13 @@ def main() -> None:
         for int8 in (False, True):
             key = "int8" if int8 else "fp32"
             net = open_backend("unet8", "onnx", wdir, int8=int8)
-            result["models"]["detector"][f"{key}_ms"] = round(ms(lambda net=net: net.scores(x)), 2)
-            result["models"]["unet8"][f"{key}_ms"] = round(ms(lambda net=net: net.recover(x)), 2)
+            result["per_model"]["detector"][f"{key}_ms"] = round(ms(lambda net=net: net.scores(x)), 2)
+            result["per_model"]["unet8"][f"{key}_ms"] = round(ms(lambda net=net: net.recover(x)), 2)
             scores = np.array([float(net.scores(ts.metres(i)[None])[0]) for i in range(len(ts.frames))])
             det = detector_metrics(scores, ts)
-            result["models"]["detector"][key] = {k: round(det[k], 4) for k in ("precision", "recall", "f1")}
+            result["per_model"]["detector"][key] = {
+                k: round(det[k], 4) for k in ("precision", "recall", "f1")
+            }
 
             def repair(x: np.ndarray, prev: np.ndarray | None, scale: float, net=net):  # noqa: ANN001, ANN202
                 pred, mask = net.recover(x[None])
@@ -70,7 +72,7 @@ def main() -> None:
 
             rows, _ = recovery_metrics(ts, {"unet8": repair}, None, args.limit)
             r = rows["unet8"]
-            result["models"]["unet8"][key] = {
+            result["per_model"]["unet8"][key] = {
                 k: r[k] for k in ("rmse_cm", "rmse_vs_identity", "mask_f1", "clean_changed")
             }
     print(write_result(result, args.json))

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import check_output, cpu, output_args, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import guard, padded, repair_frame
 from d2sr.runtime.backends import open_backend
 from held_out import worst_case
@@ -62,7 +62,6 @@ def main() -> None:
         "benchmark": "recover --all worst case, per frame, in process (no PNG reading or writing)",
         "frames": "60 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "model": "unet8 (onnxruntime)",
-        "cpu": cpu(),
         "runs": args.runs,
         "median_ms": med,
         "fps_in_process": round(1000 / med["total"], 1),

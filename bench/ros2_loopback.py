@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import ros2_peer
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.runtime.stats import median_p99_ms
 from held_out import outside_interference
 
@@ -104,7 +104,6 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     result: dict = {
-        **provenance("bench/ros2_loopback.py", sys.argv[1:]),
         "data": "L515 dev1 (real captures), every other frame with outside interference (bench/held_out.py)",
     }
     rng = random.Random()

@@ -16,10 +16,9 @@ Run:  .venv/bin/python bench/trigger_roundtrip.py --json docs/results/trigger_ro
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 
-from d2sr.bench import check_output, output_args, provenance, write_result
+from d2sr.bench import check_output, output_args, write_result
 from d2sr.runtime.stats import median_p99_ms
 from d2sr.triggers import open_trigger
 from trigger_board import Board
@@ -61,7 +60,6 @@ def main() -> None:
     finally:
         board.close()
     result = {
-        **provenance("bench/trigger_roundtrip.py", sys.argv[1:]),
         "transport": "pseudo-terminal (os.openpty + pyserial), firmware Core in a host thread",
         "round_trip": ms(trips),
         "pulse_late_vs_board_clock": ms([abs(e) for e in board_err]),

@@ -18,7 +18,6 @@ import contextlib
 import json
 import os
 import shutil
-import sys
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -204,7 +203,7 @@ def record_manifest(folder: Path, files: Iterable[str] | None = None) -> None:
     """Write ``folder``'s manifest. ``files=None``: everything in it (a fresh temporary folder, all
     d2sr's); else the files named, added to those the manifest already lists (a folder written in place,
     where a user may have put files of their own)."""
-    from d2sr import __version__
+    from d2sr.provenance import stamp
 
     if files is None:
         listed = {f for f in _files(folder) if f != MANIFEST}
@@ -212,9 +211,7 @@ def record_manifest(folder: Path, files: Iterable[str] | None = None) -> None:
         listed = (_made(folder) if (folder / MANIFEST).is_file() else set()) | {
             os.path.normpath(f) for f in files
         }
-    text = json.dumps(
-        {"made_by": f"d2sr {__version__}", "command": sys.argv[1:], "files": sorted(listed)}, indent=1
-    )
+    text = json.dumps(stamp({"files": sorted(listed)}), indent=1)
     (folder / MANIFEST).write_text(text + "\n")
 
 

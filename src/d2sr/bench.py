@@ -5,16 +5,16 @@ from __future__ import annotations
 import argparse
 import functools
 import json
-import os
 import platform
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
 
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
+from d2sr.provenance import cpu, stamp
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
@@ -26,7 +26,6 @@ __all__ = [
     "check_output",
     "cpu",
     "output_args",
-    "provenance",
     "write_result",
 ]
 
@@ -37,18 +36,6 @@ def frame_4000(seed: int, interfered: bool) -> np.ndarray:
 
     frame, _, scale = synth_frame(seed, interfered)
     return np.clip(np.rint(frame.astype(np.float64) * (4000 / scale)), 0, 65535).astype(np.uint16)
-
-
-def cpu() -> str:
-    """The cores this process may use and the processor's name: runs on different machines differ by 3x."""
-    name = platform.processor()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            name = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), name)
-    except OSError:
-        pass
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return f"{cores} cores, {name or 'unknown'}"
 
 
 def output_args(ap: argparse.ArgumentParser, plot: str | None = None) -> None:
@@ -74,38 +61,20 @@ def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
                 ap.error(str(exc))
 
 
-def provenance(script: str, argv: list[str]) -> dict[str, str]:
-    """What a committed result records about the run that made it: the command, the git commit of the
-    tree it ran in (with ``+changes`` when that tree differed from it), the CPU and the date."""
-    import subprocess
-    from datetime import UTC, datetime
+def write_result(
+    result: dict,
+    path: Path | None,
+    *,
+    models: Iterable[str | Path] = (),
+    folder: Path | None = None,
+    data: str | dict | None = None,
+) -> str:
+    """The result as JSON text, stamped with its provenance (``d2sr.provenance.record``: this process's
+    command, commit, version, ``models`` hashed in ``folder``, ``data``, CPU, date); also written atomically
+    to ``path`` when given."""
+    from d2sr.atomic import atomic_write
 
-    root = Path(__file__).resolve().parents[2]
-
-    def git(*args: str) -> str:
-        try:
-            done = subprocess.run(["git", *args], capture_output=True, text=True, cwd=root, check=False)
-        except OSError:
-            return ""
-        return done.stdout.strip() if done.returncode == 0 else ""
-
-    commit = git("rev-parse", "HEAD") or "unknown"
-    if commit != "unknown" and git("status", "--porcelain", "--untracked-files=no", "src"):
-        commit += "+changes"
-    return {
-        "command": " ".join(["python", script, *argv]),
-        "commit": commit,
-        "cpu": cpu(),
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
-    }
-
-
-def write_result(result: dict, path: Path | None) -> str:
-    """The result as JSON text, also written atomically to ``path`` when given."""
-    from d2sr import __version__
-    from d2sr.atomic import MADE_BY, atomic_write
-
-    text = json.dumps({MADE_BY: f"d2sr {__version__}", **result}, indent=1)
+    text = json.dumps(stamp(result, models=models, folder=folder, data=data), indent=1)
     if path is not None:
         atomic_write(path, text + "\n")
     return text
@@ -146,7 +115,6 @@ def bench_timing(
         "controller": DEFAULT_CONTROLLER,
         "fps": fps,
         "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
-        "cpu": cpu(),
     }
 
 
@@ -311,7 +279,7 @@ def _outside(command: list[str], frames: list[np.ndarray], runs: int = 3) -> dic
         t60 = [run(root / "in60", root / f"o60_{k}") for k in range(runs)]
     per = (statistics.median(t60) - statistics.median(t10)) / 50
     return {
-        "command": f"d2sr {command[0]} IN --out OUT {' '.join(command[1:])} (60 frames vs 10)",
+        "measured": f"d2sr {command[0]} IN --out OUT {' '.join(command[1:])} (60 frames vs 10)",
         "seconds_10": [round(t, 3) for t in t10],
         "seconds_60": [round(t, 3) for t in t60],
         "fps": round(1 / per, 1) if per > 0 else None,
@@ -391,7 +359,6 @@ def bench_pipeline(
     return {
         "benchmark": "runtime pipeline (onnxruntime, UNet8), in-process medians of repeats",
         "machine": f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
-        "cpu": cpu(),
         "frames": frames,
         "repeats": repeats,
         "rows": rows,

@@ -63,5 +63,5 @@ def bench(
                 repeats=repeats, progress=lambda s: bar.update(task, description=s)
             )
             bar.update(task, total=1, completed=1)
-    result = results[names[0]] if len(names) == 1 else results
+    result = results[names[0]] if len(names) == 1 else {"benchmarks": results}
     console.print_json(write_result(result, json_out))

@@ -16,6 +16,7 @@ from d2sr.cli.common import Overwrite, Topic, renamed, resolution_of
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Reader
 from d2sr.frames.checks import checked_counts, open_input
+from d2sr.provenance import stamp
 from d2sr.ui import NA, console, progress_bar
 
 __all__ = ["calibrate", "label", "simulate"]
@@ -205,14 +206,15 @@ def calibrate(
     sim = simulated_stats(model, rooms, frames, seed=100)  # rooms not used by the fit
     checks = verdict(target, sim)
     ratios = checks["noise"]["ratios"]
-    result = {
-        "command": "d2sr calibrate " + " ".join(f"--real {p}" for p in real) + f" --out {out}",
-        "real": {k: v.to_dict() for k, v in real_stats.items()},
-        "target": target.to_dict(),
-        "simulated": sim.to_dict(),
-        "model": model.model_dump(),
-        "checks": checks,
-    }
+    result = stamp(
+        {
+            "real": {k: v.to_dict() for k, v in real_stats.items()},
+            "target": target.to_dict(),
+            "simulated": sim.to_dict(),
+            "model": model.model_dump(),
+            "checks": checks,
+        }
+    )
     with atomic_dir(out) as tmp:
         (tmp / "calibration.json").write_text(json.dumps(result, indent=1) + "\n")
         save(plot(real_stats, sim), tmp / "calibration.png")

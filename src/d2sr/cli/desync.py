@@ -15,6 +15,7 @@ from d2sr.cli.common import Overwrite, int_list, out_dir, renamed, split_list
 from d2sr.config import load_toml
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
+from d2sr.provenance import stamp
 from d2sr.sim.timing import TimingConfig
 from d2sr.ui import console, progress_bar
 
@@ -230,9 +231,7 @@ def grid(
     summ = ea.summary(sets, results, name)
     command = ("d2sr desync grid " + " ".join(sys.argv[3:])).strip()
     with out_dir(out, overwrite) as tmp:
-        (tmp / "grid.json").write_text(
-            json.dumps(summ | {"command": command}, indent=1, default=float) + "\n"
-        )
+        (tmp / "grid.json").write_text(json.dumps(stamp(summ), indent=1, default=float) + "\n")
         (tmp / "README.md").write_text(ea.markdown(summ, command))
         save(ea.heatmap(summ), tmp / "grid.png")
     w = summ["worst"]

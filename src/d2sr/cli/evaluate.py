@@ -15,6 +15,7 @@ from d2sr.atomic import check_out
 from d2sr.cli.common import BackendOpt, Cache, ModelDir, Overwrite, Real, out_dir, split_list
 from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, THRESHOLD, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
+from d2sr.provenance import stamp
 from d2sr.sim.families import FAMILIES
 from d2sr.ui import console, progress_bar
 
@@ -65,7 +66,7 @@ def detector(
     if not results:
         raise ConfigError(f"no detector weights for {model} in {models}")
     with out_dir(out, overwrite, [real]) as tmp:
-        write_detectors(results, tmp)
+        write_detectors(results, tmp, models)
     if card:
         detector_cards(results, models)
     for k, r in results.items():
@@ -171,9 +172,8 @@ def labels(
     for case, row in results.items():
         t.add_row(case, *(f"{v['f1']:.3f}" for v in row.values()))
     console.print(t)
-    cmd = f"d2sr eval labels --out {out}" + (f" --real {real}" if real else "") + f" --sims {sims}"
     with out_dir(out, overwrite, [real]) as tmp:
-        (tmp / "labels.json").write_text(json.dumps({"command": cmd, "results": results}, indent=1) + "\n")
+        (tmp / "labels.json").write_text(json.dumps(stamp({"results": results}), indent=1) + "\n")
         save(label_f1(results), tmp / "labels.png")
     console.print(f"Wrote {out}/labels.json and labels.png")
 
@@ -233,11 +233,9 @@ def generalization(
         fams = g.family_rows(net, sets, left, tick=lambda: bar.advance(task), lofo_recovery=left_rec)
     worst = g.summary(real, fams)
     md = g.table(real, fams, worst)
-    cmd = f"d2sr eval generalization --data {data} --model {model}" + (f" --lofo {lofo}" if lofo else "")
-    cmd += f" --lofo-recovery {lofo_recovery}" if lofo_recovery else ""
-    result = {"command": cmd, "model": model, "real": real, "families": fams, "worst": worst}
+    result = stamp({"model": model, "real": real, "families": fams, "worst": worst}, models=[model])
     with out_dir(out, overwrite, [data]) as tmp:
         (tmp / "generalization.json").write_text(json.dumps(result, indent=1) + "\n")
-        (tmp / "README.md").write_text(f"# Generalization\n\n`{cmd}`\n\n{md}")
+        (tmp / "README.md").write_text(f"# Generalization\n\n`{result['command']}`\n\n{md}")
         save(plot(real, fams), tmp / "generalization.png")
     console.print(md)

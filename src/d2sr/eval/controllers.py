@@ -12,6 +12,7 @@ import numpy as np
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval import desync as ev
 from d2sr.eval import plots
+from d2sr.provenance import stamp
 from d2sr.sim.timing import TimingConfig
 
 __all__ = ["NOTES", "compare", "comparison_rows", "sweep_report"]
@@ -76,9 +77,9 @@ def sweep_report(results: list[ev.CellResult], folder: Path, command: str) -> di
     checks = ev.check_bars(results, DEFAULT_CONTROLLER)
     head = ev.headline(results, DEFAULT_CONTROLLER)
     failed = [c for c in checks if not c["ok"]]
-    summary = {"command": command, "headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed}
+    summary = stamp({"headline_reduction_N2_15fps": head, "bars": checks, "bars_failed": failed})
     ev.write_csv(results, folder / "sweep.csv")
-    (folder / "sweep.json").write_text(ev.to_json(results))
+    (folder / "sweep.json").write_text(ev.to_json(results, stamped=True))
     (folder / "summary.json").write_text(json.dumps(summary, indent=1, default=float))
     (folder / "README.md").write_text(ev.markdown(results, checks, head, command, DEFAULT_CONTROLLER))
     for p in dict.fromkeys(r.profile for r in results):

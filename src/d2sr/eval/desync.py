@@ -244,10 +244,9 @@ def to_json(results: list[CellResult], stamped: bool = False) -> str:
 
     rows = [clean(asdict(r)) for r in results]
     if stamped:
-        from d2sr import __version__
-        from d2sr.atomic import MADE_BY
+        from d2sr.provenance import stamp
 
-        return json.dumps({MADE_BY: f"d2sr {__version__}", "results": rows}, indent=1)
+        return json.dumps(stamp({"results": rows}), indent=1)
     return json.dumps(rows, indent=1)
 
 
@@ -263,8 +262,10 @@ def from_json(text: str) -> list[CellResult]:
 
     try:
         rows = json.loads(text)
+        if isinstance(rows, dict):  # stamped: {"made_by": ..., "results": [...]}
+            rows = rows["results"]
         return [CellResult(**{k: back(v) for k, v in row.items()}) for row in rows]
-    except (json.JSONDecodeError, TypeError, AttributeError) as exc:
+    except (json.JSONDecodeError, TypeError, AttributeError, KeyError) as exc:
         raise InputError(f"not a sweep.json written by d2sr: {exc}") from None
 
 

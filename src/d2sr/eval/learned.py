@@ -25,6 +25,7 @@ from d2sr.eval.models import (
 from d2sr.eval.plots import save
 from d2sr.models.inference import TorchBackend
 from d2sr.models.store import write_card
+from d2sr.provenance import stamp
 from d2sr.ui import warn
 
 __all__ = [
@@ -84,9 +85,12 @@ def evaluate_detectors(
     return results
 
 
-def write_detectors(results: dict[str, dict], folder: Path) -> None:
+def write_detectors(results: dict[str, dict], folder: Path, weights: Path) -> None:
+    """detector.json (stamped with the models' hashes in ``weights``) and its precision-recall plot."""
     save(pr_curves(results), folder / "pr.png")
-    (folder / "detector.json").write_text(json.dumps(results, indent=1) + "\n")
+    models = list(dict.fromkeys(k.split("/")[0] for k in results))
+    text = json.dumps(stamp(results, models=models, folder=weights), indent=1)
+    (folder / "detector.json").write_text(text + "\n")
 
 
 def detector_cards(results: dict[str, dict], weights: Path) -> None:
@@ -158,7 +162,8 @@ def evaluate_recovery(
         save(gallery(_gallery_rows(ts, fns[first])), folder / f"gallery_{ts.name}.png")
     save(operating_curves(curves, nets[first].mask_logit, first), folder / "operating_curve.png")
     result = tables | {"operating_curve": {first: curves}}
-    (folder / "recovery.json").write_text(json.dumps(result, indent=1) + "\n")
+    text = json.dumps(stamp(result, models=names, folder=weights), indent=1)
+    (folder / "recovery.json").write_text(text + "\n")
     table = recovery_table(tables, first)
     (folder / "table.md").write_text(table)
     return {"tables": tables, "curves": curves, "first": first, "table": table}

@@ -22,6 +22,7 @@ import matplotlib.pyplot as plt
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.eval import desync as ev
 from d2sr.eval.plots import fig9, save
+from d2sr.provenance import stamp
 
 __all__ = ["PAPER", "fig3", "interference_vs_rate", "markdown", "report"]
 
@@ -216,7 +217,8 @@ def latency_ms(bench: dict) -> dict[str, dict[str, float]]:
 
 
 def dump(path: Path, obj: object) -> None:
-    path.write_text(json.dumps(obj, indent=1, default=str) + "\n")
+    """``obj`` as JSON; an object stamped with its provenance (``d2sr.provenance.stamp``)."""
+    path.write_text(json.dumps(stamp(obj) if isinstance(obj, dict) else obj, indent=1, default=str) + "\n")
 
 
 def report(
@@ -240,7 +242,7 @@ def report(
         "detector", lambda: evaluate_detectors(list(DETECTOR_NAMES), weights, real, cache, THRESHOLD)
     )
     (folder / "detector").mkdir()
-    write_detectors(detector, folder / "detector")
+    write_detectors(detector, folder / "detector", weights)
     (folder / "recovery").mkdir()
     names = ["unet8", "unet16", "unet32", "unet8-temporal"]
     recovery = steps(

@@ -1,0 +1,142 @@
+"""What a committed result records about the run that made it, so that a reader can trace every published
+figure to one run: the exact command, the git commit of the tree it ran in, the d2sr version, the models
+and their hashes, the data set and its status, the CPU and the date (issue 45).
+
+Every JSON result d2sr writes (``bench.write_result``, the folders' manifests, ``eval`` outputs) calls
+``record``; ``d2sr results --check`` (``d2sr.results``) fails on a result under ``docs/results`` without it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import os
+import platform
+import shlex
+import subprocess
+import sys
+from collections.abc import Iterable, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+from d2sr.contract import WEIGHTS
+
+__all__ = ["KEYS", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
+
+# The keys ``record`` writes; a result holding at least "command" and "commit" is traceable.
+KEYS = ("command", "commit", "version", "models", "data", "cpu", "date")
+ROOT = Path(__file__).resolve().parents[2]  # the checkout, when d2sr runs from one (else no commit)
+TRACKED = ("src", "bench", "configs")  # a change here changes what a run computes
+
+
+def cpu() -> str:
+    """The cores this process may use and the processor's name: runs on different machines differ by 3x."""
+    name = platform.processor()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            name = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), name)
+    except OSError:
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return f"{cores} cores, {name or 'unknown'}"
+
+
+def _git(*args: str) -> str | None:
+    try:
+        done = subprocess.run(["git", *args], capture_output=True, text=True, cwd=ROOT, check=False)
+    except OSError:
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
+
+
+@functools.cache
+def git_commit() -> str:
+    """The commit of the checkout d2sr runs from, with ``+changes`` when its tracked code (``TRACKED``)
+    differed from it; ``unknown`` for an installed package."""
+    if not (ROOT / ".git").exists():
+        return "unknown"
+    commit = _git("rev-parse", "HEAD")
+    if not commit:
+        return "unknown"
+    if _git("status", "--porcelain", "--untracked-files=no", *TRACKED):
+        commit += "+changes"
+    return commit
+
+
+def command_line(argv: Sequence[str] | None = None) -> str:
+    """The command as a user would type it again: ``d2sr ...`` for the CLI, ``python SCRIPT ...`` for a
+    script (its path relative to the checkout)."""
+    argv = list(sys.argv if argv is None else argv)
+    if not argv:
+        return ""
+    head, rest = argv[0], argv[1:]
+    name = Path(head).name
+    if name in ("d2sr", "__main__.py") or head in ("-m", "-c"):
+        words = ["d2sr", *rest]
+    else:
+        with contextlib.suppress(ValueError):
+            head = str(Path(head).resolve().relative_to(ROOT))
+        words = ["python", head, *rest]
+    return shlex.join(words)
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()[:16]
+
+
+def model_hashes(models: Iterable[str | Path], folder: Path | None = None) -> dict[str, str | None]:
+    """Each model's weights file hashed (first 16 hex digits of its SHA-256): a registry name is looked up
+    as ``NAME.safetensors`` in ``folder`` (default: the shipped weights), a path is hashed as it is;
+    ``None`` when there is no such file."""
+    out: dict[str, str | None] = {}
+    for m in models:
+        path = Path(m) if Path(m).suffix else (folder or WEIGHTS) / f"{m}.safetensors"
+        out[str(m)] = _sha256(path) if path.is_file() else None
+    return out
+
+
+def record(
+    argv: Sequence[str] | None = None,
+    *,
+    models: Iterable[str | Path] = (),
+    folder: Path | None = None,
+    data: str | dict | None = None,
+) -> dict:
+    """The provenance of a run (``KEYS``): ``argv`` (default ``sys.argv``) as a command, the commit, the
+    version, ``models`` hashed (``model_hashes``, in ``folder``), ``data`` (a set's name and status), the
+    CPU and the UTC date."""
+    from d2sr import __version__
+
+    return {
+        "command": command_line(argv),
+        "commit": git_commit(),
+        "version": __version__,
+        "models": model_hashes(models, folder),
+        "data": data,
+        "cpu": cpu(),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+    }
+
+
+def stamp(
+    result: dict,
+    *,
+    models: Iterable[str | Path] = (),
+    folder: Path | None = None,
+    data: str | dict | None = None,
+) -> dict:
+    """``result`` headed by ``made_by`` and its provenance (``record``); a ``data`` key of the result's own
+    replaces the record's. Any other key the record writes is refused: it would hide the provenance."""
+    from d2sr import __version__
+    from d2sr.atomic import MADE_BY
+
+    head = record(models=models, folder=folder, data=data)
+    clash = set(result) & (set(head) - {"data"})
+    if clash:
+        raise ValueError(f"result keys {sorted(clash)} are provenance keys")
+    return {MADE_BY: f"d2sr {__version__}", **head, **result}
