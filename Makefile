@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights trials thresholds lofo eval-models eval-generalization eval-paper clean
+.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights trials thresholds lofo eval-models outside eval-generalization eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -148,6 +148,18 @@ lofo: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --out runs/lofo-recovery/all
 	for f in $(FAMILIES); do \
 	  $(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --leave-out $$f --out runs/lofo-recovery/no-$$f || exit 1; done
+
+# Every outside set of bench/held_out.py (real L515 frames, interference the generator does not make) with
+# recover's default and each shipped recovery model; then the summary across sets (about 12 min on 2 cores).
+SETS := a b c d e f
+OUTSIDE := docs/results/outside
+outside: $(STAMP)
+	mkdir -p $(OUTSIDE)
+	for s in $(SETS); do for m in auto unet8 unet16 unet32; do \
+	  $(BIN)/python bench/held_out.py --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
+	    --overwrite > /dev/null || exit 1; done; done
+	$(BIN)/python bench/outside_summary.py --json docs/results/outside_sets.json \
+	  --plot docs/results/outside_sets.png --overwrite
 
 eval-generalization: $(STAMP)
 	$(BIN)/d2sr eval generalization --data $(DATA) --lofo runs/lofo --lofo-recovery runs/lofo-recovery \

@@ -17,21 +17,20 @@ from d2sr.bench import check_output, output_args, write_result
 from d2sr.eval.plots import plt, save  # Agg, set there
 from held_out import open_sets
 
-RESULTS = Path(__file__).resolve().parent.parent / "docs" / "results"
-# recover setting: the suffix of its held_out.py result files (held_out{_set}{suffix}.json; set A has none).
-# The files without a suffix hold `--model unet8`, recover's default until 2026-11-26
-# (docs/research/decisions.md).
+OUTSIDE = Path(__file__).resolve().parent.parent / "docs" / "results" / "outside"
+# recover setting: the suffix of its held_out.py result files (``make outside``: outside/SET-SUFFIX.json).
 SETTINGS = {
-    "default (auto)": "_auto",
-    "--model unet8": "",
-    "--model auto --mask-logit -1.5": "_auto_logit-1.5",
+    "default (auto)": "auto",
+    "--model unet8": "unet8",
+    "--model unet16": "unet16",
+    "--model unet32": "unet32",
 }
 FIGURES = ("detector_recall", "detector_precision", "rmse_change", "mask_f1", "clean_changed")
 BARS = {"detector_recall": 0.90, "detector_precision": 0.95, "rmse_change": -0.70, "mask_f1": 0.80}
 
 
 def _file(which: str, suffix: str) -> Path:
-    return RESULTS / f"held_out{'' if which == 'a' else '_' + which}{suffix}.json"
+    return OUTSIDE / f"{which}-{suffix}.json"
 
 
 def gather(sets: list[str]) -> dict:
@@ -98,11 +97,15 @@ def main() -> None:
     output_args(ap, plot="also write the plot (PNG) here")
     args = ap.parse_args()
     check_output(ap, args)
-    summary = gather(open_sets())
+    sets = open_sets()
+    summary = gather(sets)
     print(table(summary))
     if args.plot is not None:
         plot(summary, args.plot)
-    print(write_result({"bars": BARS, "settings": summary}, args.json))
+    root = OUTSIDE.parents[2]
+    sources = [str(_file(w, x).relative_to(root)) for w in sets for x in SETTINGS.values()]
+    result = {"bars": BARS, "settings": summary, "sources": sources}
+    print(write_result(result, args.json, data="every open outside set of bench/held_out.py (see sources)"))
 
 
 if __name__ == "__main__":

@@ -108,7 +108,9 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
         "--active-frames", "6,15", "--sensors", "1,2", "--jobs", "1",
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
-    rows = json.loads((tmp_path / "sweep.json").read_text())
+    sweep = json.loads((tmp_path / "sweep.json").read_text())
+    assert sweep["command"].startswith("d2sr desync sweep --out") and sweep["commit"]
+    rows = sweep["results"]
     # 2 scenarios x 2 fps x 2 N x 4 controllers, plus the harsh profile for d2sr and the default
     assert len(rows) == 2 * 2 * 2 * 4 + 2 * 2 * 2 * 2
     assert {r["controller"] for r in rows} == {"static", "d2sr", DEFAULT_CONTROLLER, "oracle"}

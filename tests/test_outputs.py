@@ -226,9 +226,31 @@ def test_overwrite_replaces_a_single_file_only_when_d2sr_wrote_it(tmp_path, weig
         assert target.read_bytes()[:3] == first[:3]
 
 
-def test_a_benchmark_records_the_run_that_made_it():
-    from d2sr.bench import provenance
+def test_a_result_records_the_run_that_made_it(tmp_path):
+    """write_result stamps the command as typed again, the commit, the models' hashes and the data."""
+    import hashlib
 
-    p = provenance("bench/x.py", ["--json", "r.json"])
-    assert p["command"] == "python bench/x.py --json r.json"
-    assert len(p["commit"].split("+")[0]) == 40 and p["cpu"] and len(p["date"]) == 10
+    from d2sr.bench import write_result
+    from d2sr.contract import WEIGHTS
+    from d2sr.provenance import command_line
+
+    assert command_line(["bench/x.py", "--json", "r j.json"]) == "python bench/x.py --json 'r j.json'"
+    assert command_line([".venv/bin/d2sr", "eval", "labels"]) == "d2sr eval labels"
+    out = tmp_path / "r.json"
+    write_result({"figure": 1.5}, out, models=["unet8", "no-such-model"], data={"set": "x"})
+    got = json.loads(out.read_text())
+    assert len(got["commit"].split("+")[0]) == 40 and got["cpu"] and len(got["date"]) == 10
+    want = hashlib.sha256((WEIGHTS / "unet8.safetensors").read_bytes()).hexdigest()[:16]
+    assert got["models"] == {"unet8": want, "no-such-model": None}
+    assert got["data"] == {"set": "x"} and got["figure"] == 1.5 and got["made_by"].startswith("d2sr ")
+    with pytest.raises(ValueError, match="provenance keys"):  # a result's own "command" would hide the run's
+        write_result({"command": "d2sr recover"}, None)
+
+
+def test_a_folder_manifest_records_the_run_that_made_it(tmp_path):
+    from d2sr.atomic import MANIFEST, atomic_dir
+
+    with atomic_dir(tmp_path / "o") as tmp:
+        (tmp / "a.txt").write_text("x")
+    got = json.loads((tmp_path / "o" / MANIFEST).read_text())
+    assert got["files"] == ["a.txt"] and got["command"] and got["commit"] and got["version"]
