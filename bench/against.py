@@ -7,7 +7,7 @@ the two trees so that a shared, noisy machine slows both alike; per tree, the me
 same repaired frames and masks.
 
 Run:  .venv/bin/python bench/against.py --ref b1062a7 --data ../shared/data \
-          --json docs/results/bench_against.json
+          --json docs/research/results/bench_against.json
 """
 
 from __future__ import annotations

@@ -21,13 +21,13 @@ another sensor's projector, a dot lattice or Gray-code stripes (``projector_inte
 * ``adapt`` (with --adapt): ``d2sr adapt`` on the first 100 D435 frames, then the other 93, every other one
   corrupted, through ``--models``: precision, recall, recover --all mask F1; and the time adapt took.
 
-Run:  .venv/bin/python bench/held_out.py --data ../shared/data --model auto \
-          --json docs/results/held_out_auto.json
-      .venv/bin/python bench/held_out.py --data ../shared/data --model unet8 --adapt \
-          --json docs/results/held_out.json
-      .venv/bin/python bench/held_out.py --data ../shared/data --set b --model unet8 \
-          --json docs/results/held_out_b.json
-(files without a suffix: unet8, recover's default until 2026-11-26; ``_auto``: the default since)
+Run:  make outside   (every set with recover's default and each shipped recovery model:
+                     docs/results/outside/SET-MODEL.json)
+      .venv/bin/python bench/held_out.py --data ../shared/data --set b --model unet8 --adapt \
+          --json out/held_out_b.json
+Each result records its provenance and ``data``: the set, its status (``STATUS``: what it has been used
+for) and the calibration overlap. The files under docs/research/results/ are older runs, kept as the
+decisions that cite them saw them.
 """
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ of passes in
 ``--plot``, the trade-off ``--mask-logit`` walks (RMSE change against clean pixels changed, both passes,
 per threshold).
 
-Run:  .venv/bin/python bench/outside_error.py --data ../shared/data --json docs/results/outside_error.json \
-          --plot docs/results/outside_error.png
+Run:  .venv/bin/python bench/outside_error.py --data ../shared/data \
+          --json docs/research/results/outside_error.json --plot docs/research/results/outside_error.png
       .venv/bin/python bench/outside_error.py --models DIR --model unet8-temporal   (given the last frame)
 """
 

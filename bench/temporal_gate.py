@@ -9,7 +9,8 @@ Two sets: the outside L515 set of ``held_out.py`` (a still sensor; last clean fr
 the simulated moving robot of ``d2sr eval recovery`` (its first 60 interfered frames; the true last clean
 frame, or none).
 
-Run:  .venv/bin/python bench/temporal_gate.py --data ../shared/data --json docs/results/temporal_gate.json
+Run:  .venv/bin/python bench/temporal_gate.py --data ../shared/data \
+          --json docs/research/results/temporal_gate.json
 """
 
 from __future__ import annotations

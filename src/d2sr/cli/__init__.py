@@ -42,6 +42,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "export": train.export,
     "adapt": train.adapt,
     "bench": bench.bench,
+    "results": evaluate.results,
 }
 DESYNC: dict[str, Callable[..., None]] = {
     "run": desync.run,

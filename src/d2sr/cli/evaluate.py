@@ -19,15 +19,12 @@ from d2sr.provenance import stamp
 from d2sr.sim.families import FAMILIES
 from d2sr.ui import console, progress_bar
 
-__all__ = ["detector", "generalization", "labels", "paper", "recovery"]
+__all__ = ["detector", "generalization", "labels", "paper", "recovery", "results"]
 
 T = TypeVar("T")
 DATA = Path("../shared/data")
 REAL = DATA / "l515"
 CACHE = Path("out/data")
-Card = Annotated[
-    bool, typer.Option("--card", metavar="", help="Also write the metrics into the models' cards.")
-]
 
 
 def _steps(bar: Progress) -> Callable[[str, int], Callable[[], None]]:
@@ -49,7 +46,6 @@ def detector(
     real: Real = REAL,
     cache: Cache = CACHE,
     threshold: Annotated[float, typer.Option(help="Detector probability that flags a frame.")] = THRESHOLD,
-    card: Card = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Detector precision/recall on the generated test set and on real L515 frames with simulated
@@ -57,7 +53,7 @@ def detector(
 
     Example: d2sr eval detector --real ../shared/data/l515 --out out/eval/detector
     """
-    from d2sr.eval.learned import detector_cards, evaluate_detectors, write_detectors
+    from d2sr.eval.learned import evaluate_detectors, write_detectors
 
     check_probability(threshold, "--threshold")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[real])
@@ -67,8 +63,6 @@ def detector(
         raise ConfigError(f"no detector weights for {model} in {models}")
     with out_dir(out, overwrite, [real]) as tmp:
         write_detectors(results, tmp, models)
-    if card:
-        detector_cards(results, models)
     for k, r in results.items():
         extra = f", people {r['false_alarm_rate_people']:.3f}" if "false_alarm_rate_people" in r else ""
         console.print(
@@ -88,14 +82,13 @@ def recovery(
     real: Real = REAL,
     cache: Cache = CACHE,
     limit: Annotated[int, typer.Option(help="Interfered frames per test set (0: all).")] = 0,
-    card: Card = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Recovery on interfered frames: RMSE, mask F1, clean pixels changed; baselines; error CDF; gallery.
 
     Example: d2sr eval recovery --real ../shared/data/l515 --limit 60 --out out/eval/recovery
     """
-    from d2sr.eval.learned import evaluate_recovery, recovery_cards
+    from d2sr.eval.learned import evaluate_recovery
 
     if limit < 0:
         raise ConfigError(f"--limit must be >= 0, got {limit}")
@@ -104,8 +97,6 @@ def recovery(
     with out_dir(out, overwrite, [real]) as tmp, progress_bar() as bar:
         result = evaluate_recovery(names, models, real, cache, limit, tmp, _steps(bar))
     console.print(result["table"])
-    if card:
-        recovery_cards(result["tables"], names, models, limit)
 
 
 def paper(
@@ -239,3 +230,29 @@ def generalization(
         (tmp / "README.md").write_text(f"# Generalization\n\n`{result['command']}`\n\n{md}")
         save(plot(real, fams), tmp / "generalization.png")
     console.print(md)
+
+
+def results(
+    check: Annotated[
+        bool, typer.Option("--check", metavar="", help="Change nothing; exit 2 on any disagreement.")
+    ] = False,
+) -> None:
+    """Write the README's results table and the shipped models' cards from the committed results under
+    docs/results (in a d2sr checkout); with --check, report where they disagree instead.
+
+    Example: d2sr results --check
+    """
+    from d2sr import results as r
+
+    if not r.RESULTS.is_dir():
+        raise ConfigError(f"d2sr results runs in a d2sr checkout: no {r.RESULTS}")
+    if check:
+        problems = r.check()
+        for p in problems:
+            console.print(p)
+        if problems:
+            raise InputError(f"{len(problems)} published figure(s) disagree with docs/results")
+        console.print("README and cards agree with docs/results")
+        return
+    changed = r.write()
+    console.print("Rewrote " + ", ".join(changed) if changed else "Nothing to change")

@@ -24,17 +24,16 @@ from d2sr.eval.models import (
 )
 from d2sr.eval.plots import save
 from d2sr.models.inference import TorchBackend
-from d2sr.models.store import write_card
 from d2sr.provenance import stamp
 from d2sr.ui import warn
 
 __all__ = [
     "CURVE_LOGITS",
     "SET_TITLES",
-    "detector_cards",
+    "detector_metrics_card",
     "evaluate_detectors",
     "evaluate_recovery",
-    "recovery_cards",
+    "recovery_metrics_card",
     "recovery_table",
     "write_detectors",
 ]
@@ -93,19 +92,15 @@ def write_detectors(results: dict[str, dict], folder: Path, weights: Path) -> No
     (folder / "detector.json").write_text(text + "\n")
 
 
-def detector_cards(results: dict[str, dict], weights: Path) -> None:
-    for name in dict.fromkeys(k.split("/")[0] for k in results):
-        write_card(
-            weights / f"{name}.safetensors",
-            evaluation=f"d2sr eval detector --models {name}",
-            metrics={
-                f"{SET_TITLES[k.split('/')[1]]}: precision / recall / false alarms": (
-                    f"{r['precision']:.3f} / {r['recall']:.3f} / {r['false_alarm_rate']:.3f}"
-                )
-                for k, r in results.items()
-                if k.startswith(name + "/")
-            },
+def detector_metrics_card(results: dict[str, dict], name: str) -> dict[str, str]:
+    """Detector ``name``'s figures in ``detector.json``'s ``results`` as its card quotes them."""
+    return {
+        f"{SET_TITLES[k.split('/')[1]]}: precision / recall / false alarms": (
+            f"{r['precision']:.3f} / {r['recall']:.3f} / {r['false_alarm_rate']:.3f}"
         )
+        for k, r in results.items()
+        if k.startswith(name + "/") and k.split("/")[1] in SET_TITLES
+    }
 
 
 def _repair_fn(net: TorchBackend) -> Callable:
@@ -201,19 +196,13 @@ def recovery_table(tables: dict[str, dict], first: str) -> str:
     return "\n".join(lines)
 
 
-def recovery_cards(tables: dict[str, dict], names: list[str], weights: Path, limit: int) -> None:
-    for name in names:
-        if not (weights / f"{name}.safetensors").is_file():
-            continue
-        write_card(
-            weights / f"{name}.safetensors",
-            evaluation=f"d2sr eval recovery --models {name} --limit {limit}",
-            metrics={
-                f"{SET_TITLES[s]}: RMSE cm (vs identity) / mask F1 / clean px changed": (
-                    f"{t[name]['rmse_cm']:.2f} ({100 * t[name]['rmse_vs_identity']:+.1f}%) / "
-                    f"{t[name]['mask_f1']:.3f} / {100 * t[name]['clean_changed']:.2f}%"
-                )
-                for s, t in tables.items()
-                if name in t
-            },
+def recovery_metrics_card(tables: dict[str, dict], name: str) -> dict[str, str]:
+    """Recovery model ``name``'s figures in ``recovery.json``'s per-set ``tables`` as its card quotes them."""
+    return {
+        f"{SET_TITLES[s]}: RMSE cm (vs identity) / mask F1 / clean px changed": (
+            f"{t[name]['rmse_cm']:.2f} ({100 * t[name]['rmse_vs_identity']:+.1f}%) / "
+            f"{t[name]['mask_f1']:.3f} / {100 * t[name]['clean_changed']:.2f}%"
         )
+        for s, t in tables.items()
+        if name in t
+    }

@@ -22,6 +22,7 @@ __all__ = [
     "load_model",
     "mask_logit",
     "read_card",
+    "render_card",
     "save_model",
     "stored_in_half",
     "threshold",
@@ -167,16 +168,24 @@ def write_card(path: Path, **update: object) -> dict:
     path = Path(path)
     card = read_card(path) | update
     atomic_write(path.with_suffix(".card.json"), json.dumps(card, indent=2, default=str) + "\n")
-    lines = [f"# Model card: {card.get('model', path.stem)}", ""]
+    atomic_write(path.with_suffix(".md"), render_card(card, path.stem))
+    return card
+
+
+def render_card(card: dict, stem: str) -> str:
+    """The card as the Markdown written beside it."""
+    lines = [f"# Model card: {card.get('model', stem)}", ""]
     for key, title in (
         ("summary", "What it is"),
         ("data", "Data"),
         ("command", "Command"),
         ("training", "Training"),
         ("rethreshold", "Mask threshold chosen again (d2sr threshold)"),
-        ("metrics", "Metrics (held-out data, never trained on)"),
+        ("metrics", "Metrics (frames never trained on; the calibration overlap is under Limits)"),
         ("evaluation", "Evaluation command"),
+        ("outside", "From outside: real L515 frames, interference the generator does not make"),
         ("limits", "Limits"),
+        ("sources", "Files these figures are written from (d2sr results)"),
         ("date", "Date"),
     ):
         if key not in card:
@@ -185,13 +194,14 @@ def write_card(path: Path, **update: object) -> dict:
         lines.append(f"## {title}")
         if isinstance(value, dict):
             lines += [f"- {k}: {v}" for k, v in value.items()]
+        elif isinstance(value, list):
+            lines += [f"- {v}" for v in value]
         elif key in ("command", "evaluation"):
             lines.append(f"```\n{value}\n```")
         else:
             lines.append(str(value))
         lines.append("")
-    atomic_write(path.with_suffix(".md"), "\n".join(lines))
-    return card
+    return "\n".join(lines)
 
 
 def torch_device() -> torch.device:

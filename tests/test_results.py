@@ -1,0 +1,103 @@
+"""Published figures come from the committed results: the README's table and the models' cards are written
+from docs/results, and a figure that drifts from its file, or a result with no command and commit, fails."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from d2sr import results
+from d2sr.contract import WEIGHTS
+from d2sr.errors import InputError
+from helpers import d2sr_inprocess
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_and_cards_agree_with_docs_results():
+    assert results.check() == []
+
+
+def test_cli_check_agrees_and_exits_zero():
+    code, out, err = d2sr_inprocess("results", "--check")
+    assert code == 0, err
+    assert "agree" in out
+
+
+@pytest.fixture
+def copy(tmp_path: Path) -> tuple[Path, Path]:
+    """The README, the results its table and the cards read, and the cards, in a scratch checkout."""
+    root, weights = tmp_path / "repo", tmp_path / "weights"
+    (root / "docs").mkdir(parents=True)
+    shutil.copy(ROOT / "README.md", root / "README.md")
+    shutil.copytree(ROOT / "docs" / "results", root / "docs" / "results")
+    weights.mkdir()
+    for card in WEIGHTS.glob("*.card.json"):
+        shutil.copy(card, weights / card.name)
+        md = card.name.replace(".card.json", ".md")
+        shutil.copy(WEIGHTS / md, weights / md)
+    assert results.check(root, weights) == []
+    return root, weights
+
+
+def _edit(path: Path, change) -> None:
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+
+
+def test_a_figure_changed_in_its_file_is_caught_in_the_readme_and_on_the_card(copy):
+    root, weights = copy
+    recovery = root / results.RECOVERY
+
+    def worse(d: dict) -> None:
+        d["l515"]["unet8"]["mask_f1"] = 0.5
+
+    _edit(recovery, worse)
+    problems = results.check(root, weights)
+    assert any(p.startswith("unet8.card.json: metrics") for p in problems), problems
+    assert results.write(root, weights) == ["unet8.card.json"]
+    card = json.loads((weights / "unet8.card.json").read_text())
+    assert any("/ 0.500 /" in v for v in card["metrics"].values())
+    assert results.check(root, weights) == []
+
+    paper = root / "docs/results/paper/results.json"
+    _edit(paper, lambda d: d["latency_ms"]["unet8"].update(onnxruntime=1.0))
+    assert any(p.startswith("README.md") for p in results.check(root, weights))
+    results.write(root, weights)
+    assert "/ 1.00 ms (2-core CPU)](docs/results/paper/results.json)" in (root / "README.md").read_text()
+
+
+def test_a_hand_edited_figure_on_a_card_or_its_page_is_caught(copy):
+    root, weights = copy
+    card = weights / "detector.card.json"
+    _edit(card, lambda d: d["metrics"].update({next(iter(d["metrics"])): "0.999 / 0.999 / 0.000"}))
+    assert any(p.startswith("detector.card.json: metrics") for p in results.check(root, weights))
+    page = weights / "unet8.md"
+    page.write_text(page.read_text().replace("Limits", "Limits (RMSE -90%)"))
+    assert "unet8.md: differs from unet8.card.json (run d2sr results)" in results.check(root, weights)
+
+
+def test_results_without_a_command_and_commit_fail_the_bar(copy):
+    root, weights = copy
+    _, total = results.untraceable(root)
+    for i in range(int(total * 0.06) + 1):  # past the 5% the bar allows
+        (root / "docs" / "results" / f"typed_{i}.json").write_text('{"rmse": 1.0}')
+    problems = results.check(root, weights)
+    assert any("record no command and commit" in p and "typed_0.json" in p for p in problems), problems
+
+
+def test_notes_on_cards_quote_no_figures():
+    """Figures on a card come from files; the hand-written notes beside them carry none."""
+    for name, note in results.NOTES.items():
+        assert results.digits_in(note) == [], name
+
+
+def test_a_missing_source_is_one_line(copy):
+    root, weights = copy
+    (root / "docs/results/ros2_loopback.json").unlink()
+    with pytest.raises(InputError, match=r"ros2_loopback\.json: cannot read it"):
+        results.check(root, weights)
