@@ -4,6 +4,7 @@ held-out generated frames (seeds the training never used)."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -72,25 +73,29 @@ def test_shipped_detector_separates_held_out_frames(frames):
     assert not flagged[~labels].any() and flagged[labels].sum() >= 3, scores
 
 
-def test_shipped_unet8_repairs_held_out_frames(frames):
+def test_shipped_unet8_lowers_the_error_of_held_out_frames_taken_together():
+    """40 held-out generated frames interfered on at least 1% of their pixels: the squared error over all of
+    them falls by at least a quarter, at most 1 frame in 4 ends worse, and no pixel outside the predicted
+    mask is touched. Single frames can end worse (measured 2026-11-26: 7 of 40, the worst 4.1x on a small
+    patch): this test does not claim otherwise."""
     net = open_backend("unet8")
-    ratios = []
-    for x, c, f, scale, lab in frames:
-        if not lab:
+    before = after = 0.0
+    worse = seen = i = 0
+    while seen < 40:
+        f, c, scale = synth_frame(TEST_SEED + 100 + i, True)
+        i += 1
+        if (f != c).mean() < 0.01:
             continue
+        seen += 1
+        x, clean = f.astype(np.float32) / scale, c.astype(np.float32) / scale
         pred, mask = net.recover(x[None])
         out, kept = repair_frame(f, pred[0], mask[0], scale)
-        valid = c > 0
-        before = float(((x - c)[valid] ** 2).sum())
-        after = float(((out.astype(np.float32) / scale - c)[valid] ** 2).sum())
-        ratios.append(after / before)
         assert np.array_equal(out[~kept], f[~kept]) and not (kept & ~mask[0]).any()
-    # Squared error: no frame made clearly worse, half of them at least a quarter better. One of the four
-    # (mild speckle, 6 cm RMS, on a noisy L515 wall at 3-5 m) is not helped: 0.6.0 moves 51 of its clean
-    # pixels within their neighbours' range and ends 5.4% worse (0.5.0: 3.9%); since data version 6 (the
-    # wall's dropouts at every scale, as the real sensor's) 11.9% worse, with the shipped unet8 trained on
-    # version 4.
-    assert max(ratios) < 1.15 and sorted(ratios)[len(ratios) // 2 - 1] < 0.75, ratios
+        valid = clean > 0
+        b = float(((x - clean)[valid] ** 2).sum())
+        a = float(((out.astype(np.float32) / scale - clean)[valid] ** 2).sum())
+        before, after, worse = before + b, after + a, worse + (a > b)
+    assert after / before < 0.75 and worse <= 10, (after / before, worse)
 
 
 @pytest.mark.parametrize("backend", ["torch", "onnx"])
@@ -111,3 +116,58 @@ def test_every_shipped_file_stays_under_5_mb():
     # The repository stays light: large models are stored in float16 (models.store.HALF_ABOVE).
     big = [f.name for f in SHIPPED.iterdir() if f.stat().st_size > 5 * 2**20]
     assert not big, big
+
+
+REAL_L515 = Path(__file__).resolve().parents[2] / "shared" / "data" / "l515" / "dev1"
+
+
+@pytest.fixture(scope="module")
+def int8_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The shipped detector and unet8 beside their int8 forms (``d2sr export --int8``'s quantizer)."""
+    import shutil
+
+    from d2sr.models.onnx.quantize import quantize
+
+    folder = tmp_path_factory.mktemp("int8")
+    for name in ("detector", "unet8"):
+        for ext in (".onnx", ".safetensors"):
+            shutil.copyfile(SHIPPED / f"{name}{ext}", folder / f"{name}{ext}")
+        quantize(folder / f"{name}.onnx")
+    return folder
+
+
+def _frames_4000(n: int) -> list[tuple[np.ndarray, np.ndarray | None]]:
+    out: list[tuple[np.ndarray, np.ndarray | None]] = []
+    for i in range(n):
+        f, c, s = synth_frame(TEST_SEED + 500 + i, bool(i % 2))
+        f, c = (
+            np.clip(np.rint(a.astype(np.float64) * (4000 / s)), 0, 65535).astype(np.uint16) for a in (f, c)
+        )
+        out.append((f, c if i % 2 else None))
+    return out
+
+
+def test_int8_stays_experimental_while_it_misses_its_tolerance_against_fp32(int8_folder):
+    """int8 is offered as experimental (``--int8``) because it misses ``TOLERANCE`` against fp32 (verdicts
+    differing on at most 5% of frames, repair RMSE at most 5% above): on 20 held-out generated frames, and
+    on real L515 frames where ../shared/data is present (bench/int8_real.py). When it meets the tolerance,
+    this fails: then the docs and ``--int8``'s help must stop calling it experimental."""
+    from d2sr.models.onnx.quantize import agreement, within_tolerance
+
+    got = agreement(int8_folder, _frames_4000(20), 4000.0)
+    assert got["frames"] == 20 and got["rmse_cm"]["fp32"] > 0
+    assert not within_tolerance(got), got
+    if REAL_L515.is_dir():
+        import sys
+
+        import cv2
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+        from held_out import outside_interference  # the outside set A interference
+
+        files = sorted(REAL_L515.glob("*.png"))[:20]
+        real = []
+        for i, f in enumerate(files):
+            clean = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
+            real.append((outside_interference(clean, 4000.0, 7 + i), clean) if i % 2 else (clean, None))
+        assert not within_tolerance(agreement(int8_folder, real, 4000.0))

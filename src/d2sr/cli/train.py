@@ -107,7 +107,7 @@ def threshold(
     with out_dir(out, overwrite, [weights.parent]) as tmp:
         target = tmp / weights.name
         save_model(model, name, target, mask_logit=chosen["mask_logit"])
-        # The card's metrics were measured at the old threshold: dropped until `d2sr eval ... --card`.
+        # The card's metrics were measured at the old threshold: dropped until `make eval-models results`.
         stale = ("metrics", "evaluation", "training", "rethreshold")
         kept = {k: v for k, v in card.items() if k not in stale}
         again = {"from": str(weights), "was": was, "command": command, "date": dt.date.today().isoformat()}

@@ -18,7 +18,11 @@ from d2sr.errors import InputError
 from d2sr.models.onnx.half import float_weights
 from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
 
-__all__ = ["CALIBRATION_SEED", "int8_path", "quantize"]
+__all__ = ["CALIBRATION_SEED", "TOLERANCE", "agreement", "int8_path", "quantize", "within_tolerance"]
+
+# What int8 must keep of fp32 to stop being experimental, on real frames: detector verdicts differing on at
+# most 5% of the frames, and the repair's RMSE at most 5% above fp32's.
+TOLERANCE = {"verdicts_differing": 0.05, "rmse_ratio": 1.05}
 
 
 def int8_path(onnx: Path) -> Path:
@@ -90,3 +94,47 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
             weight_type=QuantType.QInt8,
         )
     return target
+
+
+def agreement(folder: Path, frames: list[tuple[np.ndarray, np.ndarray | None]], scale: float) -> dict:
+    """The int8 detector and unet8 in ``folder`` (``quantize`` beside the fp32 ONNX files) against fp32 on
+    ``frames`` (a uint16 frame, and the frame without interference or None): the share of detector
+    verdicts that differ, the largest score difference, and each one's repair RMSE (cm) against the
+    clean frame over the frames that have one."""
+    from d2sr.contract import THRESHOLD, repair_frame
+    from d2sr.runtime.backends import open_backend
+
+    nets = {
+        "fp32": open_backend("unet8", "onnx", folder),
+        "int8": open_backend("unet8", "onnx", folder, int8=True),
+    }
+    differ, diffs, se, n = 0, [0.0], {"fp32": 0.0, "int8": 0.0}, 0.0
+    for frame, clean in frames:
+        x = (frame.astype(np.float32) / np.float32(scale))[None]
+        a, b = (float(net.scores(x)[0]) for net in nets.values())
+        diffs.append(abs(a - b))
+        differ += (a >= THRESHOLD) != (b >= THRESHOLD)
+        if clean is None:
+            continue
+        ok = clean > 0
+        n += float(ok.sum())
+        for key, net in nets.items():
+            pred, mask = net.recover(x)
+            out, _ = repair_frame(frame, pred[0], mask[0], scale)
+            se[key] += float((((out.astype(np.float64) - clean) / scale)[ok] ** 2).sum())
+    rmse = {k: 100 * float(np.sqrt(v / max(n, 1.0))) for k, v in se.items()}
+    return {
+        "frames": len(frames),
+        "verdicts_differing": differ / max(len(frames), 1),
+        "score_diff_max": max(diffs),
+        "rmse_cm": rmse,
+        "rmse_ratio": rmse["int8"] / rmse["fp32"] if rmse["fp32"] > 0 else 1.0,
+    }
+
+
+def within_tolerance(figures: dict) -> bool:
+    """Whether ``agreement``'s figures meet ``TOLERANCE``."""
+    return bool(
+        figures["verdicts_differing"] <= TOLERANCE["verdicts_differing"]
+        and figures["rmse_ratio"] <= TOLERANCE["rmse_ratio"]
+    )
