@@ -47,7 +47,7 @@ from d2sr.models.store import load_model, mask_logit, save_model, torch_device, 
 from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
-from d2sr.train.loop import loss_fn, pick_as_recovered, recovered_sums
+from d2sr.train.loop import deterministic, loss_fn, pick_as_recovered, recovered_sums
 from d2sr.train.synth import Synth, synth_sequence_frame
 
 __all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
@@ -270,6 +270,7 @@ def _fit(
     """Fine-tune for ``phase.steps`` (over every resumed part; for at most ``phase.cap`` seconds),
     checkpointing as it goes."""
     ckpt = out / f"{phase.name}-{CHECKPOINT}"
+    deterministic(SEED)
     model = phase.model.to(device)
     opt = torch.optim.AdamW(model.parameters(), lr=LR, weight_decay=1e-4)
     rng = np.random.default_rng([SEED, len(phase.name)])

@@ -33,6 +33,7 @@ __all__ = [
     "MASK_LOGITS",
     "MAX_CLEAN_CHANGED",
     "as_second_pass",
+    "deterministic",
     "choose_mask_logit",
     "loss_fn",
     "mask_sums",
@@ -155,6 +156,13 @@ def _save_checkpoint(
         torch.save(state, tmp)
 
 
+def deterministic(seed: int) -> None:
+    """At one seed and one thread count, one result: torch's deterministic kernels, its generator seeded
+    (the data's order comes from numpy generators seeded apart)."""
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    torch.manual_seed(seed)
+
+
 def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True) -> dict:
     """Train, checkpoint to ``out/checkpoint.pt`` (resumed when present and of the same config), and write
     ``out/<model>.safetensors`` with its model card. Returns the training summary."""
@@ -162,7 +170,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         device = torch_device()
         if device.type == "cpu":
             torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
-        torch.manual_seed(cfg.seed)
+        deterministic(cfg.seed)
         # Rank 0 generates the data set (if it is not cached yet); the others wait, then open it.
         if world > 1 and rank:
             tdist.barrier()
