@@ -28,8 +28,8 @@ __all__ = [
 ]
 
 RESULTS = ROOT / "docs" / "results"
-START = "<!-- results table: written by `d2sr results` from docs/results; edit bench or eval, not this -->"
-END = "<!-- end of results table -->"
+START = "<!-- written by d2sr results -->"
+END = "<!-- end of d2sr results -->"
 SETS = "abcdef"
 # Share of the JSON files under docs/results that must record their command and commit (issue 45's bar).
 TRACEABLE_SHARE = 0.95
@@ -112,7 +112,7 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "detector precision / recall, real L515 frames with simulated interference",
+        "detector precision / recall",
         "0.98 / 0.82",
         "docs/results/paper/detector/detector.json",
         lambda d: f"{d['detector/l515']['precision']:.3f} / {d['detector/l515']['recall']:.3f}",
@@ -133,7 +133,7 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "recover --all, interference we never generated, 6 development sets: RMSE change mean / worst",
+        "RMSE change, 6 outside interference sets (development): mean / worst",
         "—",
         "docs/results/outside_sets.json",
         _outside,
@@ -217,10 +217,23 @@ DETECTOR = "docs/results/detector/detector.json"
 
 
 def _set_label(d: dict) -> str:
-    data = d.get("data") or {}
-    status = str(data.get("status", "")).split(":", 1)[0] if isinstance(data, dict) else ""
-    name = str(data.get("set", "")).split(",", 1)[0] if isinstance(data, dict) else ""
-    return f"{name} [{status or 'unknown status'}]"
+    data = d.get("data")
+    if not isinstance(data, dict):
+        data = {}
+    status = str(data.get("status", "unknown status")).split(":", 1)[0]
+    name = str(data.get("set", "unknown set")).rsplit(", bench/", 1)[0]
+    return f"{name} [{status}]"
+
+
+def _counted(r: dict) -> str:
+    """How many frames a figure counts: the interfered ones, and apart those the set's corruption left
+    unchanged (issue 45: set A's recall once counted 47 of 60 without saying so)."""
+    apart = (
+        f"; {r['left_unchanged']} corrupted but left unchanged, not counted"
+        if r.get("left_unchanged")
+        else ""
+    )
+    return f"({r['interfered']} interfered frames of {r['frames']}{apart})"
 
 
 def _outside_recovery(root: Path, name: str) -> tuple[dict[str, str], list[str]]:
@@ -233,8 +246,7 @@ def _outside_recovery(root: Path, name: str) -> tuple[dict[str, str], list[str]]
         r = d["l515"]
         rows[_set_label(d)] = (
             f"RMSE {100 * r['rmse_change']:+.1f}%, mask F1 {r['mask_f1']:.2f}, "
-            f"{_pct(r['clean_changed'], 2)} of clean pixels changed "
-            f"({r['interfered']} interfered of {r['frames']} frames)"
+            f"{_pct(r['clean_changed'], 2)} of clean pixels changed {_counted(r)}"
         )
         sources.append(rel)
     return rows, sources
@@ -249,8 +261,7 @@ def _outside_detector(root: Path) -> tuple[dict[str, str], list[str]]:
         d = _load(root, rel)
         r = d["l515"]
         rows[_set_label(d)] = (
-            f"precision {r['detector_precision']:.2f} / recall {r['detector_recall']:.2f} "
-            f"({r['interfered']} interfered of {r['frames']} frames)"
+            f"precision {r['detector_precision']:.2f} / recall {r['detector_recall']:.2f} {_counted(r)}"
         )
         sources.append(rel)
     return rows, sources
