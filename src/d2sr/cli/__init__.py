@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from d2sr import __version__
-from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train, trigger
+from d2sr.cli import bench, data, desync, evaluate, fill, results, ros2, run, show, stages, train, trigger
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 
@@ -42,7 +42,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "export": train.export,
     "adapt": train.adapt,
     "bench": bench.bench,
-    "results": evaluate.results,
+    "results": results.results,
 }
 DESYNC: dict[str, Callable[..., None]] = {
     "run": desync.run,

@@ -19,7 +19,7 @@ from d2sr.provenance import stamp
 from d2sr.sim.families import FAMILIES
 from d2sr.ui import console, progress_bar
 
-__all__ = ["detector", "generalization", "labels", "paper", "recovery", "results"]
+__all__ = ["detector", "generalization", "labels", "paper", "recovery"]
 
 T = TypeVar("T")
 DATA = Path("../shared/data")
@@ -230,29 +230,3 @@ def generalization(
         (tmp / "README.md").write_text(f"# Generalization\n\n`{result['command']}`\n\n{md}")
         save(plot(real, fams), tmp / "generalization.png")
     console.print(md)
-
-
-def results(
-    check: Annotated[
-        bool, typer.Option("--check", metavar="", help="Change nothing; exit 2 on any disagreement.")
-    ] = False,
-) -> None:
-    """Write the README's results table and the shipped models' cards from the committed results under
-    docs/results (in a d2sr checkout); with --check, report where they disagree instead.
-
-    Example: d2sr results --check
-    """
-    from d2sr import results as r
-
-    if not r.RESULTS.is_dir():
-        raise ConfigError(f"d2sr results runs in a d2sr checkout: no {r.RESULTS}")
-    if check:
-        problems = r.check()
-        for p in problems:
-            console.print(p)
-        if problems:
-            raise InputError(f"{len(problems)} published figure(s) disagree with docs/results")
-        console.print("README and cards agree with docs/results")
-        return
-    changed = r.write()
-    console.print("Rewrote " + ", ".join(changed) if changed else "Nothing to change")
