@@ -32,7 +32,11 @@ def results(
             console.print(p)
         if problems:
             raise InputError(f"{len(problems)} published figure(s) disagree with docs/results")
-        console.print("README and cards agree with docs/results")
+        bad, total = r.untraceable()
+        console.print(
+            f"README and cards agree with docs/results; {total - len(bad)} of {total} results record their "
+            f"command and commit ({len(bad)} listed in {r.PENDING})"
+        )
         return
     changed = r.write()
     console.print("Rewrote " + ", ".join(changed) if changed else "Nothing to change")
