@@ -247,34 +247,28 @@ def _counted(r: dict) -> str:
     return f"({r['interfered']} interfered frames of {r['frames']}{apart})"
 
 
-def _outside_recovery(root: Path, name: str) -> tuple[dict[str, str], list[str]]:
-    rows, sources = {}, []
-    for s in SETS:
-        rel = f"docs/results/outside/{s}-{name}.json"
-        if not (root / rel).is_file():
-            continue
-        d = _load(root, rel)
-        r = d["l515"]
-        rows[_set_label(d)] = (
-            f"RMSE {100 * r['rmse_change']:+.1f}%, mask F1 {r['mask_f1']:.2f}, "
-            f"{_pct(r['clean_changed'], 2)} of clean pixels changed {_counted(r)}"
-        )
-        sources.append(rel)
-    return rows, sources
+def _repair_figures(r: dict) -> str:
+    return (
+        f"RMSE {100 * r['rmse_change']:+.1f}%, mask F1 {r['mask_f1']:.2f}, "
+        f"{_pct(r['clean_changed'], 2)} of clean pixels changed {_counted(r)}"
+    )
 
 
-def _outside_detector(root: Path) -> tuple[dict[str, str], list[str]]:
+def _detector_figures(r: dict) -> str:
+    return f"precision {r['detector_precision']:.2f} / recall {r['detector_recall']:.2f} {_counted(r)}"
+
+
+def _outside_sets(
+    root: Path, setting: str, figures: Callable[[dict], str]
+) -> tuple[dict[str, str], list[str]]:
+    """Per outside set, ``figures`` of ``make outside``'s SET-setting.json; the files read."""
     rows, sources = {}, []
     for s in SETS:
-        rel = f"docs/results/outside/{s}-auto.json"
-        if not (root / rel).is_file():
-            continue
-        d = _load(root, rel)
-        r = d["l515"]
-        rows[_set_label(d)] = (
-            f"precision {r['detector_precision']:.2f} / recall {r['detector_recall']:.2f} {_counted(r)}"
-        )
-        sources.append(rel)
+        rel = f"docs/results/outside/{s}-{setting}.json"
+        if (root / rel).is_file():
+            d = _load(root, rel)
+            rows[_set_label(d)] = figures(d["l515"])
+            sources.append(rel)
     return rows, sources
 
 
@@ -289,10 +283,10 @@ def card_fields(name: str, root: Path = ROOT) -> dict:
     d = _load(root, rel)
     if detector:
         metrics = detector_metrics_card(d, name)
-        outside, sources = _outside_detector(root) if name == "detector" else ({}, [])
+        outside, sources = _outside_sets(root, "auto", _detector_figures) if name == "detector" else ({}, [])
     else:
         metrics = recovery_metrics_card({k: d[k] for k in ("generated", "l515", "moving") if k in d}, name)
-        outside, sources = _outside_recovery(root, name)
+        outside, sources = _outside_sets(root, name, _repair_figures)
     if not metrics:
         raise InputError(f"{rel}: no figures for {name}")
     fields: dict = {
