@@ -45,6 +45,7 @@ import cv2
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
+from d2sr.contract import AUTO_RECOVERY, DEFAULT_RECOVERY, DETECTOR, TEMPORAL_RECOVERY
 
 SEED = 5_000_000
 # Each set's stream of random numbers.
@@ -361,9 +362,9 @@ def set_data(which: str) -> dict[str, str]:
 
 def used_models(model: str | None) -> list[str]:
     """The models a ``d2sr recover --model MODEL`` run (with its detector) reads, to hash them."""
-    if model in (None, "auto"):
-        return ["detector", "unet8", "unet8-temporal"]
-    return ["detector", model]
+    if model in (None, AUTO_RECOVERY):  # auto: the temporal model, and the single-frame one it falls back on
+        return [DETECTOR, DEFAULT_RECOVERY, TEMPORAL_RECOVERY]
+    return [DETECTOR, model]
 
 
 def open_sets() -> list[str]:
@@ -451,9 +452,10 @@ def scored(
     ``kinds`` (each frame's interference model), the detector's recall, the mask's and the RMSE change also
     per model (``by_kind``)."""
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
+    counted: dict[str, int] = {}
     if kinds:  # the frames the set meant to corrupt; those the corruption left unchanged count apart
         meant = np.array([bool(k) for k in kinds])
-        unchanged = {"corrupted": int(meant.sum()), "left_unchanged": int((meant & ~truth).sum())}
+        counted = {"corrupted": int(meant.sum()), "left_unchanged": int((meant & ~truth).sum())}
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
     d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
@@ -492,7 +494,7 @@ def scored(
     return {
         "frames": len(clean),
         "interfered": int(truth.sum()),
-        **(unchanged if kinds else {}),
+        **counted,
         "detector_precision": round(dp, 4),
         "detector_recall": round(dr, 4),
         "rmse_cm_before": round(100 * np.sqrt(err_in / max(valid, 1)), 2),

@@ -15,9 +15,10 @@ from pathlib import Path
 
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.eval.plots import plt, save  # Agg, set there
+from d2sr.results import OUTSIDE
 from held_out import open_sets
 
-OUTSIDE = Path(__file__).resolve().parent.parent / "docs" / "results" / "outside"
+ROOT = Path(__file__).resolve().parent.parent
 # recover setting: the suffix of its held_out.py result files (``make outside``: outside/SET-SUFFIX.json).
 SETTINGS = {
     "default (auto)": "auto",
@@ -30,7 +31,7 @@ BARS = {"detector_recall": 0.90, "detector_precision": 0.95, "rmse_change": -0.7
 
 
 def _file(which: str, suffix: str) -> Path:
-    return OUTSIDE / f"{which}-{suffix}.json"
+    return ROOT / OUTSIDE.format(set=which, setting=suffix)
 
 
 def gather(sets: list[str]) -> dict:
@@ -102,8 +103,7 @@ def main() -> None:
     print(table(summary))
     if args.plot is not None:
         plot(summary, args.plot)
-    root = OUTSIDE.parents[2]
-    sources = [str(_file(w, x).relative_to(root)) for w in sets for x in SETTINGS.values()]
+    sources = [OUTSIDE.format(set=w, setting=x) for w in sets for x in SETTINGS.values()]
     result = {"bars": BARS, "settings": summary, "sources": sources}
     print(write_result(result, args.json, data="every open outside set of bench/held_out.py (see sources)"))
 

@@ -32,6 +32,7 @@ RESULTS = ROOT / "docs" / "results"
 START = "<!-- written by d2sr results -->"
 END = "<!-- end of d2sr results -->"
 SETS = "abcdef"
+OUTSIDE = "docs/results/outside/{set}-{setting}.json"  # make outside's file for one set and one setting
 # Results made before provenance was recorded, each waiting for its command to run again: a result missing
 # from this list fails the check without provenance, and a listed one that has it must leave the list.
 PENDING = "docs/results/PENDING.txt"
@@ -264,7 +265,7 @@ def _outside_sets(
     """Per outside set, ``figures`` of ``make outside``'s SET-setting.json; the files read."""
     rows, sources = {}, []
     for s in SETS:
-        rel = f"docs/results/outside/{s}-{setting}.json"
+        rel = OUTSIDE.format(set=s, setting=setting)
         if (root / rel).is_file():
             d = _load(root, rel)
             rows[_set_label(d)] = figures(d["l515"])
