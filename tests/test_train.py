@@ -405,3 +405,35 @@ def test_a_fine_tune_card_names_the_whole_chain_it_started_from(tmp_path):
     assert chain["started_from"] == {"weights": str(first), "command": "d2sr train recovery --config a.toml",
                                      "steps": 5, "minutes": 1.5}  # fmt: skip
     assert lineage(tmp_path / "none.safetensors") == {"weights": str(tmp_path / "none.safetensors")}
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_a_fitted_sensor_changes_the_l515_frames_only_and_keeps_its_own_data_set(tmp_path):
+    from d2sr.sim.scene import L515
+    from d2sr.train.synth import synth_sequence_frame
+
+    dim = L515.model_copy(update={"signal_ref": L515.signal_ref * 20})  # far fewer returns
+    kinds: dict[str, int] = {}
+    for seed in range(40):
+        kinds.setdefault(synth_sequence_frame(seed, False, previous=False).kind, seed)
+        if "l515" in kinds and len(kinds) > 1:
+            break
+    for kind, seed in kinds.items():
+        shipped = synth_sequence_frame(seed, False, previous=False).frame
+        fitted = synth_sequence_frame(seed, False, previous=False, sensor=dim).frame
+        if kind == "l515":
+            assert (fitted == 0).mean() > (shipped == 0).mean() + 0.05
+        else:
+            assert np.array_equal(fitted, shipped)
+    plain = synth_set(tmp_path, 2, 0, progress=False)
+    assert synth_set(tmp_path, 2, 0, progress=False, sensor=L515).meta == plain.meta
+    other = synth_set(tmp_path, 2, 0, progress=False, sensor=dim)
+    assert other.meta["sensor"]["signal_ref"] == dim.signal_ref
+    assert len(list(tmp_path.iterdir())) == 2
+
+    fit = tmp_path / "calibration.json"
+    fit.write_text(json.dumps({"model": dim.model_dump()}))
+    assert _cfg(tmp_path, sensor=fit).sensor_model() == dim
+    fit.write_text("{}")
+    with pytest.raises(ConfigError, match=r"not a calibration\.json"):
+        _cfg(tmp_path, sensor=fit)

@@ -4,16 +4,27 @@ writes the plot."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from d2sr.errors import InputError
 from d2sr.sim.scene import Pose, Renderer, SensorModel, SensorNoise, make_room
 
-__all__ = ["BINS", "SequenceStats", "calibrate", "sequence_stats", "simulated_stats", "static_camera"]
+__all__ = [
+    "BINS",
+    "SequenceStats",
+    "calibrate",
+    "fitted_model",
+    "sequence_stats",
+    "simulated_stats",
+    "static_camera",
+]
 
 #: Statistics the calibration checks against the real captures (besides noise against range).
 STATS = ("zero_frac", "flicker", "rare", "reliable", "pinholes", "small_holes")
@@ -219,6 +230,15 @@ def calibrate(
             v = _bisect(stat(name, field), lo, hi, getattr(real, name), steps, log)
             model = model.model_copy(update={field: v})
     return model
+
+
+def fitted_model(path: Path) -> SensorModel:
+    """The sensor model a ``d2sr calibrate`` run fitted (its ``calibration.json``, or its folder)."""
+    path = path / "calibration.json" if path.is_dir() else path
+    try:
+        return SensorModel(**json.loads(path.read_text())["model"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{path}: not a calibration.json written by d2sr calibrate ({exc})") from None
 
 
 def combine(stats: list[SequenceStats]) -> SequenceStats:

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field, model_validator
 
 from d2sr.config import Settings
+
+if TYPE_CHECKING:
+    from d2sr.sim.scene import SensorModel
 
 VALIDATION_FRAMES = 100  # generated frames that choose a recovery model's mask threshold
 
@@ -110,9 +113,20 @@ class TrainConfig(Settings):
         (), description="interference families whose frames are left out of training (generalization tests)"
     )
     cache: Path = Field(Path("out/data"), description="where generated data sets are kept")
+    sensor: Path | None = Field(
+        None,
+        description="a calibration.json from d2sr calibrate: generated L515 frames (training and the "
+        "mask threshold's validation) are drawn around its fit instead of the shipped one",
+    )
     folders: tuple[Folders, ...] = ()
     checkpoint_every: int = Field(250, ge=1)
     time_limit_min: float = Field(0, ge=0, description="stop early after this many minutes (0: none)")
+
+    def sensor_model(self) -> SensorModel | None:
+        """The L515 fit of ``sensor`` (None: the shipped fit)."""
+        from d2sr.sim.calibrate import fitted_model
+
+        return fitted_model(self.sensor) if self.sensor is not None else None
 
     @model_validator(mode="after")
     def _check(self) -> TrainConfig:
@@ -125,6 +139,8 @@ class TrainConfig(Settings):
         want = DETECTOR_NAMES if self.task == "detector" else RECOVERY_NAMES
         if self.model not in want:
             raise ValueError(f"task {self.task} takes one of {', '.join(want)}, not {self.model}")
+        if self.sensor is not None:
+            self.sensor_model()  # a bad file fails here, not after the data set is generated
         if self.synthetic == 0 and not self.folders:
             raise ValueError("no data: set synthetic > 0 or give folders")
         from d2sr.sim.families import FAMILIES

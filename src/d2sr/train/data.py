@@ -4,6 +4,7 @@ depth gain as augmentation. Sampling is driven by a numpy generator, so a run is
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe, to_units
 from d2sr.sim.families import shell_interference
+from d2sr.sim.scene import L515, SensorModel
 from d2sr.train.config import TrainConfig
 from d2sr.train.synth import VERSION, SynthSet, generate
 from d2sr.ui import warn
@@ -43,19 +45,31 @@ class Source:
     skip: np.ndarray | None = None  # frames left out of training (a held-out interference family)
 
 
-def synth_set(cache: Path, count: int, seed: int, progress: bool = True, previous: bool = False) -> SynthSet:
+def synth_set(
+    cache: Path,
+    count: int,
+    seed: int,
+    progress: bool = True,
+    previous: bool = False,
+    sensor: SensorModel | None = None,
+) -> SynthSet:
     """The generated set for (seed, count), made on first use and kept under ``cache``; ``previous``: with
-    each frame's last clean frame (a separate, slower set)."""
-    root = cache / f"synth-v{VERSION}-{seed}-{count}{'-seq' if previous else ''}"
+    each frame's last clean frame (a separate, slower set); ``sensor``: an L515 fit other than the shipped
+    one (``TrainConfig.sensor``), kept apart by its hash."""
+    fit = ""
+    if sensor is not None and sensor != L515:
+        fit = "-fit" + hashlib.sha256(sensor.model_dump_json().encode()).hexdigest()[:8]
+    root = cache / f"synth-v{VERSION}-{seed}-{count}{'-seq' if previous else ''}{fit}"
     if not (root / "meta.json").is_file():
         if progress:
             from d2sr.ui import progress_bar
 
             with progress_bar() as bar:
                 task = bar.add_task(f"generating {count} frames", total=count)
-                generate(root, count, seed, progress=lambda n: bar.advance(task, n), previous=previous)
+                advance = lambda n: bar.advance(task, n)  # noqa: E731
+                generate(root, count, seed, progress=advance, previous=previous, sensor=sensor)
         else:
-            generate(root, count, seed, previous=previous)
+            generate(root, count, seed, previous=previous, sensor=sensor)
     return SynthSet(root)
 
 
@@ -185,7 +199,7 @@ class Pool:
     def from_config(cls, cfg: TrainConfig, progress: bool = True, frames: int = 1) -> Pool:
         sources = []
         if cfg.synthetic:
-            ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress, previous=frames > 1)
+            ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress, frames > 1, cfg.sensor_model())
             out = set(cfg.leave_out)
             skip = np.array([bool(out & set(f)) for f in ss.families])
             if cfg.task == "detector":

@@ -24,6 +24,7 @@ from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
+from d2sr.sim.scene import SensorModel
 from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.train.synth import VERSION
@@ -261,7 +262,9 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
             weights = out / f"{cfg.model}.safetensors"
             threshold = None
             if cfg.task == "recovery":
-                threshold = choose_mask_logit(core, cfg.cache, progress, cfg.validation, cfg.gate_previous)
+                threshold = choose_mask_logit(
+                    core, cfg.cache, progress, cfg.validation, cfg.gate_previous, cfg.sensor_model()
+                )
                 summary["mask_threshold"] = threshold
             save_model(core, cfg.model, weights, threshold["mask_logit"] if threshold else None)
             atomic_write(out / "loss.json", json.dumps(losses))
@@ -362,6 +365,7 @@ def choose_mask_logit(
     progress: bool = True,
     count: int = VALIDATION_FRAMES,
     gate_previous: bool = False,
+    sensor: SensorModel | None = None,
 ) -> dict:
     """The recovery model's mask threshold: of the candidate logits, the one with the lowest RMSE on
     generated validation frames (seeds VALIDATION_SEED+, never trained or tested on) among those that change
@@ -369,12 +373,13 @@ def choose_mask_logit(
     repair ``recover`` writes keeps that (``pick_as_recovered``). The mask head errs towards missing
     dropouts (a dropout and a natural no-return look alike), and each missed one costs metres. The
     ``rmse_cm`` and ``clean_changed`` curves are of one pass. ``gate_previous``: only the frames whose last
-    clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainConfig.gate_previous``)."""
+    clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainConfig.gate_previous``).
+    ``sensor``: the L515 fit the validation frames are drawn around (``TrainConfig.sensor``)."""
     from d2sr.train.data import lines_up, synth_set
     from d2sr.train.synth import VALIDATION_SEED
 
     frames = int(getattr(model, "frames", 1))
-    ss = synth_set(cache, count, VALIDATION_SEED, progress, previous=frames > 1)
+    ss = synth_set(cache, count, VALIDATION_SEED, progress, frames > 1, sensor)
     prev = ss.previous if frames > 1 else None
     items = [
         ([ss.frames[i]] + ([prev[i]] if prev is not None else []), ss.clean[i], float(ss.scales[i]))

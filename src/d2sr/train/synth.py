@@ -23,7 +23,7 @@ from d2sr.atomic import atomic_dir
 from d2sr.errors import InputError
 from d2sr.sim.calibrate import static_camera
 from d2sr.sim.families import WideConfig, wide_interference
-from d2sr.sim.scene import L515, Pose, Renderer, SensorNoise, make_room
+from d2sr.sim.scene import L515, Pose, Renderer, SensorModel, SensorNoise, make_room
 from d2sr.sim.sensors import SENSOR_KINDS, observe, randomized_l515
 from d2sr.sim.world import make_rig
 
@@ -95,10 +95,12 @@ def synth_sequence_frame(
     interfered: bool,
     config: WideConfig | None = None,
     previous: bool = True,
+    sensor: SensorModel | None = None,
 ) -> Synth:
     """One generated frame. The last clean frame is the same camera 1 to 12 frames earlier (people have
     walked, a robot has moved), seen by the same sensor. The frame is the same with and without
-    ``previous`` (its extra draws come from their own stream)."""
+    ``previous`` (its extra draws come from their own stream). ``sensor``: the L515 fit that L515 frames
+    are drawn around (default: the shipped fit, ``sim.scene.L515``)."""
     rng = np.random.default_rng([seed, 0x7EA1])
     t = float(rng.uniform(0, 60))
     cam, at = _camera(seed, rng, t)
@@ -106,29 +108,29 @@ def synth_sequence_frame(
     scene = cam.render(t)
     noise = None
     if kind == "l515":
-        noise = SensorNoise(randomized_l515(L515, rng), scene.depth.shape, seed)
+        noise = SensorNoise(randomized_l515(sensor or L515, rng), scene.depth.shape, seed)
         for _ in range(int(rng.integers(0, 3))):  # speckle field at a random point of its evolution
             noise.observe(scene)
-    sensor = np.random.default_rng([seed, 0x5E50])
-    clean, scale = observe(kind, scene, sensor, noise)
+    draws = np.random.default_rng([seed, 0x5E50])
+    clean, scale = observe(kind, scene, draws, noise)
     prev = None
     if previous:
         back = int(np.random.default_rng([seed, 0xBAC4]).integers(1, 13)) / FPS
-        prev, _ = observe(kind, at(t - back).render(t - back), sensor, noise)
+        prev, _ = observe(kind, at(t - back).render(t - back), draws, noise)
     if not interfered:
         return Synth(clean, clean, prev, scale, kind, [])
     frame, _, families = wide_interference(clean, scale, seed, config)
     return Synth(frame, clean, prev, scale, kind, families)
 
 
-def _chunk(args: tuple[Path, int, int, int, bool, WideConfig | None]) -> list[dict]:
-    root, start, stop, seed, previous, config = args
+def _chunk(args: tuple[Path, int, int, int, bool, WideConfig | None, SensorModel | None]) -> list[dict]:
+    root, start, stop, seed, previous, config, sensor = args
     frames = np.load(root / "frames.npy", mmap_mode="r+")
     clean = np.load(root / "clean.npy", mmap_mode="r+")
     prev = np.load(root / "previous.npy", mmap_mode="r+") if previous else None
     rows = []
     for i in range(start, stop):
-        s = synth_sequence_frame(seed + i, bool(i % 2), config, previous)
+        s = synth_sequence_frame(seed + i, bool(i % 2), config, previous, sensor)
         frames[i], clean[i] = s.frame, s.clean
         if prev is not None:
             prev[i] = s.previous
@@ -148,17 +150,19 @@ def generate(
     progress: Callable[[int], None] | None = None,
     previous: bool = False,
     config: WideConfig | None = None,
+    sensor: SensorModel | None = None,
 ) -> Path:
     """Write ``count`` frames (odd indices interfered) as ``frames.npy``, ``clean.npy`` (uint16 memory
     maps) and ``meta.json`` (each frame's depth scale and interfered share), atomically; with
-    ``previous``, each frame's last clean frame as ``previous.npy``."""
+    ``previous``, each frame's last clean frame as ``previous.npy``; ``sensor``: the L515 fit (as in
+    ``synth_sequence_frame``)."""
     if count < 2:
         raise InputError(f"a data set needs at least 2 frames, got {count}")
     with atomic_dir(out) as tmp:
         for name in ("frames.npy", "clean.npy") + (("previous.npy",) if previous else ()):
             np.lib.format.open_memmap(tmp / name, "w+", np.uint16, (count, 480, 640)).flush()
         step = 50
-        jobs = [(tmp, a, min(a + step, count), seed, previous, config) for a in range(0, count, step)]
+        jobs = [(tmp, a, min(a + step, count), seed, previous, config, sensor) for a in range(0, count, step)]
         rows: list[dict] = []
         with ProcessPoolExecutor(max_workers=max(workers, 1)) as pool:
             for part in pool.map(_chunk, jobs):
@@ -170,6 +174,7 @@ def generate(
             "count": count,
             "version": VERSION,
             "families": list((config or WideConfig()).families),
+            "sensor": (sensor or L515).model_dump(),
             "scales": [r["scale"] for r in rows],
             "mask_share": [r["share"] for r in rows],
             "kinds": [r["kind"] for r in rows],
