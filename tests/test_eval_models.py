@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from d2sr.eval import models as em
 from d2sr.eval.models import operating_curve, recovery_metrics
@@ -63,3 +64,19 @@ def test_a_real_folder_without_the_captures_is_said_not_skipped_silently(tmp_pat
     monkeypatch.setattr(ui, "_pending", [])
     assert _real_sets(tmp_path) == []
     assert len(ui._pending) == 1 and "no dev0/ capture here" in ui._pending[0]
+
+
+def test_one_sequence_of_a_set_keeps_its_frames_and_its_last_clean_frames():
+    z = np.zeros((2, 2), np.uint16)
+    hit = z + 1
+    frames = [z, hit, z, hit, z, hit, hit]  # two sequences: 0-2 and 3-6
+    labels = np.array([False, True, False, True, False, True, True])
+    ts = em.TestSet("two", frames, [z] * 7, 1000.0, np.zeros(7, bool), starts=(0, 3))
+    ts.last_clean = em._last_clean(labels, [0, 3])
+    second = ts.sequence(1, "second")
+    assert second.name == "second" and len(second.frames) == 4 and second.starts == (0,)
+    assert second.labels.tolist() == [True, False, True, True]
+    assert second.last_clean is not None and second.last_clean.tolist() == [-1, -1, 1, 1]
+    assert second.before(0) is None and np.array_equal(second.before(1), ts.metres(3))
+    with pytest.raises(IndexError):
+        ts.sequence(2, "none")

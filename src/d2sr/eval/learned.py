@@ -35,6 +35,7 @@ __all__ = [
     "evaluate_recovery",
     "recovery_metrics_card",
     "recovery_table",
+    "repair_fn",
     "write_detectors",
 ]
 
@@ -103,7 +104,9 @@ def detector_metrics_card(results: dict[str, dict], name: str) -> dict[str, str]
     }
 
 
-def _repair_fn(net: TorchBackend) -> Callable:
+def repair_fn(net: TorchBackend) -> Callable:
+    """A recovery model as ``eval.models.Repair``: one pass, written back as ``recover`` writes it."""
+
     def fn(x: np.ndarray, prev: np.ndarray | None, scale: float) -> tuple[np.ndarray, np.ndarray]:
         pred, mask = net.recover(x[None], None if prev is None else prev[None])
         units, kept = repair_frame(np.rint(x * scale).astype(np.uint16), pred[0], mask[0], scale)
@@ -142,7 +145,7 @@ def evaluate_recovery(
     tables: dict[str, dict] = {}
     curves: dict[str, dict] = {}
     for ts in sets:
-        fns = {k: _repair_fn(v) for k, v in nets.items()}
+        fns = {k: repair_fn(v) for k, v in nets.items()}
         n = int(ts.labels.sum()) if not limit else min(limit, int(ts.labels.sum()))
         rows, errors = recovery_metrics(ts, fns, first, n, progress(f"recovery on {ts.name}", n))
         tables[ts.name] = rows

@@ -67,6 +67,20 @@ class TestSet:
         j = -1 if self.last_clean is None else int(self.last_clean[i])
         return None if j < 0 else self.metres(j)
 
+    def sequence(self, k: int, name: str) -> TestSet:
+        """The set's ``k``-th sequence alone (the real L515 set: 0 is dev0, 1 is dev1), named ``name``."""
+        if self.starts is None or not 0 <= k < len(self.starts):
+            raise IndexError(f"{self.name} has no sequence {k}")
+        a = self.starts[k]
+        b = self.starts[k + 1] if k + 1 < len(self.starts) else len(self.frames)
+        last = (
+            None
+            if self.last_clean is None
+            else np.where(self.last_clean[a:b] >= 0, self.last_clean[a:b] - a, -1)
+        )
+        scale = self.scale[a:b] if isinstance(self.scale, np.ndarray) else self.scale
+        return TestSet(name, self.frames[a:b], self.clean[a:b], scale, self.hard[a:b], last, (0,))
+
     def before(self, i: int) -> np.ndarray | None:
         """The frame delivered just before frame ``i`` in its sequence (what a temporal detector sees), in
         metres; None for independent frames and a sequence's first."""
