@@ -28,7 +28,16 @@ import numpy as np
 
 from d2sr.errors import ConfigError, InputError
 
-__all__ = ["METHODS", "THRESHOLDS", "CleanStats", "Labeller", "clean_stats", "f1", "label_frames"]
+__all__ = [
+    "METHODS",
+    "THRESHOLDS",
+    "CleanStats",
+    "Labeller",
+    "clean_stats",
+    "f1",
+    "label_frames",
+    "stack_stats",
+]
 
 METHODS = ("stats", "paper")
 THRESHOLDS = ("mu", "mu+sigma", "mu+2sigma")
@@ -86,20 +95,26 @@ def clean_stats(
             seen = i + 1
         if seen != n:
             raise InputError(f"the clean sequence changed while being read ({seen} frames, expected {n})")
-        srt = np.sort(stack, axis=0)
-        k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
-        med = _at(srt, np.full(k.shape, (n - 1) / 2))
-        sl = np.s_[r0:r1]
-        out["median"][sl] = med
-        for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
-            out[name][sl] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0)
-        out["rate"][sl] = k / n
-        err = np.abs(stack.astype(np.float32) - med[None])
-        out["mean_err"][sl] = err.mean(axis=0)
+        for name, v in stack_stats(stack).items():
+            out[name][r0:r1] = v
         if progress:
             progress(r1 / h)
     scaled = {k: v / np.float32(depth_scale) if k != "rate" else v for k, v in out.items()}
     return CleanStats(frames=n, **scaled)
+
+
+def stack_stats(stack: np.ndarray) -> dict[str, np.ndarray]:
+    """``CleanStats``' fields (in the frames' units, ``rate`` a share) of a stack of uint16 frames or of
+    rows of them, ``(n, rows, width)``."""
+    n = stack.shape[0]
+    srt = np.sort(stack, axis=0)
+    k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
+    med = _at(srt, np.full(k.shape, (n - 1) / 2))
+    out = {"median": med, "rate": (k / n).astype(np.float32)}
+    for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
+        out[name] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0).astype(np.float32)
+    out["mean_err"] = np.abs(stack.astype(np.float32) - med[None]).mean(axis=0)
+    return out
 
 
 def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:

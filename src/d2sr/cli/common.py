@@ -25,6 +25,7 @@ __all__ = [
     "Real",
     "RerunOpt",
     "Scale",
+    "SceneOpt",
     "Topic",
     "int_list",
     "out_dir",
@@ -79,6 +80,14 @@ RerunOpt = Annotated[
         help="Also log the run to Rerun: a FILE.rrd to save, or 'live' to spawn (or reach) a viewer. Images "
         "at half resolution (the output folder keeps every pixel).",
         metavar="FILE.rrd|live",
+    ),
+]
+SceneOpt = Annotated[
+    bool,
+    typer.Option(
+        "--scene",
+        help="A still sensor: also judge each frame against the scene its clean frames have shown, and "
+        "pass a flagged frame in which nothing deviates from it (false alarms).",
     ),
 ]
 ActiveFrames = Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")]

@@ -20,6 +20,7 @@ from d2sr.cli.common import (
     Passes,
     RerunOpt,
     Scale,
+    SceneOpt,
     Threshold,
     Topic,
 )
@@ -48,6 +49,7 @@ def detect(
     backend: BackendOpt = "auto",
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
+    scene: SceneOpt = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered).
@@ -59,7 +61,8 @@ def detect(
     with _bar("detecting") as progress:
         s = detect_recording(
             input, out, depth_scale=depth_scale, topic=topic, threshold=threshold, models=models,
-            backend=backend, max_range=max_range, overwrite=overwrite, progress=progress, say=print_line,
+            backend=backend, max_range=max_range, scene=scene, overwrite=overwrite, progress=progress,
+            say=print_line,
         )  # fmt: skip
     typer.echo(f"{s.flagged} of {s.frames} frames interfered -> {out}")
 
@@ -93,6 +96,7 @@ def recover(
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
+    scene: SceneOpt = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
@@ -109,6 +113,7 @@ def recover(
         s = recover_recording(
             input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
             threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, overwrite=overwrite, progress=progress, say=print_line,
+            max_range=max_range, rerun=rerun, scene=scene, overwrite=overwrite, progress=progress,
+            say=print_line,
         )  # fmt: skip
     typer.echo(f"repaired {s.repaired} of {s.frames} frames -> {out}")

@@ -176,12 +176,14 @@ def detect_recording(
     models: Path = WEIGHTS,
     backend: str = "auto",
     max_range: float = PLAUSIBLE_M[1],
+    scene: bool = False,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
-    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``).
+    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``, and with
+    ``scene`` only if the frame also deviates from the still sensor's own scene, ``SensorLoop.scene``).
     ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
     if threshold is not None:
         check_probability(threshold, "--threshold")
@@ -190,7 +192,11 @@ def detect_recording(
     net = open_models(None, Path(models), backend)
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
     loop = SensorLoop(
-        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), threshold=threshold, repair="none"
+        net,
+        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
+        threshold=threshold,
+        repair="none",
+        scene=scene,
     )
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -222,11 +228,13 @@ def recover_recording(
     format: str = "auto",
     max_range: float = PLAUSIBLE_M[1],
     rerun: str | None = None,
+    scene: bool = False,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
-    """Repair a recording: only the frames the detector flags, or ``every`` frame. ``format``: ``auto`` (a
+    """Repair a recording: only the frames the detector flags (with ``scene``, only those that also deviate
+    from the still sensor's own scene, ``SensorLoop.scene``), or ``every`` frame. ``format``: ``auto`` (a
     ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``. ``rerun``:
     also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
     ``every``) come out bit for bit as they went in."""
@@ -260,6 +268,7 @@ def recover_recording(
         # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
         # shows its scores): it runs where that can change.
         judge_every=not every or net.frames == 1 or bool(rerun),
+        scene=scene,
     )
     log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
     flagged = repaired = done = 0

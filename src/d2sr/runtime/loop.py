@@ -19,6 +19,7 @@ from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, agreement, padded
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
+from d2sr.reference import QUIET, SceneReference
 from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
@@ -105,7 +106,11 @@ class SensorLoop:
     # False (recover --all with a temporal model): the detector runs only where its verdict can change the
     # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
     judge_every: bool = True
+    # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
+    # a frame in which nothing deviates from the scene is a false alarm, and is dropped.
+    scene: bool = False
     period: int = 0
+    _reference: SceneReference | None = None
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
@@ -163,6 +168,8 @@ class SensorLoop:
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         score = float(self.backend.scores(metres, before)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
+        if self.scene and judge:
+            flagged = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
         self._remember(raw, metres, judge and not flagged)
@@ -190,7 +197,23 @@ class SensorLoop:
         if cap is not None:
             raw = cap.frame.depth
             self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), not flagged)
+            if self.scene:  # the reference learns as it did the first time (the flag is the same)
+                self._against_scene(raw, cap.scale, flagged)
         self._buffer(flagged, slot)
+
+    def _against_scene(self, raw: np.ndarray, scale: float, flagged: bool) -> bool:
+        """The detector's verdict weighed against the scene reference, which takes the frame if clean."""
+        if raw.dtype != np.uint16:  # metres: judged in millimetres
+            raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
+        ref = self._reference
+        if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
+            ref = self._reference = SceneReference(scale)
+        ev = ref.evidence(raw)
+        if flagged and ev.ready and ev.dense < QUIET:
+            flagged = False
+        if not flagged:
+            ref.add(raw)
+        return flagged
 
     def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
         """What the next frame's models see: this frame (temporal detector) and, when the detector passed

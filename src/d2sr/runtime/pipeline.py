@@ -207,6 +207,8 @@ class Pipeline:
       Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
     - ``threads``: onnxruntime's threads [all cores]; ``int8``: the int8 models (``d2sr export --int8``).
     - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
+    - ``scene``: a still sensor; its frames are also judged against the scene its clean frames have shown
+      (``d2sr.reference``), and a flagged frame in which nothing deviates from it is passed.
     - the repair's ``options``: ``Options``.
     """
 
@@ -221,6 +223,7 @@ class Pipeline:
         threads: int | None = None,
         int8: bool = False,
         intrinsics: Intrinsics | None = None,
+        scene: bool = False,
         **options: Unpack[Options],
     ) -> None:
         if controller not in CONTROLLERS or controller == "oracle":
@@ -239,6 +242,7 @@ class Pipeline:
             None if actuator is not None else trigger,
             threshold=options.get("threshold"),
             repair=mode,
+            scene=scene,
         )
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()

@@ -1,0 +1,167 @@
+"""A still sensor's scene reference, kept online (numpy only): per-pixel statistics of the frames it judged
+clean, the same statistics ``d2sr label`` judges interference by (``labels.CleanStats``, ``labels.Labeller``).
+
+Interference that reads as a plausible surface (a patch shifted a few centimetres, a smooth swing) cannot be
+told from the scene inside one frame; against what this sensor has seen of its scene it can. ``evidence``
+says which pixels of a frame deviate from the reference as interference would (a reliable pixel dropping
+out, a never-returning one returning, a depth outside the pixel's clean range by more than the range noise,
+in clusters) and what share of the scene they cover.
+
+- Start-up: no evidence until ``warm`` clean frames are in (``Evidence.ready`` is False).
+- Cost: the ring of the last ``frames`` clean frames is re-summarized one stripe of rows per added frame,
+  so no frame pays for a full re-sort.
+- Lasting change (a chair moved): a pixel that deviates for ``persist`` frames in a row takes its new value
+  as the reference. A person walking past deviates only briefly per pixel, so the median discounts them.
+- The camera moved, or the scene changed wholesale: when more than ``moved`` of the known scene deviates for
+  ``moved_frames`` frames in a row, the reference starts again (no evidence until warm).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from d2sr.errors import ConfigError, InputError
+from d2sr.labels import CleanStats, Labeller, stack_stats
+
+__all__ = ["QUIET", "Evidence", "SceneReference"]
+
+#: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
+#: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
+QUIET = 0.0005
+#: How far (m, and share of the range) beyond a pixel's clean range a depth must lie to deviate. Tighter
+#: than ``d2sr label``'s (2 cm + 1%): a surface read 2-5 cm too near is what the reference is for.
+TOL_ABS, TOL_REL = 0.005, 0.005
+
+
+@dataclass
+class Evidence:
+    """A frame judged against the scene reference."""
+
+    mask: np.ndarray  # bool: pixels that deviate as interference would (all False when not ready)
+    share: float  # of the pixels the reference has seen return
+    dense: float  # the same share counting only pixels amid others (half of their 9x9 neighbourhood)
+    ready: bool  # the reference had its ``warm`` frames (else the evidence is empty)
+
+
+class SceneReference:
+    """Per-pixel scene statistics of one still sensor, from the frames ``add`` is given (those judged clean),
+    and each new frame's ``evidence`` against them. Frames are uint16 in the sensor's units."""
+
+    def __init__(
+        self,
+        depth_scale: float,
+        frames: int = 16,
+        warm: int = 8,
+        stripes: int = 8,
+        persist: int = 30,
+        moved: float = 0.5,
+        moved_frames: int = 3,
+        tol_abs: float = TOL_ABS,
+        tol_rel: float = TOL_REL,
+    ) -> None:
+        if not depth_scale > 0:
+            raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
+        if not 3 <= warm <= frames:
+            raise ConfigError(f"need 3 <= warm <= frames, got warm={warm}, frames={frames}")
+        if stripes < 1 or persist < 1 or moved_frames < 1 or not 0 < moved <= 1:
+            raise ConfigError("stripes, persist and moved_frames must be >= 1 and moved in (0, 1]")
+        self.scale = float(depth_scale)
+        self.size, self.warm, self.stripes = frames, warm, stripes
+        self.persist, self.moved, self.moved_frames = persist, moved, moved_frames
+        self.tol = (tol_abs, tol_rel)
+        self._ring: np.ndarray | None = None
+        self._stats: CleanStats | None = None
+        self._labeller: Labeller | None = None
+        self._streak: np.ndarray | None = None
+        self._moving = 0
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the scene (the next ``warm`` clean frames build it again)."""
+        self.count = 0  # clean frames in the ring (at most ``frames``)
+        self._next = 0  # ring slot the next clean frame goes to
+        self._stripe = 0  # stripe of rows the next ``add`` re-summarizes
+        self._stats, self._labeller, self._streak, self._moving = None, None, None, 0
+
+    @property
+    def shape(self) -> tuple[int, ...] | None:
+        """The frames' shape (None before the first)."""
+        return None if self._ring is None else self._ring.shape[1:]
+
+    @property
+    def ready(self) -> bool:
+        return self._labeller is not None
+
+    def _check(self, frame: np.ndarray) -> None:
+        if frame.dtype != np.uint16 or frame.ndim != 2:
+            raise InputError(f"a scene reference takes uint16 depth frames, got {frame.dtype} {frame.shape}")
+        if self._ring is not None and frame.shape != self._ring.shape[1:]:
+            raise InputError(f"frame is {frame.shape}, the reference's frames are {self._ring.shape[1:]}")
+
+    def add(self, frame: np.ndarray) -> None:
+        """A frame judged clean: into the ring, and one stripe of the statistics refreshed."""
+        self._check(frame)
+        if self._ring is None:
+            self._ring = np.zeros((self.size, *frame.shape), np.uint16)
+        self._ring[self._next] = frame
+        self._next = (self._next + 1) % self.size
+        self.count = min(self.count + 1, self.size)
+        if self.count < self.warm:
+            return
+        h = frame.shape[0]
+        if self._stats is None:  # just warm: every stripe at once
+            self._stats = _stats(self._ring[: self.count], self.scale)
+            self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
+            self._streak = np.zeros(frame.shape, np.uint16)
+            return
+        rows = -(-h // self.stripes)
+        r0 = self._stripe * rows
+        r1 = min(h, r0 + rows)
+        part = stack_stats(self._ring[: self.count, r0:r1])
+        for name, v in part.items():
+            getattr(self._stats, name)[r0:r1] = v if name == "rate" else v / np.float32(self.scale)
+        self._stripe = (self._stripe + 1) % self.stripes
+
+    def evidence(self, frame: np.ndarray) -> Evidence:
+        """The frame judged against the reference; also what keeps the reference current (lasting change
+        taken in, a moved camera noticed), so call it once per frame, in order."""
+        self._check(frame)
+        if self._labeller is None or self._stats is None or self._streak is None:
+            return Evidence(np.zeros(frame.shape, bool), 0.0, 0.0, False)
+        metres = frame.astype(np.float32) / np.float32(self.scale)
+        mask = self._labeller.mask(metres)
+        known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
+        share = float(np.count_nonzero(mask)) / known
+        # A sensor's own flicker leaves scattered pixels; interference comes in patches.
+        dense = float(np.count_nonzero(cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.5)) / known
+        self._moving = self._moving + 1 if share > self.moved else 0
+        if self._moving >= self.moved_frames:
+            self.reset()
+            return Evidence(np.zeros(frame.shape, bool), 0.0, 0.0, False)
+        self._streak = np.where(mask, self._streak + 1, 0).astype(np.uint16)
+        lasting = self._streak >= self.persist
+        if lasting.any():
+            self._take(frame, lasting)
+        return Evidence(mask, share, dense, True)
+
+    def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
+        """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
+        assert self._ring is not None and self._stats is not None and self._streak is not None
+        self._ring[:, where] = frame[where]
+        v = frame[where].astype(np.float32) / np.float32(self.scale)
+        s = self._stats
+        s.median[where] = v
+        s.nz_median[where] = s.lo[where] = s.hi[where] = v
+        s.rate[where] = (v > 0).astype(np.float32)
+        s.mean_err[where] = 0
+        self._streak[where] = 0
+
+
+def _stats(ring: np.ndarray, scale: float) -> CleanStats:
+    part = stack_stats(ring)
+    return CleanStats(
+        frames=ring.shape[0], **{k: v if k == "rate" else v / np.float32(scale) for k, v in part.items()}
+    )

@@ -1,0 +1,100 @@
+"""The still sensor's scene reference (d2sr.reference) and the loop that weighs the detector against it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from d2sr.desync import make_controller
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames import Frame
+from d2sr.reference import QUIET, SceneReference
+from d2sr.runtime.loop import Capture, SensorLoop
+from test_runtime import FakeNet
+
+SCALE = 4000.0
+
+
+def _scene(rng: np.random.Generator, shape: tuple[int, int] = (96, 128)) -> np.ndarray:
+    """A wall at 2-3 m (a ramp), 5 mm of range noise, 3% of pixels flickering out, the top rows never
+    returning."""
+    h, w = shape
+    z = 2.0 + np.linspace(0, 1, w, dtype=np.float32)[None].repeat(h, 0)
+    z = z + rng.normal(0, 0.005, shape).astype(np.float32)
+    z[rng.random(shape) < 0.03] = 0
+    z[:8] = 0
+    return np.rint(z * SCALE).astype(np.uint16)
+
+
+def _warm(ref: SceneReference, rng: np.random.Generator, n: int = 16) -> None:
+    for _ in range(n):
+        ref.evidence(f := _scene(rng))
+        ref.add(f)
+
+
+def test_a_patch_shifted_a_few_centimetres_is_evidence_and_the_scene_is_not():
+    rng = np.random.default_rng(0)
+    ref = SceneReference(SCALE)
+    assert not ref.evidence(_scene(rng)).ready  # no scene yet: no evidence, not "clean"
+    _warm(ref, rng)
+    clean = ref.evidence(_scene(rng))
+    assert clean.ready and clean.dense < QUIET and clean.share < 0.01
+    hit = _scene(rng)
+    patch = np.s_[40:70, 30:80]
+    hit[patch] = np.where(hit[patch] > 0, hit[patch] - int(0.04 * SCALE), 0)  # 4 cm nearer, no dropouts
+    ev = ref.evidence(hit)
+    assert ev.mask[patch].mean() > 0.8 and ev.mask[~np.isin(np.arange(96), range(40, 70))].mean() < 0.01
+    assert ev.dense > 0.08
+
+
+def test_lasting_change_becomes_the_scene_and_a_moved_camera_starts_it_again():
+    rng = np.random.default_rng(1)
+    ref = SceneReference(SCALE, persist=5)
+    _warm(ref, rng)
+    moved = np.s_[20:50, 20:60]  # a chair put 30 cm in front of the wall, to stay
+    denses = []
+    for _ in range(8):
+        f = _scene(rng)
+        f[moved] = np.where(f[moved] > 0, f[moved] - int(0.3 * SCALE), 0)
+        ev = ref.evidence(f)
+        denses.append(ev.dense)
+    assert denses[0] > 0.05 and denses[-1] < QUIET
+    for k in range(3):  # the whole view changes: the camera was turned
+        ev = ref.evidence((_scene(rng) // 2).astype(np.uint16))
+        assert ev.ready == (k < 2)
+    assert not ref.ready
+
+
+def test_bad_settings_and_frames_are_refused():
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, frames=4, warm=8)
+    with pytest.raises(ConfigError):
+        SceneReference(0)
+    ref = SceneReference(SCALE)
+    with pytest.raises(InputError):
+        ref.add(np.zeros((4, 4), np.float32))
+    ref.add(np.zeros((4, 4), np.uint16))
+    with pytest.raises(InputError):
+        ref.evidence(np.zeros((4, 5), np.uint16))
+
+
+def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_real_one():
+    rng = np.random.default_rng(2)
+    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    plain = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none")
+
+    def frame(false_alarm: bool, hit: bool) -> Capture:
+        f = _scene(rng)
+        f[0, 0] = 1 if false_alarm or hit else 0  # what FakeNet flags
+        if hit:
+            f[40:70, 30:80] = np.where(f[40:70, 30:80] > 0, f[40:70, 30:80] - 160, 0)
+        return Capture(Frame("f", f), SCALE)
+
+    early = frame(True, False)  # before the scene is known: the detector alone decides
+    assert loop.process(early).flagged and plain.process(early).flagged
+    for _ in range(12):
+        assert not loop.process(frame(False, False)).flagged
+    false_alarm = frame(True, False)
+    assert not loop.process(false_alarm).flagged and plain.process(false_alarm).flagged
+    assert loop.process(frame(True, True)).flagged
+    assert not loop.process(frame(False, False)).flagged  # evidence alone does not flag
