@@ -16,6 +16,7 @@ CORES = [
     "errors.py",
     "config.py",
     "labels.py",
+    "reference.py",
     "atomic.py",
     "runtime",
     "triggers",
