@@ -14,12 +14,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import THRESHOLD, WEIGHTS
 from d2sr.errors import D2SRError
-from d2sr.eval.learned import repair_fn
+from d2sr.eval.learned import detector_scores, repair_fn
 from d2sr.eval.models import TestSet, detector_metrics, l515_set, recovery_metrics
 from d2sr.models.inference import TorchBackend
 
@@ -34,12 +32,7 @@ def _fits(runs: Path, model: str) -> dict[str, Path]:
 
 
 def detector(ts: TestSet, path: Path) -> dict:
-    net = TorchBackend(path, None)
-    scores = []
-    for i in range(len(ts.frames)):
-        b = ts.before(i)
-        scores.append(float(net.scores(ts.metres(i)[None], None if b is None else b[None])[0]))
-    out = detector_metrics(np.array(scores), ts, THRESHOLD)
+    out = detector_metrics(detector_scores(TorchBackend(path, None), ts), ts, THRESHOLD)
     out.pop("pr_curve")
     return out
 

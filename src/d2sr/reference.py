@@ -50,6 +50,10 @@ class SceneReference:
     """Per-pixel scene statistics of one still sensor, from the frames ``add`` is given (those judged clean),
     and each new frame's ``evidence`` against them. Frames are uint16 in the sensor's units."""
 
+    _stats: CleanStats | None  # None until warm
+    _labeller: Labeller | None
+    _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
+
     def __init__(
         self,
         depth_scale: float,
@@ -73,10 +77,6 @@ class SceneReference:
         self.persist, self.moved, self.moved_frames = persist, moved, moved_frames
         self.tol = (tol_abs, tol_rel)
         self._ring: np.ndarray | None = None
-        self._stats: CleanStats | None = None
-        self._labeller: Labeller | None = None
-        self._streak: np.ndarray | None = None
-        self._moving = 0
         self.reset()
 
     def reset(self) -> None:
@@ -120,9 +120,8 @@ class SceneReference:
         rows = -(-h // self.stripes)
         r0 = self._stripe * rows
         r1 = min(h, r0 + rows)
-        part = stack_stats(self._ring[: self.count, r0:r1])
-        for name, v in part.items():
-            getattr(self._stats, name)[r0:r1] = v if name == "rate" else v / np.float32(self.scale)
+        for name, v in _metres(stack_stats(self._ring[: self.count, r0:r1]), self.scale).items():
+            getattr(self._stats, name)[r0:r1] = v
         self._stripe = (self._stripe + 1) % self.stripes
 
     def evidence(self, frame: np.ndarray) -> Evidence:
@@ -160,8 +159,10 @@ class SceneReference:
         self._streak[where] = 0
 
 
+def _metres(part: dict[str, np.ndarray], scale: float) -> dict[str, np.ndarray]:
+    """``stack_stats``' depths in metres (``rate`` is a share)."""
+    return {k: v if k == "rate" else v / np.float32(scale) for k, v in part.items()}
+
+
 def _stats(ring: np.ndarray, scale: float) -> CleanStats:
-    part = stack_stats(ring)
-    return CleanStats(
-        frames=ring.shape[0], **{k: v if k == "rate" else v / np.float32(scale) for k, v in part.items()}
-    )
+    return CleanStats(frames=ring.shape[0], **_metres(stack_stats(ring), scale))

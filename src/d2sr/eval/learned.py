@@ -31,6 +31,7 @@ __all__ = [
     "CURVE_LOGITS",
     "SET_TITLES",
     "detector_metrics_card",
+    "detector_scores",
     "evaluate_detectors",
     "evaluate_recovery",
     "recovery_metrics_card",
@@ -75,14 +76,21 @@ def evaluate_detectors(
             continue
         net = TorchBackend(path, None)
         for ts in sets:
-            step = progress(f"{name} on {ts.name}", len(ts.frames))
-            scores = []
-            for i in range(len(ts.frames)):
-                b = ts.before(i)  # a temporal detector's previous frame (others ignore it)
-                scores.append(float(net.scores(ts.metres(i)[None], None if b is None else b[None])[0]))
-                step()
-            results[f"{name}/{ts.name}"] = detector_metrics(np.array(scores), ts, threshold)
+            scores = detector_scores(net, ts, progress(f"{name} on {ts.name}", len(ts.frames)))
+            results[f"{name}/{ts.name}"] = detector_metrics(scores, ts, threshold)
     return results
+
+
+def detector_scores(net: TorchBackend, ts: TestSet, step: Callable[[], None] | None = None) -> np.ndarray:
+    """The detector's score of each frame of ``ts`` in order, given the frame delivered before it (a
+    temporal detector's second input; others ignore it)."""
+    scores = []
+    for i in range(len(ts.frames)):
+        b = ts.before(i)
+        scores.append(float(net.scores(ts.metres(i)[None], None if b is None else b[None])[0]))
+        if step is not None:
+            step()
+    return np.array(scores)
 
 
 def write_detectors(results: dict[str, dict], folder: Path, weights: Path) -> None:
