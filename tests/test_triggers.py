@@ -363,8 +363,10 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
     from d2sr.runtime.pipeline import open_models
 
     captured: queuemod.Queue = queuemod.Queue()
+    # the pulse at the slot's nominal start: the board's thread shares the CPU with the models here, where a
+    # real board's timer is on time (a late poll would move the simulated camera, not the sensor)
     board = Board(
-        on_edge=lambda level, period, slot: level and captured.put((period, slot, time.monotonic()))
+        on_edge=lambda level, period, slot: level and captured.put((period, slot, board.core.t0 / 1e6))
     )
     truth: dict[str, tuple[int, int]] = {}
     other: set[int] = set()
