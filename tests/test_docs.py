@@ -33,3 +33,47 @@ def test_api_examples_run(tmp_path, monkeypatch):
     before, after = re.search(r"(\d+) mm -> (\d+) mm", printed).groups()
     assert int(after) < int(before) / 2
     assert (tmp_path / "repaired" / "masks").is_dir() and (tmp_path / "flags.csv").is_file()
+
+
+FIGURE = re.compile(
+    r"\d+\.\d+ ?(%|(ms|fps|cm|min)\b)"  # a measured decimal
+    r"|(?<![\w.-])-\d+(\.\d+)?%"  # a signed change (not a range such as 40-80%)
+    r"|\b\d+ of \d+ (frames|cells|checks|configurations)\b"  # a count
+)
+DATED = re.compile(r"\b20\d\d-\d\d-\d\d\b|\b0\.\d+\.\d+\b|\bat [0-9a-f]{7}\b|\bdata version \d+\b")
+
+
+def _paragraphs(text: str) -> list[str]:
+    """Prose paragraphs; a table, or a block after a paragraph that ends in a colon, belongs to the paragraph
+    before it (its caption); code is left out."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    out: list[str] = []
+    for block in re.split(r"\n\s*\n", text):
+        lines = [ln for ln in block.splitlines() if not ln.startswith("#")]
+        if not lines:
+            continue
+        if out and (lines[0].startswith("|") or out[-1].endswith(":")):
+            out[-1] += "\n" + "\n".join(lines)
+        else:
+            out.append("\n".join(lines))
+    return out
+
+
+def test_figures_quoted_in_prose_carry_their_date_or_version():
+    """Issue 45: a measured figure in the user docs says when (a date, a release, or the commit) it was
+    measured, in its own paragraph or its table's caption."""
+    undated = [
+        f"{page.name}: {para.splitlines()[0][:80]}"
+        for page in sorted(DOCS.glob("*.md"))
+        for para in _paragraphs(page.read_text())
+        if FIGURE.search(para) and not DATED.search(para)
+    ]
+    assert not undated, "undated figures:\n" + "\n".join(undated)
+
+
+def test_the_dating_rule_sees_an_undated_figure():
+    assert FIGURE.search("RMSE -63.0% on set A") and not DATED.search("RMSE -63.0% on set A")
+    assert _paragraphs("Caption (2026-11-26).\n\n| a | 1.5 ms |\n\n## H\nText 2.0 ms.") == [
+        "Caption (2026-11-26).\n| a | 1.5 ms |",
+        "Text 2.0 ms.",
+    ]
