@@ -12,7 +12,9 @@ phase-unwrapping errors (``bloom_interference``). ``--set e`` (written and seale
 model ran on it, to confirm choices made on sets A-D; ``docs/research/decisions.md``): moire beats and
 row tearing (``beat_interference``). ``--set f`` (written and sealed 2026-11-26, before any model ran on
 it):
-another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``).
+another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``). ``--set g``
+(written and sealed 2026-11-26, before any model or scene reference ran on it): another CW-ToF camera's
+light, a surface read 2-5 cm off with almost no dropouts (``tof_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -49,7 +51,7 @@ from d2sr.contract import AUTO_RECOVERY, DEFAULT_RECOVERY, DETECTOR, TEMPORAL_RE
 
 SEED = 5_000_000
 # Each set's stream of random numbers.
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F}
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F, "g": 0x70F}
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
     "a": ("rings", "sawtooth"),
@@ -58,6 +60,7 @@ KINDS = {
     "d": ("bloom", "unwrapping"),
     "e": ("moire beat", "row tearing"),
     "f": ("dot lattice", "gray-code stripes"),
+    "g": ("tof lit patch", "tof lit surface"),
 }
 
 
@@ -320,6 +323,65 @@ def projector_interference(frame: np.ndarray, scale: float, seed: int) -> np.nda
     return _written(frame, new, where, scale)
 
 
+def tof_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set G (written and sealed 2026-11-26, before any model or scene reference ran on it, for issue 42's
+    scene evidence): another continuous-wave time-of-flight camera's modulated light added to this one's.
+    Its phasor pulls the measured phase, so a surface it lights reads shifted by a few centimetres, smoothly
+    and coherently, with almost no dropouts: a plausible surface in the wrong place. One of two models,
+    chosen by the seed, neither in ``d2sr.sim`` nor in sets A-F:
+
+    * a lit patch: the other camera's illumination cone (a soft-edged ellipse) with an irradiance that falls
+      off with range; the shift, 2-5 cm at its peak, follows the phasor's pull (amplitude ratio times the
+      sine of a relative phase that turns slowly across the view), nearer on three frames in four;
+    * a lit surface: the surfaces within one shell of range (a wall, the floor), shifted by 2-5 cm with a
+      long ripple, over a half-plane of the view where the views overlap; where the two phasors nearly
+      cancel, a few pixels return nothing (at most 1%).
+
+    Pixels that move by more than 1 cm count (the shifts are the point: sets B-F's 2 cm + 1% would drop
+    most of them beyond 3 m). A draw that moves under 1% of the returns (a thin object's shell, a cone on
+    a near one) is drawn again, so that no corrupted frame is left all but unchanged."""
+    rng, _, _, d = _start(frame, scale, seed, "g")
+    patch = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    for _ in range(20):
+        where, new = _tof_draw(rng, d, patch)
+        if where.sum() >= 0.01 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
+def _tof_draw(rng: np.random.Generator, d: np.ndarray, patch: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One draw of set G's models: the pixels that move and the depth they read."""
+    h, w = d.shape
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    sign = -1.0 if rng.random() < 0.75 else 1.0
+    peak = rng.uniform(0.02, 0.05)
+    ys, xs = np.nonzero(d > 0)
+    at = int(rng.integers(0, max(len(ys), 1)))
+    px, py = (float(xs[at]), float(ys[at])) if len(ys) else (w / 2, h / 2)  # a returning pixel it lights
+    if patch:  # a lit patch
+        sx, sy, rot = rng.uniform(0.12, 0.45) * w, rng.uniform(0.12, 0.45) * h, rng.uniform(0, np.pi)
+        u = ((x - px) * np.cos(rot) + (y - py) * np.sin(rot)) / sx
+        v = (-(x - px) * np.sin(rot) + (y - py) * np.cos(rot)) / sy
+        cone = np.clip((1.2 - np.hypot(u, v)) / 0.4, 0.0, 1.0) * (d > 0)  # soft edge; returns only
+        ratio = cone / np.maximum(d, 0.3) ** 2  # irradiance falls off with range
+        ang, k = rng.uniform(0, 2 * np.pi), rng.uniform(0.5, 2.0) * np.pi / max(h, w)
+        turn = np.sin(k * (x * np.cos(ang) + y * np.sin(ang)) + rng.uniform(0, 2 * np.pi))
+        pull = ratio * (0.6 + 0.4 * turn)
+        new = d + sign * peak * pull / max(float(pull.max()), 1e-9)
+        where = cone > 0
+    else:  # a lit surface
+        lo = float(d[int(py), int(px)]) - rng.uniform(0.0, 0.3)
+        shell = (d >= lo) & (d < lo + rng.uniform(0.3, 1.5))
+        ang, k = rng.uniform(0, 2 * np.pi), rng.uniform(0.3, 1.5) * np.pi / max(h, w)
+        ripple = 0.75 + 0.25 * np.sin(k * (x * np.cos(ang) + y * np.sin(ang)) + rng.uniform(0, 2 * np.pi))
+        new = d + sign * peak * ripple
+        a2 = rng.uniform(0, 2 * np.pi)  # where the views overlap: a half-plane with that pixel inside
+        side = (x - px) * np.cos(a2) + (y - py) * np.sin(a2)
+        where = shell & (side > -rng.uniform(0.1, 0.6) * max(h, w))
+        new = np.where(rng.random((h, w)) < rng.uniform(0.0, 0.01), 0.0, new)
+    return where & (d > 0) & (np.abs(new - d) > 0.01), new
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -327,10 +389,11 @@ SETS = {
     "d": bloom_interference,
     "e": beat_interference,
     "f": projector_interference,
+    "g": tof_interference,
 }
-# Sets only an explicit --set runs (D, E and F each until the decision it was written for;
-# docs/research/decisions.md).
-SEALED: set[str] = set()
+# Sets only an explicit --set runs (D, E and F were, each until the decision it was written for; G is, until
+# the decision written for it in docs/research/decisions.md).
+SEALED: set[str] = {"g"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -341,6 +404,8 @@ STATUS = {
     "e": "development: sealed until 2026-11-26, when it decided unet32 (decisions.md); open since",
     "f": "development: sealed until 2026-11-26, when it decided recover's default auto (decisions.md); "
     "open since",
+    "g": "sealed 2026-11-26 when written, until the scene reference's mask and repair are decided "
+    "(issue 42; decisions.md)",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
@@ -551,7 +616,7 @@ def main() -> None:
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
         "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
-        "e (moire beat, row tearing), f (dot lattice, Gray-code stripes; sealed)",
+        "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts; sealed)",
     )
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
