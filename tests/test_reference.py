@@ -97,4 +97,35 @@ def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_rea
     false_alarm = frame(True, False)
     assert not loop.process(false_alarm).flagged and plain.process(false_alarm).flagged
     assert loop.process(frame(True, True)).flagged
-    assert not loop.process(frame(False, False)).flagged  # evidence alone does not flag
+    assert not loop.process(frame(False, False)).flagged
+    missed = frame(False, True)
+    missed.frame.depth[0, 0] = 0  # the detector misses it; the fresh patch against the scene does not
+    assert loop.process(missed).flagged and not plain.process(missed).flagged
+
+
+def test_something_that_moves_is_not_fresh_evidence_but_a_new_patch_is():
+    """A box 40 cm in front of the wall slides 6 px a frame: it deviates, but the frame before's deviations
+    explain it (something moved). A patch 3 cm off where nothing deviated a frame before is fresh. The first
+    frame judged against a new scene has nothing before it: nothing is fresh."""
+    rng = np.random.default_rng(3)
+    ref = SceneReference(SCALE)
+    first = None
+    for _ in range(16):
+        ev = ref.evidence(f := _scene(rng))
+        first = ev if ev.ready and first is None else first
+        ref.add(f)
+    assert first is not None and not first.fresh.any()
+    for k in range(6):
+        f = _scene(rng)
+        box = np.s_[30:70, 10 + 6 * k : 50 + 6 * k]
+        f[box] = np.where(f[box] > 0, f[box] - int(0.4 * SCALE), 0)
+        ev = ref.evidence(f)
+        assert ev.dense > 0.05
+        if k > 0:
+            assert ev.fresh_dense < 0.1 * ev.dense, (k, ev.fresh_dense, ev.dense)
+    f = _scene(rng)
+    patch = np.s_[10:30, 90:120]
+    f[patch] = np.where(f[patch] > 0, f[patch] - int(0.04 * SCALE), 0)
+    ev = ref.evidence(f)
+    assert ev.mask[patch].mean() > 0.8 and ev.fresh[patch].mean() > 0.98 * ev.mask[patch].mean()
+    assert ev.fresh_dense > 0.03

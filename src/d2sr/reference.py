@@ -12,6 +12,10 @@ in clusters) and what share of the scene they cover.
   so no frame pays for a full re-sort.
 - Lasting change (a chair moved): a pixel that deviates for ``persist`` frames in a row takes its new value
   as the reference. A person walking past deviates only briefly per pixel, so the median discounts them.
+- Moving objects: a deviating pixel that a deviating pixel of the frame before, within ``MOTION_PX``, read
+  at about the same depth (or as a dropout, for a dropout) is something that moved, not interference, which
+  flickers from frame to frame (``Evidence.fresh`` leaves it out). Interference that stays in place from
+  one frame to the next is left out with it: a miss, never a false repair.
 - The camera moved, or the scene changed wholesale: when more than ``moved`` of the known scene deviates for
   ``moved_frames`` frames in a row, the reference starts again (no evidence until warm).
 """
@@ -26,14 +30,22 @@ import numpy as np
 from d2sr.errors import ConfigError, InputError
 from d2sr.labels import CleanStats, Labeller, stack_stats
 
-__all__ = ["QUIET", "Evidence", "SceneReference"]
+__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
 QUIET = 0.0005
+#: A frame whose fresh dense evidence reaches this is interfered, whatever the detector says: the lowest of
+#: 0.001/0.002/0.003 that keeps the walking person of L515 dev0 within 1% of frames flagged (development
+#: figures on sets A-F and the clean L515 sequences: docs/research/scene-reference.md).
+EVIDENT = 0.003
 #: How far (m, and share of the range) beyond a pixel's clean range a depth must lie to deviate. Tighter
 #: than ``d2sr label``'s (2 cm + 1%): a surface read 2-5 cm too near is what the reference is for.
 TOL_ABS, TOL_REL = 0.005, 0.005
+#: How far (px) a moving object's surface can travel between two frames and still explain a deviation.
+MOTION_PX = 15
+#: How near (m, and share of the range) a deviation must read to one of the frame before to be explained.
+MOTION_ABS, MOTION_REL = 0.05, 0.05
 
 
 @dataclass
@@ -44,6 +56,8 @@ class Evidence:
     share: float  # of the pixels the reference has seen return
     dense: float  # the same share counting only pixels amid others (half of their 9x9 neighbourhood)
     ready: bool  # the reference had its ``warm`` frames (else the evidence is empty)
+    fresh: np.ndarray  # bool: ``mask`` less what the frame before's deviations explain (something moved)
+    fresh_dense: float  # ``dense`` of ``fresh``
 
 
 class SceneReference:
@@ -58,7 +72,7 @@ class SceneReference:
         self,
         depth_scale: float,
         frames: int = 16,
-        warm: int = 8,
+        warm: int = 4,
         stripes: int = 8,
         persist: int = 30,
         moved: float = 0.5,
@@ -85,6 +99,7 @@ class SceneReference:
         self._next = 0  # ring slot the next clean frame goes to
         self._stripe = 0  # stripe of rows the next ``add`` re-summarizes
         self._stats, self._labeller, self._streak, self._moving = None, None, None, 0
+        self._before: np.ndarray | None = None  # the frame before's deviating depths (m; -1: a dropout)
 
     @property
     def shape(self) -> tuple[int, ...] | None:
@@ -129,22 +144,26 @@ class SceneReference:
         taken in, a moved camera noticed), so call it once per frame, in order."""
         self._check(frame)
         if self._labeller is None or self._stats is None or self._streak is None:
-            return Evidence(np.zeros(frame.shape, bool), 0.0, 0.0, False)
+            return _none(frame.shape)
         metres = frame.astype(np.float32) / np.float32(self.scale)
         mask = self._labeller.mask(metres)
         known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
         share = float(np.count_nonzero(mask)) / known
-        # A sensor's own flicker leaves scattered pixels; interference comes in patches.
-        dense = float(np.count_nonzero(cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.5)) / known
+        # The first frame judged against a new reference has no frame before to tell motion by: none fresh.
+        fresh = mask & ~_explained(metres, mask, self._before) if self._before is not None else mask & False
+        patches = mask & _patches(
+            mask, 0.25
+        )  # a moved object deviates in patches, flicker in scattered pixels
+        self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
         self._moving = self._moving + 1 if share > self.moved else 0
         if self._moving >= self.moved_frames:
             self.reset()
-            return Evidence(np.zeros(frame.shape, bool), 0.0, 0.0, False)
+            return _none(frame.shape)
         self._streak = np.where(mask, self._streak + 1, 0).astype(np.uint16)
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True)
+        return Evidence(mask, share, _dense(mask, known), True, fresh, _dense(fresh, known))
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
@@ -157,6 +176,34 @@ class SceneReference:
         s.rate[where] = (v > 0).astype(np.float32)
         s.mean_err[where] = 0
         self._streak[where] = 0
+
+
+def _none(shape: tuple[int, ...]) -> Evidence:
+    empty = np.zeros(shape, bool)
+    return Evidence(empty, 0.0, 0.0, False, empty, 0.0)
+
+
+def _patches(mask: np.ndarray, share: float = 0.5) -> np.ndarray:
+    """Pixels amid others (half of their 9x9 neighbourhood in ``mask``): a sensor's own flicker leaves
+    scattered pixels, interference and moved objects come in patches."""
+    return cv2.blur(mask.astype(np.float32), (9, 9)) >= share
+
+
+def _dense(mask: np.ndarray, known: int) -> float:
+    """The share of ``known`` pixels amid others in ``mask``."""
+    return float(np.count_nonzero(_patches(mask))) / known
+
+
+def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
+    within ``MOTION_PX`` read at about the same depth: a moved object's surface."""
+    k = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * MOTION_PX + 1, 2 * MOTION_PX + 1))
+    lo = cv2.erode(np.where(before > 0, before, np.float32(np.inf)), k)
+    hi = cv2.dilate(before, k)
+    tol = MOTION_ABS + MOTION_REL * metres
+    near = (metres > 0) & (metres >= lo - tol) & (metres <= hi + tol)
+    dropped = (metres == 0) & (cv2.erode(np.where(before < 0, 0, 1).astype(np.uint8), k) == 0)
+    return mask & (near | dropped)
 
 
 def _metres(part: dict[str, np.ndarray], scale: float) -> dict[str, np.ndarray]:

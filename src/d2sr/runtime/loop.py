@@ -19,7 +19,7 @@ from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, agreement, padded
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
-from d2sr.reference import QUIET, SceneReference
+from d2sr.reference import EVIDENT, QUIET, SceneReference
 from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
@@ -107,7 +107,8 @@ class SensorLoop:
     # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
     judge_every: bool = True
     # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
-    # a frame in which nothing deviates from the scene is a false alarm, and is dropped.
+    # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
+    # deviations in patches (not something that moved) is interfered, flagged or not.
     scene: bool = False
     period: int = 0
     _reference: SceneReference | None = None
@@ -209,8 +210,8 @@ class SensorLoop:
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._reference = SceneReference(scale)
         ev = ref.evidence(raw)
-        if flagged and ev.ready and ev.dense < QUIET:
-            flagged = False
+        if ev.ready:
+            flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
         if not flagged:
             ref.add(raw)
         return flagged
