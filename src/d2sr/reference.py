@@ -75,7 +75,7 @@ class SceneReference:
         warm: int = 4,
         stripes: int = 8,
         persist: int = 30,
-        moved: float = 0.5,
+        moved: float = 0.1,
         moved_frames: int = 3,
         tol_abs: float = TOL_ABS,
         tol_rel: float = TOL_REL,
