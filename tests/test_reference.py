@@ -129,3 +129,31 @@ def test_something_that_moves_is_not_fresh_evidence_but_a_new_patch_is():
     ev = ref.evidence(f)
     assert ev.mask[patch].mean() > 0.8 and ev.fresh[patch].mean() > 0.98 * ev.mask[patch].mean()
     assert ev.fresh_dense > 0.03
+
+
+def test_run_on_a_recording_takes_the_scene(tmp_path):
+    """``d2sr run REC --scene`` (``run_recording(scene=True)``): the patch the detector misses is logged as
+    flagged, and the run's settings say the scene was used; without it, the frame passes."""
+    import csv
+
+    import cv2
+
+    from d2sr.frames import open_frames
+    from d2sr.runtime.session import run_recording
+
+    rng = np.random.default_rng(4)
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    frames = [_scene(rng) for _ in range(10)]
+    frames[9][40:70, 30:80] = np.where(frames[9][40:70, 30:80] > 0, frames[9][40:70, 30:80] - 160, 0)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(rec / f"{i:03d}.png"), f)
+    flags = {}
+    for scene in (False, True):
+        out = tmp_path / f"out{scene}"
+        summary = run_recording(FakeNet(), open_frames(rec), SCALE, out, "robust", "rec", repair="none",
+                                scene=scene)  # fmt: skip
+        assert summary["settings"]["scene"] is scene
+        rows = list(csv.DictReader((out / "log.csv").open()))
+        flags[scene] = [int(r["flagged"]) for r in rows]
+    assert flags[False] == [0] * 10 and flags[True] == [0] * 9 + [1]

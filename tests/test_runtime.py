@@ -332,6 +332,7 @@ def test_run_cli_on_a_recording_and_bad_inputs(tmp_path):
         ([str(rec), "--repair", "some"], "--repair"),
         ([str(rec), "--depth-scale", "1"], "scale"),
         (["sim", "--seconds", "0"], "--seconds"),
+        (["sim", "--scene"], "--scene"),
         (["realsense"], "RealSense"),
     ]
     for args, words in cases:

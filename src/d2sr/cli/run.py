@@ -21,6 +21,7 @@ from d2sr.cli.common import (
     RepairOpt,
     RerunOpt,
     Scale,
+    SceneOpt,
     Threshold,
     Topic,
     TriggerOpt,
@@ -66,6 +67,7 @@ def run(
     backend: BackendOpt = "auto",
     models: ModelDir = WEIGHTS,
     threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
+    scene: SceneOpt = False,
     int8: Annotated[
         bool,
         typer.Option(
@@ -102,6 +104,8 @@ def run(
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     is_live = source.partition(":")[0] in CAMERAS
     is_recording = source != "sim" and not is_live
+    if scene and source == "sim":
+        raise ConfigError("--scene judges a recording's or a camera's frames against its scene; not 'sim'")
     if trigger is not None and not is_live:
         raise ConfigError("--trigger needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL])")
     if is_live:
@@ -142,14 +146,14 @@ def run(
         elif is_live:
             summary = run_live(
                 net, out, source, trigger, controller, seconds, active_frames, repair, threshold, seed,
-                on_result=on_result,
+                on_result=on_result, scene=scene,
             )  # fmt: skip
         else:
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
                 net, Checked(reader, scale), scale, out, controller, str(path.resolve()), active_frames,
                 repair, threshold, seed, progress=lambda f: bar.update(task, completed=f),
-                on_result=on_result,
+                on_result=on_result, scene=scene,
             )  # fmt: skip
     console.print(stats_table(summary, f"d2sr run {source}"))
     console.print(f"-> {out}")

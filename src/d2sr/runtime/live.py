@@ -127,12 +127,20 @@ def run_live(
     threshold: float | None,
     seed: int,
     on_result: Callable[[int, Result], None] | None = None,
+    scene: bool = False,
 ) -> dict[str, Any]:
     """A live camera (``realsense[:SERIAL]`` or ``orbbec[:SERIAL]``) through one loop for ``seconds``;
-    closed through ``trigger`` (a ``d2sr.triggers`` spec) when given."""
+    closed through ``trigger`` (a ``d2sr.triggers`` spec) when given; with ``scene``, a still camera's
+    frames are also judged against its scene (``SensorLoop.scene``)."""
     camera, serial = check_camera(source, trigger)
     stats = RunStats()
-    settings = {"source": source, "trigger": trigger, "controller": controller, "seconds": seconds}
+    settings = {
+        "source": source,
+        "trigger": trigger,
+        "controller": controller,
+        "seconds": seconds,
+        "scene": scene,
+    }
     actuator = open_trigger(trigger, active_frames) if trigger is not None else None
     with contextlib.ExitStack() as stack:
         if actuator is not None:
@@ -140,7 +148,7 @@ def run_live(
         frames = _camera(camera, serial, seconds, actuator, trigger)
         folder = stack.enter_context(RunFolder(out, settings, resumable=False))
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
-        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair)
+        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
         closed = ClosedLoop(loop, actuator) if actuator is not None else None
         for frame, scale, arrival in frames:
             cap = Capture(frame, scale)

@@ -103,8 +103,10 @@ def run_recording(
     seed: int = 0,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
+    scene: bool = False,
 ) -> dict[str, Any]:
-    """A recording through one loop (open loop: the controller's offsets are logged, not applied).
+    """A recording through one loop (open loop: the controller's offsets are logged, not applied); with
+    ``scene``, a still sensor's frames are also judged against its scene (``SensorLoop.scene``).
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags."""
     settings = {
         "source": source,
@@ -116,12 +118,13 @@ def run_recording(
         "repair": repair,
         "threshold": threshold if threshold is not None else backend.threshold,
         "backend": backend.name,
+        "scene": scene,
     }
     stats = RunStats()
     total = len(reader)
     with RunFolder(out, settings, resumable=True) as folder:
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
-        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair)
+        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
         done = folder.done
         for k, cap in enumerate(recording(reader, scale)):
             rec = done.get((0, cap.name))
