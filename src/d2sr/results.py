@@ -222,7 +222,9 @@ NOTES = {
 CALIBRATION = (
     "The weights never saw a real frame, but the simulator that generated their data has its L515 noise "
     "model fitted to the real L515 captures (dev0, dev1) that the real-L515 figures and every outside set "
-    "use: those figures are on frames the simulator was calibrated on."
+    "use: those figures are on frames the simulator was calibrated on. Fitted to one view alone, a detector "
+    "trained from scratch on that fit's data scores the other view as well as its own (make overlap, "
+    "docs/results/overlap/overlap.json); for the recovery models that check is not yet made."
 )
 RECOVERY = "docs/results/recovery/recovery.json"
 DETECTOR = "docs/results/detector/detector.json"
