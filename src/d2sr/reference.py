@@ -149,12 +149,20 @@ class SceneReference:
         mask = self._labeller.mask(metres)
         known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
         share = float(np.count_nonzero(mask)) / known
-        # The first frame judged against a new reference has no frame before to tell motion by: none fresh.
-        fresh = mask & ~_explained(metres, mask, self._before) if self._before is not None else mask & False
-        patches = mask & _patches(
-            mask, 0.25
-        )  # a moved object deviates in patches, flicker in scattered pixels
-        self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
+        near = cv2.blur(mask.astype(np.float32), (9, 9))  # share of each 9x9 neighbourhood that deviates
+        dense = float(np.count_nonzero(near >= 0.5)) / known  # flicker is scattered, interference in patches
+        before = self._before
+        if before is None:  # the first frame judged against a new reference: no motion to tell by, none fresh
+            fresh, fresh_dense = np.zeros_like(mask), 0.0
+        elif mask.any() and before.any():
+            fresh = mask & ~_explained(metres, mask, before)
+            fresh_dense = _dense(fresh, known)
+        else:  # nothing deviated a frame before: nothing is explained (and the cost is skipped)
+            fresh, fresh_dense = mask, dense
+        # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
+        self._before = np.where(mask & (near >= 0.25), np.where(metres > 0, metres, -1.0), 0.0).astype(
+            np.float32
+        )
         self._moving = self._moving + 1 if share > self.moved else 0
         if self._moving >= self.moved_frames:
             self.reset()
@@ -163,7 +171,7 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, _dense(mask, known), True, fresh, _dense(fresh, known))
+        return Evidence(mask, share, dense, True, fresh, fresh_dense)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
@@ -183,15 +191,9 @@ def _none(shape: tuple[int, ...]) -> Evidence:
     return Evidence(empty, 0.0, 0.0, False, empty, 0.0)
 
 
-def _patches(mask: np.ndarray, share: float = 0.5) -> np.ndarray:
-    """Pixels amid others (half of their 9x9 neighbourhood in ``mask``): a sensor's own flicker leaves
-    scattered pixels, interference and moved objects come in patches."""
-    return cv2.blur(mask.astype(np.float32), (9, 9)) >= share
-
-
 def _dense(mask: np.ndarray, known: int) -> float:
-    """The share of ``known`` pixels amid others in ``mask``."""
-    return float(np.count_nonzero(_patches(mask))) / known
+    """The share of ``known`` pixels amid others in ``mask`` (half of their 9x9 neighbourhood)."""
+    return float(np.count_nonzero(cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.5)) / known
 
 
 def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:
