@@ -221,3 +221,14 @@ def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
         d = by_stamp[nano]
         sure = c == 255
         assert sure.mean() > 0.5 and np.abs(d[sure].astype(int) - 3000).max() <= 45
+
+
+def test_node_takes_the_scene_option():
+    """``d2sr ros2 --scene``: the node's loop judges frames against the still sensor's scene."""
+    from d2sr.ros2 import Ros2Node
+
+    node = Ros2Node("/cam/depth", 4000.0, "reliable", domain=random.randint(100, 200), scene=True)
+    try:
+        assert node.pipeline.loop.scene
+    finally:
+        node.close()

@@ -16,6 +16,7 @@ from d2sr.cli.common import (
     Passes,
     RepairOpt,
     Scale,
+    SceneOpt,
     Threshold,
     TriggerOpt,
 )
@@ -52,6 +53,7 @@ def ros2(
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
+    scene: SceneOpt = False,
 ) -> None:
     """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
     255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours
@@ -64,7 +66,7 @@ def ros2(
     node = Ros2Node(
         topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,
         active_frames=active_frames, trigger=trigger, repair=repair, model=model, models=Path(models),
-        threshold=threshold, mask_logit=mask_logit, passes=passes,
+        threshold=threshold, mask_logit=mask_logit, passes=passes, scene=scene,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
