@@ -42,6 +42,9 @@ EVIDENT = 0.003
 #: How far (m, and share of the range) beyond a pixel's clean range a depth must lie to deviate. Tighter
 #: than ``d2sr label``'s (2 cm + 1%): a surface read 2-5 cm too near is what the reference is for.
 TOL_ABS, TOL_REL = 0.005, 0.005
+#: A reference pixel is trusted as a repair when it returned in this share of the clean frames and their
+#: depths spread by at most ``TRUST_ABS`` + ``TRUST_REL`` x depth (its own noise, not the model's 10%).
+TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
 #: How far (px) a moving object's surface can travel between two frames and still explain a deviation.
 MOTION_PX = 15
 #: How near (m, and share of the range) a deviation must read to one of the frame before to be explained.
@@ -172,6 +175,17 @@ class SceneReference:
         if lasting.any():
             self._take(frame, lasting)
         return Evidence(mask, share, dense, True, fresh, fresh_dense)
+
+    def fill(self, ev: Evidence) -> tuple[np.ndarray, np.ndarray]:
+        """(where, metres): the scene's own depth as the repair of ``ev``'s fresh deviations in patches, where
+        the reference is trusted (``TRUST_RATE``, ``TRUST_ABS``, ``TRUST_REL``); nothing when not ready."""
+        s = self._stats
+        if s is None or not ev.ready or not ev.fresh.any():
+            return np.zeros(ev.mask.shape, bool), np.zeros(ev.mask.shape, np.float32)
+        near = cv2.blur(ev.fresh.astype(np.float32), (9, 9)) >= 0.5
+        trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
+        where = ev.fresh & near & trusted & (s.nz_median > 0)
+        return where, np.where(where, s.nz_median, 0).astype(np.float32)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""

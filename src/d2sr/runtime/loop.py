@@ -77,6 +77,8 @@ class Decision:
     period: int
     offset: int
     started: float  # perf_counter at decide
+    # The scene's repair (``SensorLoop.scene_repair``): where, and the depth there (metres).
+    scene_fill: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class Trigger(Protocol):
@@ -110,6 +112,9 @@ class SensorLoop:
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
     # deviations in patches (not something that moved) is interfered, flagged or not.
     scene: bool = False
+    # True (with ``scene``): a repaired frame's fresh deviations where the scene is trusted take the scene's
+    # own depth (``SceneReference.fill``), beside the model's repair. Not yet a default: sealed set G decides.
+    scene_repair: bool = False
     period: int = 0
     _reference: SceneReference | None = None
     _flags: dict[int, bool] = field(default_factory=dict)
@@ -169,10 +174,12 @@ class SensorLoop:
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         score = float(self.backend.scores(metres, before)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
+        fill = None
         if self.scene and judge:
-            flagged = self._against_scene(raw, cap.scale, flagged)
+            flagged, fill = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
+        d.scene_fill = fill if fix and self.scene_repair else None
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
             self._buffer(flagged, cap.slot)
@@ -186,6 +193,8 @@ class SensorLoop:
         if d.repair:
             pred, m = self.backend.recover(d.metres, d.previous)
             depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale)
+            if d.scene_fill is not None:
+                depth, mask = _scene_repair(raw, depth, mask, d.scene_fill, d.capture.scale)
         seconds = time.perf_counter() - d.started
         res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds)
         if self.sink is not None:
@@ -199,11 +208,14 @@ class SensorLoop:
             raw = cap.frame.depth
             self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
-                self._against_scene(raw, cap.scale, flagged)
+                self._against_scene(raw, cap.scale, flagged)[0]
         self._buffer(flagged, slot)
 
-    def _against_scene(self, raw: np.ndarray, scale: float, flagged: bool) -> bool:
-        """The detector's verdict weighed against the scene reference, which takes the frame if clean."""
+    def _against_scene(
+        self, raw: np.ndarray, scale: float, flagged: bool
+    ) -> tuple[bool, tuple[np.ndarray, np.ndarray] | None]:
+        """The detector's verdict weighed against the scene reference, which takes the frame if clean; and
+        the scene's repair of the frame (``SceneReference.fill``) when ``scene_repair`` asks for it."""
         if raw.dtype != np.uint16:  # metres: judged in millimetres
             raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
         ref = self._reference
@@ -212,9 +224,10 @@ class SensorLoop:
         ev = ref.evidence(raw)
         if ev.ready:
             flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
+        fill = ref.fill(ev) if self.scene_repair and flagged else None  # before add: a flagged frame
         if not flagged:
             ref.add(raw)
-        return flagged
+        return flagged, fill
 
     def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
         """What the next frame's models see: this frame (temporal detector) and, when the detector passed
@@ -245,3 +258,15 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
+
+
+def _scene_repair(
+    raw: np.ndarray, depth: np.ndarray, mask: np.ndarray, fill: tuple[np.ndarray, np.ndarray], scale: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The model's repair with the scene's own depth where the scene is trusted: that depth is within the
+    pixel's clean noise, so the guard's model-error margin does not apply to it."""
+    where, metres = fill
+    out = depth.copy()
+    value = metres[where] * np.float32(scale)
+    out[where] = value if raw.dtype.kind == "f" else np.clip(np.rint(value), 0, 65535).astype(raw.dtype)
+    return out, mask | (where & (out != raw))
