@@ -188,3 +188,30 @@ def test_the_scene_repairs_a_shifted_patch_where_it_is_trusted_and_leaves_clean_
     returned = truth[patch] > 0
     assert fixed.mask[patch][returned].mean() > 0.8 and np.median(err[returned & fixed.mask[patch]]) < 0.01
     assert not fixed.mask[:40].any()  # nothing changed outside the patch's rows
+
+
+def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
+    """``d2sr recover --all --scene --scene-repair`` puts a 4 cm patch back on real weights; without
+    ``--scene`` it is a one-line error and nothing is written."""
+    import cv2
+
+    from helpers import d2sr_inprocess
+
+    rng = np.random.default_rng(6)
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    frames = [_scene(rng, (96, 128)) for _ in range(12)]
+    truth = frames[11].copy()
+    frames[11][40:70, 30:80] = np.where(truth[40:70, 30:80] > 0, truth[40:70, 30:80] - 160, 0)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(rec / f"{i:03d}.png"), f)
+    code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "a"), "--depth-scale", "4000",
+                                  "--all", "--scene-repair")  # fmt: skip
+    assert code == 2 and "--scene-repair needs --scene" in err and not (tmp_path / "a").exists()
+    code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "b"), "--depth-scale", "4000",
+                                  "--all", "--scene", "--scene-repair")  # fmt: skip
+    assert code == 0, err
+    out = cv2.imread(str(tmp_path / "b" / "011.png"), cv2.IMREAD_UNCHANGED)
+    ok = truth[40:70, 30:80] > 0
+    err_m = np.abs(out[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
+    assert np.median(err_m) < 0.01  # put back within the scene's noise (it was 4 cm off)

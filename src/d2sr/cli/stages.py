@@ -97,6 +97,14 @@ def recover(
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     scene: SceneOpt = False,
+    scene_repair: Annotated[
+        bool,
+        typer.Option(
+            "--scene-repair",
+            help="Experimental, with --scene: where the scene is trusted, its own depth repairs a frame's "
+            "fresh deviations (sealed outside set G decides whether it becomes --scene's default).",
+        ),
+    ] = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
@@ -113,7 +121,7 @@ def recover(
         s = recover_recording(
             input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
             threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, scene=scene, overwrite=overwrite, progress=progress,
-            say=print_line,
+            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair, overwrite=overwrite,
+            progress=progress, say=print_line,
         )  # fmt: skip
     typer.echo(f"repaired {s.repaired} of {s.frames} frames -> {out}")

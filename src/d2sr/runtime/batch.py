@@ -28,7 +28,7 @@ import numpy as np
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
 from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import TOTAL_FRAMES, make_controller
-from d2sr.errors import InputError
+from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Intrinsics, detect_format
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import checked, checked_counts, open_input
@@ -229,14 +229,16 @@ def recover_recording(
     max_range: float = PLAUSIBLE_M[1],
     rerun: str | None = None,
     scene: bool = False,
+    scene_repair: bool = False,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
-    """Repair a recording: only the frames the detector flags (with ``scene``, only those that also deviate
-    from the still sensor's own scene, ``SensorLoop.scene``), or ``every`` frame. ``format``: ``auto`` (a
-    ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``. ``rerun``:
-    also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
+    """Repair a recording: only the frames the detector flags (with ``scene``, weighed against the still
+    sensor's own scene, ``SensorLoop.scene``), or ``every`` frame; ``scene_repair`` (experimental, with
+    ``scene``): the scene's own depth where it is trusted, ``SensorLoop.scene_repair``. ``format``:
+    ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``.
+    ``rerun``: also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
     ``every``) come out bit for bit as they went in."""
     from d2sr.runtime.viewer import LIVE, RerunLog
 
@@ -251,9 +253,11 @@ def recover_recording(
     workers, threads = repair_workers()
     # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
     # needs to know which frames were clean.
-    net = open_models(
-        model, Path(models), backend, mask_logit, passes, threads, detector=not every or bool(rerun)
-    )
+    if scene_repair and not scene:
+        raise ConfigError("--scene-repair needs --scene")
+    # The scene is judged on every frame (its upkeep needs them all), so it needs the detector's verdicts.
+    judged = not every or bool(rerun) or scene
+    net = open_models(model, Path(models), backend, mask_logit, passes, threads, detector=judged)
     if every and not rerun and net.frames > 1:
         net = open_models(model, Path(models), backend, mask_logit, passes, threads)
     if net.name != "onnxruntime":
@@ -264,11 +268,12 @@ def recover_recording(
         make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
         threshold=threshold,
         repair="all" if every else "flagged",
-        detect=not every or net.frames > 1 or bool(rerun),
+        detect=judged or net.frames > 1,
         # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
-        # shows its scores): it runs where that can change.
-        judge_every=not every or net.frames == 1 or bool(rerun),
+        # shows its scores or the scene is judged): it runs where that can change.
+        judge_every=judged or net.frames == 1,
         scene=scene,
+        scene_repair=scene_repair,
     )
     log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
     flagged = repaired = done = 0
