@@ -618,6 +618,8 @@ def main() -> None:
         "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
         "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts; sealed)",
     )
+    ap.add_argument("--scene", action="store_true", help="detect and recover with --scene (a still sensor)")
+    ap.add_argument("--scene-repair", action="store_true", help="recover also with --scene-repair")
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
     ap.add_argument("--minutes", type=float, default=None, help="d2sr adapt's budget (default: its own)")
     ap.add_argument("--keep", type=Path, default=None, help="write the adapted folder here (new) to study it")
@@ -626,14 +628,18 @@ def main() -> None:
     check_output(ap, args)
     if args.keep is not None and args.keep.exists():
         ap.error(f"--keep {args.keep} exists: give a new folder")
-    models = ["--models", str(args.models)] if args.models else []
+    if args.scene_repair and not args.scene:
+        ap.error("--scene-repair needs --scene")
+    models = (["--models", str(args.models)] if args.models else []) + (["--scene"] if args.scene else [])
     recovery = (["--model", args.model] if args.model else []) + (
         ["--mask-logit", f"{args.mask_logit:g}"] if args.mask_logit is not None else []
     )
+    recovery += ["--scene-repair"] if args.scene_repair else []
     result: dict = {
         "model_folder": str(args.models or "shipped"),
         "model": args.model or "default",
         "set": args.set,
+        "scene": "--scene --scene-repair" if args.scene_repair else "--scene" if args.scene else "off",
     }
     if args.mask_logit is not None:
         result["mask_logit"] = args.mask_logit
