@@ -528,6 +528,7 @@ def scored(
     d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
     err_in = err_out = valid = changed = clean_px = 0.0
+    moved = put_back = worse = 0  # pixels moved > 2 cm, of them put back within 1 cm; frames made worse
     per: dict[str, list[float]] = {}  # kind: frames, flagged, pixels hit, found, error before, after
     for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
         out = cv2.imread(str(tmp / f"{name}-fixed" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED)
@@ -538,6 +539,10 @@ def scored(
             e_in = float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
             e_out = float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
             err_in, err_out = err_in + e_in, err_out + e_out
+            far = ok & (b > 0) & (np.abs(b.astype(np.float64) - c) > 0.02 * scale)
+            moved += int(far.sum())
+            put_back += int((far & (np.abs(out.astype(np.float64) - c) <= 0.01 * scale)).sum())
+            worse += int(e_out > e_in)
             valid += float(ok.sum())
             tp += int((mask & true).sum())
             fp += int((mask & ~true).sum())
@@ -564,6 +569,8 @@ def scored(
         "detector_recall": round(dr, 4),
         "rmse_cm_before": round(100 * np.sqrt(err_in / max(valid, 1)), 2),
         "rmse_cm_after": round(100 * np.sqrt(err_out / max(valid, 1)), 2),
+        "moved_2cm_put_back": round(put_back / max(moved, 1), 4),  # within 1 cm of the clean depth
+        "frames_worse": f"{worse} of {int(truth.sum())}",
         "rmse_change": round(float(np.sqrt(err_out / max(err_in, 1e-12)) - 1), 4),
         "mask_precision": round(p, 4),
         "mask_recall": round(r, 4),
