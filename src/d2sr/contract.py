@@ -296,13 +296,22 @@ def recover_passes(
 
 
 def repair_frame(
-    frames: np.ndarray, pred: np.ndarray, mask: np.ndarray, scale: float
+    frames: np.ndarray,
+    pred: np.ndarray,
+    mask: np.ndarray,
+    scale: float,
+    exact: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
-    1); the input itself everywhere else, bit for bit."""
+    1); the input itself everywhere else, bit for bit. ``exact`` (where, metres): depths known within the
+    pixel's own noise (a still scene's, ``SceneReference.fill``), written past the guard's model-error
+    margin; only those that change the pixel count as repaired."""
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
+    written = m
+    if exact is not None:
+        p, written = np.where(exact[0], exact[1], p), m | exact[0]
     out = frames.copy()
-    fixed = np.maximum(p[m], 0) * np.float32(scale)
-    out[m] = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
-    return out, m
+    fixed = np.maximum(p[written], 0) * np.float32(scale)
+    out[written] = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
+    return out, m if exact is None else m | (exact[0] & (out != frames))

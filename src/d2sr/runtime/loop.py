@@ -19,7 +19,7 @@ from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, agreement, padded
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
-from d2sr.reference import EVIDENT, QUIET, SceneReference
+from d2sr.reference import EVIDENT, QUIET, Evidence, SceneReference
 from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
@@ -174,12 +174,14 @@ class SensorLoop:
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         score = float(self.backend.scores(metres, before)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
-        fill = None
+        ev = None
         if self.scene and judge:
-            flagged, fill = self._against_scene(raw, cap.scale, flagged)
+            flagged, ev = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
-        d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t)
-        d.scene_fill = fill if fix and self.scene_repair else None
+        fill = None
+        if ev is not None and self._reference is not None and self.scene_repair and flagged and fix:
+            fill = self._reference.fill(ev)
+        d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, fill)
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
             self._buffer(flagged, cap.slot)
@@ -192,9 +194,7 @@ class SensorLoop:
         depth, mask = raw, np.zeros(raw.shape, bool)
         if d.repair:
             pred, m = self.backend.recover(d.metres, d.previous)
-            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale)
-            if d.scene_fill is not None:
-                depth, mask = _scene_repair(raw, depth, mask, d.scene_fill, d.capture.scale)
+            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene_fill)
         seconds = time.perf_counter() - d.started
         res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds)
         if self.sink is not None:
@@ -208,14 +208,12 @@ class SensorLoop:
             raw = cap.frame.depth
             self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
-                self._against_scene(raw, cap.scale, flagged)[0]
+                self._against_scene(raw, cap.scale, flagged)
         self._buffer(flagged, slot)
 
-    def _against_scene(
-        self, raw: np.ndarray, scale: float, flagged: bool
-    ) -> tuple[bool, tuple[np.ndarray, np.ndarray] | None]:
+    def _against_scene(self, raw: np.ndarray, scale: float, flagged: bool) -> tuple[bool, Evidence]:
         """The detector's verdict weighed against the scene reference, which takes the frame if clean; and
-        the scene's repair of the frame (``SceneReference.fill``) when ``scene_repair`` asks for it."""
+        the frame's evidence."""
         if raw.dtype != np.uint16:  # metres: judged in millimetres
             raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
         ref = self._reference
@@ -224,10 +222,9 @@ class SensorLoop:
         ev = ref.evidence(raw)
         if ev.ready:
             flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
-        fill = ref.fill(ev) if self.scene_repair and flagged else None  # before add: a flagged frame
         if not flagged:
             ref.add(raw)
-        return flagged, fill
+        return flagged, ev
 
     def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
         """What the next frame's models see: this frame (temporal detector) and, when the detector passed
@@ -258,15 +255,3 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
-
-
-def _scene_repair(
-    raw: np.ndarray, depth: np.ndarray, mask: np.ndarray, fill: tuple[np.ndarray, np.ndarray], scale: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The model's repair with the scene's own depth where the scene is trusted: that depth is within the
-    pixel's clean noise, so the guard's model-error margin does not apply to it."""
-    where, metres = fill
-    out = depth.copy()
-    value = metres[where] * np.float32(scale)
-    out[where] = value if raw.dtype.kind == "f" else np.clip(np.rint(value), 0, 65535).astype(raw.dtype)
-    return out, mask | (where & (out != raw))
