@@ -190,6 +190,41 @@ def test_the_scene_repairs_a_shifted_patch_where_it_is_trusted_and_leaves_clean_
     assert not fixed.mask[:40].any()  # nothing changed outside the patch's rows
 
 
+class _Guesses(FakeNet):
+    def recover(self, metres, previous=None):  # masks everything, and guesses 1.5 m farther than it reads
+        return np.where(metres > 0, metres + 1.5, 3.0).astype(np.float32), np.ones(metres.shape, bool)
+
+
+def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
+    """``scene_repair`` with ``repair="all"``: a model that would move every pixel moves none that reads
+    within its scene's range, on a clean frame or around a shifted patch; the patch's trusted pixels take
+    the scene's depth; dropouts are still the model's to fill. Without ``scene_repair`` the model's guess
+    stands (the guard alone lets a 1.5 m move through where no neighbour is trusted)."""
+    rng = np.random.default_rng(7)
+    loops = [SensorLoop(_Guesses(), make_controller("static", 30, 30), repair="all", scene=True,
+                        scene_repair=on) for on in (True, False)]  # fmt: skip
+    for _ in range(10):
+        f = _scene(rng)
+        for loop in loops:
+            loop.process(Capture(Frame("c", f), SCALE))
+    clean = _scene(rng)
+    on, off = (loop.process(Capture(Frame("c", clean), SCALE)) for loop in loops)
+    returned = clean > 0
+    assert np.array_equal(on.depth[returned], clean[returned]) and not on.mask[returned].any()
+    assert (off.depth[returned] != clean[returned]).mean() > 0.9
+    assert (on.depth[~returned] > 0).any()  # dropouts: filled by the model, as without the scene
+    truth = _scene(rng)
+    hit = truth.copy()
+    patch = np.s_[40:70, 30:80]
+    hit[patch] = np.where(hit[patch] > 0, hit[patch] - int(0.04 * SCALE), 0)
+    on = loops[0].process(Capture(Frame("h", hit), SCALE))
+    outside = np.ones(hit.shape, bool)
+    outside[30:80, 20:90] = False  # the patch and a margin around it
+    assert np.array_equal(on.depth[outside & (hit > 0)], hit[outside & (hit > 0)])
+    err = np.abs(on.depth[patch].astype(float) - truth[patch]) / SCALE
+    assert np.median(err[truth[patch] > 0]) < 0.01
+
+
 def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     """``d2sr recover --all --scene --scene-repair`` puts a 4 cm patch back on real weights; without
     ``--scene`` it is a one-line error and nothing is written."""

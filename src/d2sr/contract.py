@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -44,6 +45,7 @@ __all__ = [
     "WEIGHTS",
     "Entry",
     "Raw",
+    "SceneRepair",
     "agreement",
     "check_passes",
     "check_probability",
@@ -295,23 +297,33 @@ def recover_passes(
     return pred, mask
 
 
+class SceneRepair(NamedTuple):
+    """What a still sensor's scene knows of a frame (``SceneReference.repair``), beside the model's repair."""
+
+    fill: np.ndarray  # bool: pixels whose depth the scene knows within their own noise
+    depth: np.ndarray  # float32 metres there (0 elsewhere)
+    keep: np.ndarray  # bool: pixels that read as the scene does where it is steady: left as they are
+
+
 def repair_frame(
     frames: np.ndarray,
     pred: np.ndarray,
     mask: np.ndarray,
     scale: float,
-    exact: tuple[np.ndarray, np.ndarray] | None = None,
+    scene: SceneRepair | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
-    1); the input itself everywhere else, bit for bit. ``exact`` (where, metres): depths known within the
-    pixel's own noise (a still scene's, ``SceneReference.fill``), written past the guard's model-error
+    1); the input itself everywhere else, bit for bit. With ``scene``: its ``keep`` pixels are out of the
+    mask (and so trusted by the guard), and its ``fill`` depths are written past the guard's model-error
     margin; only those that change the pixel count as repaired."""
+    if scene is not None:
+        mask = mask & ~scene.keep
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
     written = m
-    if exact is not None:
-        p, written = np.where(exact[0], exact[1], p), m | exact[0]
+    if scene is not None:
+        p, written = np.where(scene.fill, scene.depth, p), m | scene.fill
     out = frames.copy()
     fixed = np.maximum(p[written], 0) * np.float32(scale)
     out[written] = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
-    return out, m if exact is None else m | (exact[0] & (out != frames))
+    return out, m if scene is None else m | (scene.fill & (out != frames))

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
 from d2sr.labels import CleanStats, Labeller, stack_stats
 
@@ -61,6 +62,7 @@ class Evidence:
     ready: bool  # the reference had its ``warm`` frames (else the evidence is empty)
     fresh: np.ndarray  # bool: ``mask`` less what the frame before's deviations explain (something moved)
     fresh_dense: float  # ``dense`` of ``fresh``
+    metres: np.ndarray  # the frame judged (float32 metres)
 
 
 class SceneReference:
@@ -174,18 +176,23 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, fresh, fresh_dense)
+        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres)
 
-    def fill(self, ev: Evidence) -> tuple[np.ndarray, np.ndarray]:
-        """(where, metres): the scene's own depth as the repair of ``ev``'s fresh deviations in patches, where
-        the reference is trusted (``TRUST_RATE``, ``TRUST_ABS``, ``TRUST_REL``); nothing when not ready."""
+    def repair(self, ev: Evidence) -> SceneRepair:
+        """What the scene knows of ``ev``'s frame: where the reference is trusted (``TRUST_RATE``,
+        ``TRUST_ABS``, ``TRUST_REL``), the scene's own depth for the fresh deviations in patches (``fill``);
+        and the returning pixels that do not deviate from it (``keep``: the scene finds no interference
+        there, so a model's guess could only do harm). Nothing when not ready."""
         s = self._stats
-        if s is None or not ev.ready or not ev.fresh.any():
-            return np.zeros(ev.mask.shape, bool), np.zeros(ev.mask.shape, np.float32)
-        near = cv2.blur(ev.fresh.astype(np.float32), (9, 9)) >= 0.5
+        if s is None or not ev.ready:
+            none = np.zeros(ev.mask.shape, bool)
+            return SceneRepair(none, np.zeros(ev.mask.shape, np.float32), none)
         trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
-        where = ev.fresh & near & trusted & (s.nz_median > 0)
-        return where, np.where(where, s.nz_median, 0).astype(np.float32)
+        trusted &= s.nz_median > 0
+        near = cv2.blur(ev.fresh.astype(np.float32), (9, 9)) >= 0.5
+        where = ev.fresh & near & trusted
+        keep = (ev.metres > 0) & ~ev.mask
+        return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
@@ -202,7 +209,7 @@ class SceneReference:
 
 def _none(shape: tuple[int, ...]) -> Evidence:
     empty = np.zeros(shape, bool)
-    return Evidence(empty, 0.0, 0.0, False, empty, 0.0)
+    return Evidence(empty, 0.0, 0.0, False, empty, 0.0, np.zeros(shape, np.float32))
 
 
 def _dense(mask: np.ndarray, known: int) -> float:

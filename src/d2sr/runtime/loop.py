@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, agreement, padded, repair_frame
+from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agreement, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
@@ -77,8 +77,8 @@ class Decision:
     period: int
     offset: int
     started: float  # perf_counter at decide
-    # The scene's repair (``SensorLoop.scene_repair``): where, and the depth there (metres).
-    scene_fill: tuple[np.ndarray, np.ndarray] | None = None
+    # What the scene knows of the frame (``SensorLoop.scene_repair``).
+    scene: SceneRepair | None = None
 
 
 class Trigger(Protocol):
@@ -112,8 +112,9 @@ class SensorLoop:
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
     # deviations in patches (not something that moved) is interfered, flagged or not.
     scene: bool = False
-    # True (with ``scene``): a repaired frame's fresh deviations where the scene is trusted take the scene's
-    # own depth (``SceneReference.fill``), beside the model's repair. Not yet a default: sealed set G decides.
+    # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
+    # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
+    # model's repair. Not yet a default: sealed set G decides.
     scene_repair: bool = False
     period: int = 0
     _reference: SceneReference | None = None
@@ -179,8 +180,8 @@ class SensorLoop:
             flagged, ev = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         fill = None
-        if ev is not None and self._reference is not None and self.scene_repair and flagged and fix:
-            fill = self._reference.fill(ev)
+        if ev is not None and self._reference is not None and self.scene_repair and fix:
+            fill = self._reference.repair(ev)
         d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, fill)
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
@@ -194,7 +195,7 @@ class SensorLoop:
         depth, mask = raw, np.zeros(raw.shape, bool)
         if d.repair:
             pred, m = self.backend.recover(d.metres, d.previous)
-            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene_fill)
+            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene)
         seconds = time.perf_counter() - d.started
         res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds)
         if self.sink is not None:
