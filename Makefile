@@ -166,16 +166,18 @@ outside: $(STAMP)
 	$(BIN)/python bench/outside_summary.py --json docs/results/outside_sets.json \
 	  --plot docs/results/outside_sets.png --overwrite
 
-# Issue 45's calibration overlap: the simulator fitted to one L515 view at a time, a short recipe trained from
-# scratch on each fit's data (configs/overlap/), each judged on the view its fit never saw and on the one it
-# did (bench/calibration_overlap.py). About 90 min on 2 cores; the training resumes from runs/overlap/.
+# Issue 45's calibration overlap: the simulator fitted to one L515 view at a time, a detector and unet8 (two
+# stages) trained from scratch on each fit's data (configs/overlap/), each judged on the view its fit never
+# saw and on the one it did (bench/calibration_overlap.py). About 5 h on 2 cores; training resumes from
+# runs/overlap/.
 VIEWS := dev0 dev1
 overlap: $(STAMP)
 	for v in $(VIEWS); do \
 	  test -f docs/results/overlap/fit-$$v/calibration.json || \
 	    $(BIN)/d2sr calibrate --real $(REAL)/$$v --out docs/results/overlap/fit-$$v || exit 1; \
 	  $(BIN)/d2sr train detector --config configs/overlap/detector-$$v.toml --out runs/overlap/detector-$$v || exit 1; \
-	  $(BIN)/d2sr train recovery --config configs/overlap/unet8-$$v.toml --out runs/overlap/unet8-$$v || exit 1; done
+	  for r in unet8-stage1 unet8; do \
+	    $(BIN)/d2sr train recovery --config configs/overlap/$$r-$$v.toml --out runs/overlap/$$r-$$v || exit 1; done; done
 	$(BIN)/python bench/calibration_overlap.py --real $(REAL) --runs runs/overlap \
 	  --json docs/results/overlap/overlap.json --overwrite
 
