@@ -449,8 +449,13 @@ def every_other(clean: list[np.ndarray], scale: float, which: str = "a") -> list
     return [corrupt(f, scale, SEED + i) if i % 2 else f for i, f in enumerate(clean)]
 
 
+#: The cameras of the outside set's frames, in order (``outside_set``).
+OUTSIDE_CAMERAS = ["dev0"] * 60 + ["dev1"] * 60
+
+
 def outside_set(data: Path) -> list[np.ndarray]:
-    """The 120 clean L515 frames of the outside set: dev0 after the person has left, and dev1."""
+    """The 120 clean L515 frames of the outside set: dev0 after the person has left, and dev1
+    (``OUTSIDE_CAMERAS``)."""
     frames = []
     for cap, skip in (("dev0", 60), ("dev1", 0)):
         files = sorted((data / "l515" / cap).glob("*.png"))[skip : skip + 60]
@@ -495,11 +500,12 @@ def _scored(
     models: Sequence[str],
     recovery: Sequence[str] = (),
     which: str = "a",
+    cameras: Sequence[str] = (),
 ) -> dict:
     """Every other frame corrupted (set ``which``); detect and recover --all (``recovery``: its model
     option) from outside; the figures."""
     kinds = [kind(which, SEED + i) if i % 2 else "" for i in range(len(clean))]
-    return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery, kinds)
+    return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery, kinds, cameras)
 
 
 def scored(
@@ -511,11 +517,13 @@ def scored(
     models: Sequence[str] = (),
     recovery: Sequence[str] = (),
     kinds: Sequence[str] = (),
+    cameras: Sequence[str] = (),
 ) -> dict:
     """A sequence as delivered (``bad``) and without interference (``clean``), written to ``tmp/name``:
     ``d2sr detect`` and ``d2sr recover --all`` from outside, scored on the frames that differ. With
     ``kinds`` (each frame's interference model), the detector's recall, the mask's and the RMSE change also
-    per model (``by_kind``)."""
+    per model (``by_kind``); with ``cameras`` (each frame's camera), the RMSE change per camera
+    (``by_camera``)."""
     truth = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
     counted: dict[str, int] = {}
     if kinds:  # the frames the set meant to corrupt; those the corruption left unchanged count apart
@@ -530,14 +538,18 @@ def scored(
     err_in = err_out = valid = changed = clean_px = 0.0
     moved = put_back = worse = 0  # pixels moved > 2 cm, of them put back within 1 cm; frames made worse
     per: dict[str, list[float]] = {}  # kind: frames, flagged, pixels hit, found, error before, after
+    cams: dict[str, list[float]] = {}  # camera: frames (all), error before, after
     for i, (b, c) in enumerate(zip(bad, clean, strict=True)):
         out = cv2.imread(str(tmp / f"{name}-fixed" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED)
         mask = cv2.imread(str(tmp / f"{name}-fixed" / "masks" / f"{i:05d}.png"), cv2.IMREAD_UNCHANGED) > 0
         true = b != c
         ok = c > 0
+        e_in = float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+        e_out = float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
+        if cameras:  # every frame of the camera, clean ones too: a repair's harm there counts
+            cam = cams.setdefault(cameras[i], [0.0] * 3)
+            cam[0], cam[1], cam[2] = cam[0] + 1, cam[1] + e_in, cam[2] + e_out
         if truth[i]:
-            e_in = float((((b.astype(np.float64) - c) / scale)[ok] ** 2).sum())
-            e_out = float((((out.astype(np.float64) - c) / scale)[ok] ** 2).sum())
             err_in, err_out = err_in + e_in, err_out + e_out
             far = ok & (b > 0) & (np.abs(b.astype(np.float64) - c) > 0.02 * scale)
             moved += int(far.sum())
@@ -581,7 +593,10 @@ def scored(
                "mask_recall": round(k[3] / max(k[2], 1), 4),
                "rmse_change": round(float(np.sqrt(k[5] / max(k[4], 1e-12)) - 1), 4)}
         for name, k in sorted(per.items())
-    }} if per else {})  # fmt: skip
+    }} if per else {}) | ({"by_camera": {
+        name: {"frames": int(c[0]), "rmse_change": round(float(np.sqrt(c[2] / max(c[1], 1e-12)) - 1), 4)}
+        for name, c in sorted(cams.items())
+    }} if cams else {})  # fmt: skip
 
 
 def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: Sequence[str] = ()) -> dict:
@@ -652,7 +667,9 @@ def main() -> None:
         result["mask_logit"] = args.mask_logit
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        result["l515"] = _scored(tmp, "l515", outside_set(args.data), 4000.0, models, recovery, args.set)
+        result["l515"] = _scored(
+            tmp, "l515", outside_set(args.data), 4000.0, models, recovery, args.set, OUTSIDE_CAMERAS
+        )
         print("l515", result["l515"], flush=True)
         result["d435"] = _moved(tmp, args.data / "d435", 1000.0, models, recovery)
         print("d435", result["d435"], flush=True)
