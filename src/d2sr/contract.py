@@ -303,8 +303,6 @@ class SceneRepair(NamedTuple):
     fill: np.ndarray  # bool: pixels whose depth the scene knows within their own noise
     depth: np.ndarray  # float32 metres there (0 elsewhere)
     keep: np.ndarray  # bool: returning pixels the scene finds nothing wrong with: left as they are
-    low: np.ndarray  # float32 metres: a model's repair must land within [low, high], else the pixel is
-    high: np.ndarray  # left as it is (-inf, inf: anywhere)
 
 
 def repair_frame(
@@ -317,15 +315,13 @@ def repair_frame(
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
     1); the input itself everywhere else, bit for bit. With ``scene``: its ``keep`` pixels are out of the
-    mask (and so trusted by the guard), a repair outside [``low``, ``high``] is not made, and its ``fill``
-    depths are written past the guard's model-error margin; only those that change the pixel count as
-    repaired."""
+    mask (and so trusted by the guard), and its ``fill`` depths are written past the guard's model-error
+    margin; only those that change the pixel count as repaired."""
     if scene is not None:
         mask = mask & ~scene.keep
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
     written = m
     if scene is not None:
-        m = m & (p >= scene.low) & (p <= scene.high)
         p, written = np.where(scene.fill, scene.depth, p), m | scene.fill
     out = frames.copy()
     fixed = np.maximum(p[written], 0) * np.float32(scale)

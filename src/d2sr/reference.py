@@ -46,8 +46,9 @@ TOL_ABS, TOL_REL = 0.005, 0.005
 #: A reference pixel is trusted as a repair when it returned in this share of the clean frames and their
 #: depths spread by at most ``TRUST_ABS`` + ``TRUST_REL`` x depth (its own noise, not the model's 10%).
 TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
-#: A pixel's clean range bounds a repair only where it returned in at least this share of the clean frames:
-#: one or two returns of a pixel that seldom returns say nothing of where its surface is.
+#: A pixel's clean range says where its surface is only where it returned in at least this share of the
+#: clean frames; a return where it seldom returns is kept as it is (a model moved such clean returns by
+#: metres on development set D).
 RANGE_RATE = 0.5
 #: How far (px) a moving object's surface can travel between two frames and still explain a deviation.
 MOTION_PX = 15
@@ -186,26 +187,22 @@ class SceneReference:
         ``TRUST_ABS``, ``TRUST_REL``), its own depth for the fresh deviations in patches (``fill``). Outside
         the deviations in patches, which are the model's to repair, a returning pixel that reads within the
         range the scene has seen it at, or where the scene seldom returns (``RANGE_RATE``), is left as it is
-        (``keep``), and a repair must land within the range the scene has seen (``low``, ``high``): there
-        the scene finds no interference, and a model's guess beyond what it has seen could only do harm.
-        Nothing when not ready."""
+        (``keep``): the scene finds no interference there, and a model's guess could only do harm. Nothing
+        when not ready."""
         s = self._stats
         shape = ev.mask.shape
         if s is None or not ev.ready:
-            none, inf = np.zeros(shape, bool), np.full(shape, np.inf, np.float32)
-            return SceneRepair(none, np.zeros(shape, np.float32), none, -inf, inf)
+            none = np.zeros(shape, bool)
+            return SceneRepair(none, np.zeros(shape, np.float32), none)
         trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
         trusted &= s.nz_median > 0
         near = cv2.blur(ev.fresh.astype(np.float32), (9, 9)) >= 0.5
         where = ev.fresh & near & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
-        known = s.rate >= RANGE_RATE
         m = ev.metres
-        keep = (m > 0) & ~ev.mask & (~known | ((m >= s.lo - tol) & (m <= s.hi + tol)))
-        free = ev.mask | ~known  # in the deviations, or where the scene knows no range
-        low = np.where(free, -np.inf, s.lo - tol).astype(np.float32)
-        high = np.where(free, np.inf, s.hi + tol).astype(np.float32)
-        return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep, low, high)
+        within = (m >= s.lo - tol) & (m <= s.hi + tol)
+        keep = (m > 0) & ~ev.mask & ((s.rate < RANGE_RATE) | within)
+        return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
