@@ -13,8 +13,9 @@ model ran on it, to confirm choices made on sets A-D; ``docs/research/decisions.
 row tearing (``beat_interference``). ``--set f`` (written and sealed 2026-11-26, before any model ran on
 it):
 another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``). ``--set g``
-(written and sealed 2026-11-26, before any model or scene reference ran on it): another CW-ToF camera's
-light, a surface read 2-5 cm off with almost no dropouts (``tof_interference``).
+(written and sealed 2026-11-26, before any model or scene reference ran on it; opened the same day to judge
+the scene's repair): another CW-ToF camera's light, a surface read 2-5 cm off with almost no dropouts
+(``tof_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -393,7 +394,7 @@ SETS = {
 }
 # Sets only an explicit --set runs (D, E and F were, each until the decision it was written for; G is, until
 # the decision written for it in docs/research/decisions.md).
-SEALED: set[str] = {"g"}
+SEALED: set[str] = set()
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -404,8 +405,8 @@ STATUS = {
     "e": "development: sealed until 2026-11-26, when it decided unet32 (decisions.md); open since",
     "f": "development: sealed until 2026-11-26, when it decided recover's default auto (decisions.md); "
     "open since",
-    "g": "sealed 2026-11-26 when written, until the scene reference's mask and repair are decided "
-    "(issue 42; decisions.md)",
+    "g": "development: sealed until 2026-11-26, when it judged the scene's repair (it failed; "
+    "decisions.md); open since",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
