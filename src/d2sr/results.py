@@ -145,7 +145,7 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "RMSE change, 6 outside interference sets (development): mean / worst",
+        "RMSE change, 7 outside interference sets (development): mean / worst",
         "—",
         "docs/results/outside_sets.json",
         _outside,
