@@ -212,7 +212,12 @@ def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
     assert node.returncode == 0, err
     status = [dict((kv.key, kv.value) for kv in m.values) for m in peer.got["status"]]
     synth = [s for s in status if s["synthesized"] == "true"]
-    assert len(peer.got["repaired"]) >= 40 and 30 <= len(synth) <= 33  # 45 slots, 12 with depth
+    # 45 slots, 12 with depth. A loaded machine may drop a few frames (at most 5); each skipped slot that
+    # comes back is synthesized.
+    stamps = [(m.header.stamp.sec - 2000) * 10**9 + m.header.stamp.nanosec for m in peer.got["repaired"]]
+    slots = [round(t / 33_333_333) for t in stamps]
+    skipped = [k for k in slots if k % 30 >= 6]
+    assert len(slots) >= 40 and len(synth) == len(skipped) >= 28
     assert {s["method"] for s in synth} == {"warp-colour"}
     assert len(peer.got["confidence"]) == len(synth)
     by_stamp = {m.header.stamp.nanosec: ros2_peer.pixels(m) for m in peer.got["repaired"]}
