@@ -7,6 +7,8 @@ says which pixels of a frame deviate from the reference as interference would (a
 out, a never-returning one returning, a depth outside the pixel's clean range by more than the range noise,
 in clusters) and what share of the scene they cover.
 
+- A surface read a little off as a whole: a window of steady pixels whose mean reads more than ``SHIFT_M`` off
+  deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G).
 - Start-up: no evidence until ``warm`` clean frames are in (``Evidence.ready`` is False).
 - Cost: the ring of the last ``frames`` clean frames is re-summarized one stripe of rows per added frame,
   so no frame pays for a full re-sort.
@@ -17,7 +19,8 @@ in clusters) and what share of the scene they cover.
   flickers from frame to frame (``Evidence.fresh`` leaves it out). Interference that stays in place from
   one frame to the next is left out with it: a miss, never a false repair.
 - The camera moved, or the scene changed wholesale: when more than ``moved`` of the known scene deviates for
-  ``moved_frames`` frames in a row, the reference starts again (no evidence until warm).
+  ``moved_frames`` frames in a row, the reference starts again (no evidence until warm); a frame more than
+  ``ELSEWHERE`` of which deviates gets no evidence at all (another view).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
 from d2sr.labels import CleanStats, Labeller, stack_stats
 
-__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
+__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "SHIFT_AREA", "Evidence", "SceneReference"]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
@@ -46,6 +49,17 @@ TOL_ABS, TOL_REL = 0.005, 0.005
 #: A reference pixel is trusted as a repair when it returned in this share of the clean frames and their
 #: depths spread by at most ``TRUST_ABS`` + ``TRUST_REL`` x depth (its own noise, not the model's 10%).
 TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
+#: A window (px) of steady pixels whose mean reads more than ``SHIFT_M`` (m) off the scene deviates, though
+#: each pixel may lie within its own noise: a CW-ToF camera's light reads a surface 2-5 cm off (set G;
+#: bench/shift_probe.py).
+SHIFT_PX, SHIFT_M = 15, 0.01
+#: A frame whose fresh shifted windows (``Evidence.shifted``) cover this share of the scene is interfered:
+#: at 1% the probe flagged 3-4 clean frames in every set, at 2% none (bench/shift_probe.py).
+SHIFT_AREA = 0.02
+#: A frame more than this share of whose known scene deviates is taken for another view (the camera moved):
+#: the reference says nothing of it. Frames of another L515 view deviate by 0.81-0.89, interference on sets
+#: A-G by at most 0.58.
+ELSEWHERE = 0.7
 #: A pixel's clean range says where its surface is only where it returned in at least this share of the
 #: clean frames; a return where it seldom returns is kept as it is (a model moved such clean returns by
 #: metres on development set D).
@@ -67,6 +81,7 @@ class Evidence:
     fresh: np.ndarray  # bool: ``mask`` less what the frame before's deviations explain (something moved)
     fresh_dense: float  # ``dense`` of ``fresh``
     metres: np.ndarray  # the frame judged (float32 metres)
+    shifted: float = 0.0  # share of the pixels the reference has seen return in ``fresh`` shifted windows
 
 
 class SceneReference:
@@ -155,23 +170,30 @@ class SceneReference:
         if self._labeller is None or self._stats is None or self._streak is None:
             return _none(frame.shape)
         metres = frame.astype(np.float32) / np.float32(self.scale)
-        mask = self._labeller.mask(metres)
+        deviates = self._labeller.mask(metres)
+        shift = self._shifted(metres)
+        mask = deviates | shift
         known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
-        share = float(np.count_nonzero(mask)) / known
-        near = cv2.blur(mask.astype(np.float32), (9, 9))  # share of each 9x9 neighbourhood that deviates
+        share = float(np.count_nonzero(deviates)) / known
+        near = cv2.blur(deviates.astype(np.float32), (9, 9))  # share of each 9x9 neighbourhood that deviates
         dense = float(np.count_nonzero(near >= 0.5)) / known  # flicker is scattered, interference in patches
+        if share > ELSEWHERE:  # another view: no evidence (and if it lasts, the reference starts again)
+            self._moving += 1
+            if self._moving >= self.moved_frames:
+                self.reset()
+            return _none(frame.shape)
         before = self._before
         if before is None:  # the first frame judged against a new reference: no motion to tell by, none fresh
-            fresh, fresh_dense = np.zeros_like(mask), 0.0
+            fresh, fresh_dense, shifted = np.zeros_like(mask), 0.0, 0.0
         elif mask.any() and before.any():
             fresh = mask & ~_explained(metres, mask, before)
-            fresh_dense = _dense(fresh, known)
+            fresh_dense = _dense(fresh & deviates, known)
+            shifted = float(np.count_nonzero(fresh & shift)) / known
         else:  # nothing deviated a frame before: nothing is explained (and the cost is skipped)
-            fresh, fresh_dense = mask, dense
+            fresh, fresh_dense, shifted = mask, dense, float(np.count_nonzero(shift)) / known
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
-        self._before = np.where(mask & (near >= 0.25), np.where(metres > 0, metres, -1.0), 0.0).astype(
-            np.float32
-        )
+        patches = mask & (cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.25)
+        self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
         self._moving = self._moving + 1 if share > self.moved else 0
         if self._moving >= self.moved_frames:
             self.reset()
@@ -180,7 +202,22 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres)
+        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres, shifted)
+
+    def _shifted(self, metres: np.ndarray) -> np.ndarray:
+        """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
+        mean difference from the scene is beyond ``SHIFT_M``: a surface read a few centimetres off, within
+        each pixel's own noise but not the window's."""
+        s = self._stats
+        assert s is not None
+        steady = (metres > 0) & (s.rate >= TRUST_RATE) & (s.nz_median > 0)
+        diff = np.where(steady, metres - s.nz_median, 0).astype(np.float32)
+        clipped = np.clip(diff, -3 * SHIFT_M, 3 * SHIFT_M)  # one far-off pixel cannot shift a window
+        n = cv2.blur(steady.astype(np.float32), (SHIFT_PX, SHIFT_PX))
+        mean = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX)) / np.maximum(n, np.float32(1e-6))
+        # The window reads off, and so does the pixel itself, the same way (not merely next to it).
+        own = np.abs(diff) > SHIFT_M / 2
+        return steady & (n >= 0.5) & (np.abs(mean) > SHIFT_M) & own & (diff * mean > 0)
 
     def repair(self, ev: Evidence) -> SceneRepair:
         """What the scene knows of ``ev``'s frame. Where the reference is trusted (``TRUST_RATE``,
