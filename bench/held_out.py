@@ -15,7 +15,8 @@ it):
 another sensor's projector, a dot lattice or Gray-code stripes (``projector_interference``). ``--set g``
 (written and sealed 2026-11-26, before any model or scene reference ran on it; opened the same day to judge
 the scene's repair): another CW-ToF camera's light, a surface read 2-5 cm off with almost no dropouts
-(``tof_interference``).
+(``tof_interference``). ``--set h`` (written and sealed 2026-11-26, before any model or scene reference ran
+on it): CW-ToF multipath and phase crosstalk, surfaces read 1.5-4 cm off (``tof_bias_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -52,7 +53,7 @@ from d2sr.contract import AUTO_RECOVERY, DEFAULT_RECOVERY, DETECTOR, TEMPORAL_RE
 
 SEED = 5_000_000
 # Each set's stream of random numbers.
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F, "g": 0x70F}
+SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F, "g": 0x70F, "h": 0x4A4}
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
     "a": ("rings", "sawtooth"),
@@ -62,6 +63,7 @@ KINDS = {
     "e": ("moire beat", "row tearing"),
     "f": ("dot lattice", "gray-code stripes"),
     "g": ("tof lit patch", "tof lit surface"),
+    "h": ("multipath", "phase crosstalk"),
 }
 
 
@@ -383,6 +385,55 @@ def _tof_draw(rng: np.random.Generator, d: np.ndarray, patch: bool) -> tuple[np.
     return where & (d > 0) & (np.abs(new - d) > 0.01), new
 
 
+def tof_bias_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set H (written and sealed 2026-11-26, before any model or scene reference ran on it, to judge the
+    scene's shifted windows, which were tuned on set G after it was opened): two more ways a CW-ToF
+    camera's depth is biased by a few centimetres with no dropouts, neither in ``d2sr.sim`` nor in sets
+    A-G. One of two models, chosen by the seed:
+
+    * multipath: light that reaches a surface by way of a brighter neighbouring one makes it read farther.
+      The bias, 1.5-4 cm at its peak, is highest beside the scene's range edges (where one surface sees
+      another) and fades over 20-60 px, over some of those edges only;
+    * phase crosstalk: another camera's modulation beating with this one's, a sinusoid across the view
+      (period 40-160 px, amplitude 1.5-3.5 cm, both ways), over a band of the view where the two overlap.
+
+    Pixels that move by more than 1 cm count, as in set G. A draw that moves under 1% of the returns is
+    drawn again."""
+    rng, _, _, d = _start(frame, scale, seed, "h")
+    multipath = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    for _ in range(20):
+        new = _bias_draw(rng, d, multipath)
+        where = (d > 0) & (np.abs(new - d) > 0.01)
+        if where.sum() >= 0.01 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
+def _bias_draw(rng: np.random.Generator, d: np.ndarray, multipath: bool) -> np.ndarray:
+    """One draw of set H's models: the depth (metres) every pixel reads."""
+    h, w = d.shape
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    if multipath:
+        filled = cv2.dilate(d.astype(np.float32), np.ones((5, 5), np.uint8))  # bridge lone dropouts
+        gy, gx = np.gradient(filled)
+        edges = ((np.hypot(gx, gy) > 0.05) & (d > 0)).astype(np.float32)
+        keep = cv2.resize(rng.random((4, 4)).astype(np.float32), (w, h), interpolation=cv2.INTER_NEAREST)
+        edges *= keep < rng.uniform(0.3, 0.8)  # some of the edges: where a bright surface faces another
+        sigma = rng.uniform(20, 60)
+        field = cv2.GaussianBlur(edges, (0, 0), sigma)
+        field = field / max(float(field.max()), 1e-9)
+        return d + rng.uniform(0.015, 0.04) * np.clip(1.6 * field, 0, 1)
+    ang, period = rng.uniform(0, np.pi), rng.uniform(40, 160)
+    s = x * np.cos(ang) + y * np.sin(ang)
+    wave = rng.uniform(0.015, 0.035) * np.sin(2 * np.pi * s / period + rng.uniform(0, 2 * np.pi))
+    a2 = rng.uniform(0, 2 * np.pi)  # the band where the views overlap
+    t = x * np.cos(a2) + y * np.sin(a2)
+    t = (t - t.min()) / max(float(t.max() - t.min()), 1e-9)
+    lo = rng.uniform(0.0, 0.5)
+    band = (t >= lo) & (t <= lo + rng.uniform(0.3, 0.7))
+    return np.where(band, d + wave, d)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -391,10 +442,11 @@ SETS = {
     "e": beat_interference,
     "f": projector_interference,
     "g": tof_interference,
+    "h": tof_bias_interference,
 }
-# Sets only an explicit --set runs (D, E and F were, each until the decision it was written for; G is, until
-# the decision written for it in docs/research/decisions.md).
-SEALED: set[str] = set()
+# Sets only an explicit --set runs (D-G were, each until the decision it was written for; H is, until the
+# decision written for it in docs/research/decisions.md).
+SEALED: set[str] = {"h"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -407,6 +459,8 @@ STATUS = {
     "open since",
     "g": "development: sealed until 2026-11-26, when it judged the scene's repair (it failed; "
     "decisions.md); open since",
+    "h": "sealed 2026-11-26 when written, until it judges the scene's shifted windows (issue 42; "
+    "decisions.md)",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
@@ -639,7 +693,8 @@ def main() -> None:
         default="a",
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
         "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
-        "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts; sealed)",
+        "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts), "
+        "h (CW-ToF multipath, phase crosstalk; sealed)",
     )
     ap.add_argument("--scene", action="store_true", help="detect and recover with --scene (a still sensor)")
     ap.add_argument("--scene-repair", action="store_true", help="recover also with --scene-repair")
