@@ -34,7 +34,7 @@ from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
 from d2sr.labels import CleanStats, Labeller, stack_stats
 
-__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "SHIFT_AREA", "Evidence", "SceneReference"]
+__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
@@ -52,11 +52,9 @@ TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
 #: A window (px) of steady pixels whose mean reads more than ``SHIFT_M`` (m) off the scene deviates where its
 #: pixels read that far off the same way, though each may lie within its own tolerance: a CW-ToF camera's
 #: light reads a surface 2-5 cm off (set G; bench/shift_probe.py). Half of ``SHIFT_M`` per pixel changed 2.1%
-#: of set A's clean pixels (over issue 42's 2%), ``SHIFT_M`` 1.95%.
+#: of set A's clean pixels (over issue 42's 2%), ``SHIFT_M`` 1.95%. They mark pixels to repair, not frames:
+#: as a flag they missed sealed set H's bar (decisions.md, 2026-11-26).
 SHIFT_PX, SHIFT_M = 15, 0.01
-#: A frame whose fresh shifted windows (``Evidence.shifted``) cover this share of the scene is interfered:
-#: at 1% the probe flagged 3-4 clean frames in every set, at 2% none (bench/shift_probe.py).
-SHIFT_AREA = 0.02
 #: A frame more than this share of whose known scene deviates is taken for another view (the camera moved):
 #: the reference says nothing of it. Frames of another L515 view deviate by 0.81-0.89, interference on sets
 #: A-G by at most 0.58.
@@ -82,7 +80,6 @@ class Evidence:
     fresh: np.ndarray  # bool: ``mask`` less what the frame before's deviations explain (something moved)
     fresh_dense: float  # ``dense`` of ``fresh``
     metres: np.ndarray  # the frame judged (float32 metres)
-    shifted: float = 0.0  # share of the pixels the reference has seen return in ``fresh`` shifted windows
 
 
 class SceneReference:
@@ -185,13 +182,12 @@ class SceneReference:
             return _none(frame.shape)
         before = self._before
         if before is None:  # the first frame judged against a new reference: no motion to tell by, none fresh
-            fresh, fresh_dense, shifted = np.zeros_like(mask), 0.0, 0.0
+            fresh, fresh_dense = np.zeros_like(mask), 0.0
         elif mask.any() and before.any():
             fresh = mask & ~_explained(metres, mask, before)
             fresh_dense = _dense(fresh & deviates, known)
-            shifted = float(np.count_nonzero(fresh & shift)) / known
         else:  # nothing deviated a frame before: nothing is explained (and the cost is skipped)
-            fresh, fresh_dense, shifted = mask, dense, float(np.count_nonzero(shift)) / known
+            fresh, fresh_dense = mask, dense
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
         patches = mask & (cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.25)
         self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
@@ -203,7 +199,7 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres, shifted)
+        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres)
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose

@@ -19,7 +19,7 @@ from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agre
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth
-from d2sr.reference import EVIDENT, QUIET, SHIFT_AREA, Evidence, SceneReference
+from d2sr.reference import EVIDENT, QUIET, Evidence, SceneReference
 from d2sr.runtime.backends import Backend
 
 REPAIR = ("flagged", "all", "none")
@@ -222,7 +222,7 @@ class SensorLoop:
             ref = self._reference = SceneReference(scale)
         ev = ref.evidence(raw)
         if ev.ready:
-            flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT or ev.shifted >= SHIFT_AREA
+            flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
         if not flagged:
             ref.add(raw)
         return flagged, ev
