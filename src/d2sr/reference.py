@@ -169,17 +169,19 @@ class SceneReference:
             return _none(frame.shape)
         metres = frame.astype(np.float32) / np.float32(self.scale)
         deviates = self._labeller.mask(metres)
-        shift = self._shifted(metres)
-        mask = deviates | shift
         known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
         share = float(np.count_nonzero(deviates)) / known
-        near = cv2.blur(deviates.astype(np.float32), (9, 9))  # share of each 9x9 neighbourhood that deviates
-        dense = float(np.count_nonzero(near >= 0.5)) / known  # flicker is scattered, interference in patches
-        if share > ELSEWHERE:  # another view: no evidence (and if it lasts, the reference starts again)
-            self._moving += 1
-            if self._moving >= self.moved_frames:
-                self.reset()
+        # Another view (beyond ELSEWHERE) counts toward a restart too, and gets no evidence.
+        self._moving = self._moving + 1 if share > min(self.moved, ELSEWHERE) else 0
+        if self._moving >= self.moved_frames:
+            self.reset()
             return _none(frame.shape)
+        if share > ELSEWHERE:
+            return _none(frame.shape)
+        shift = self._shifted(metres)
+        mask = deviates | shift
+        near = _neighbours(deviates)
+        dense = float(np.count_nonzero(near >= 0.5)) / known  # flicker is scattered, interference in patches
         before = self._before
         if before is None:  # the first frame judged against a new reference: no motion to tell by, none fresh
             fresh, fresh_dense = np.zeros_like(mask), 0.0
@@ -189,12 +191,8 @@ class SceneReference:
         else:  # nothing deviated a frame before: nothing is explained (and the cost is skipped)
             fresh, fresh_dense = mask, dense
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
-        patches = mask & (cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.25)
+        patches = mask & ((_neighbours(mask) if shift.any() else near) >= 0.25)
         self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
-        self._moving = self._moving + 1 if share > self.moved else 0
-        if self._moving >= self.moved_frames:
-            self.reset()
-            return _none(frame.shape)
         self._streak = np.where(mask, self._streak + 1, 0).astype(np.uint16)
         lasting = self._streak >= self.persist
         if lasting.any():
@@ -230,8 +228,7 @@ class SceneReference:
             return SceneRepair(none, np.zeros(shape, np.float32), none)
         trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
         trusted &= s.nz_median > 0
-        near = cv2.blur(ev.fresh.astype(np.float32), (9, 9)) >= 0.5
-        where = ev.fresh & near & trusted
+        where = ev.fresh & (_neighbours(ev.fresh) >= 0.5) & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
         m = ev.metres
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
@@ -256,9 +253,15 @@ def _none(shape: tuple[int, ...]) -> Evidence:
     return Evidence(empty, 0.0, 0.0, False, empty, 0.0, np.zeros(shape, np.float32))
 
 
+def _neighbours(mask: np.ndarray) -> np.ndarray:
+    """The share of each pixel's 9x9 neighbourhood in ``mask``: a sensor's own flicker leaves scattered
+    pixels, interference and moved objects come in patches."""
+    return cv2.blur(mask.astype(np.float32), (9, 9))
+
+
 def _dense(mask: np.ndarray, known: int) -> float:
     """The share of ``known`` pixels amid others in ``mask`` (half of their 9x9 neighbourhood)."""
-    return float(np.count_nonzero(cv2.blur(mask.astype(np.float32), (9, 9)) >= 0.5)) / known
+    return float(np.count_nonzero(_neighbours(mask) >= 0.5)) / known
 
 
 def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:

@@ -88,8 +88,8 @@ class Row:
     command: str
 
 
-def _pct(x: float, digits: int = 1) -> str:
-    return f"{100 * x:.{digits}f}%"
+def _pct(x: float, digits: int = 1, signed: bool = False) -> str:
+    return f"{100 * x:{'+' if signed else ''}.{digits}f}%"
 
 
 def _fig9(d: dict) -> str:
@@ -112,7 +112,7 @@ def _unet8(which: str) -> Callable[[dict], str]:
 
 def _outside(d: dict) -> str:
     rows = d["settings"]["default (auto)"]
-    return f"{100 * rows['mean']['rmse_change']:+.1f}% / {100 * rows['worst']['rmse_change']:+.1f}%"
+    return " / ".join(_pct(rows[k]["rmse_change"], signed=True) for k in ("mean", "worst"))
 
 
 README_ROWS = (

@@ -102,7 +102,7 @@ def recover(
         typer.Option(
             "--scene-repair",
             help="Experimental, with --scene: where the scene is trusted, its own depth repairs a frame's "
-            "fresh deviations (sealed outside set G decides whether it becomes --scene's default).",
+            "fresh deviations, and the model leaves alone what reads as the scene.",
         ),
     ] = False,
     overwrite: Overwrite = False,

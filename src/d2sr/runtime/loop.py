@@ -114,7 +114,7 @@ class SensorLoop:
     scene: bool = False
     # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
-    # model's repair. Not yet a default: sealed set G decides.
+    # model's repair. Experimental: it failed sealed sets G and H (docs/research/decisions.md).
     scene_repair: bool = False
     period: int = 0
     _reference: SceneReference | None = None
@@ -179,10 +179,12 @@ class SensorLoop:
         if self.scene and judge:
             flagged, ev = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
-        fill = None
+        known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
-            fill = self._reference.repair(ev)
-        d = Decision(cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, fill)
+            known = self._reference.repair(ev)
+        d = Decision(
+            cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known
+        )
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
             self._buffer(flagged, cap.slot)
