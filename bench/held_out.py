@@ -17,7 +17,9 @@ another sensor's projector, a dot lattice or Gray-code stripes (``projector_inte
 the scene's repair): another CW-ToF camera's light, a surface read 2-5 cm off with almost no dropouts
 (``tof_interference``). ``--set h`` (written and sealed 2026-11-26, before any model or scene reference ran
 on it; opened the same day to judge the scene's shifted windows): CW-ToF multipath and phase crosstalk,
-surfaces read 1.5-4 cm off (``tof_bias_interference``).
+surfaces read 1.5-4 cm off (``tof_bias_interference``). ``--set i`` (written and sealed 2026-11-26, before
+the guard's lone-return rule ran on it): lone wrong returns among dropouts, a blinded region's survivors
+read too near or another scanner's direct beam (``sparse_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -54,7 +56,17 @@ from d2sr.contract import AUTO_RECOVERY, DEFAULT_RECOVERY, DETECTOR, TEMPORAL_RE
 
 SEED = 5_000_000
 # Each set's stream of random numbers.
-SALTS = {"a": 0x0E7, "b": 0xB0B, "c": 0xC0C, "d": 0xD0D, "e": 0xE0E, "f": 0xF0F, "g": 0x70F, "h": 0x4A4}
+SALTS = {
+    "a": 0x0E7,
+    "b": 0xB0B,
+    "c": 0xC0C,
+    "d": 0xD0D,
+    "e": 0xE0E,
+    "f": 0xF0F,
+    "g": 0x70F,
+    "h": 0x4A4,
+    "i": 0x1D5,
+}
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
     "a": ("rings", "sawtooth"),
@@ -65,6 +77,7 @@ KINDS = {
     "f": ("dot lattice", "gray-code stripes"),
     "g": ("tof lit patch", "tof lit surface"),
     "h": ("multipath", "phase crosstalk"),
+    "i": ("blackout sparkle", "scan ghost"),
 }
 
 
@@ -435,6 +448,46 @@ def _bias_draw(rng: np.random.Generator, d: np.ndarray, multipath: bool) -> np.n
     return np.where(band, d + wave, d)
 
 
+def sparse_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set I (written and sealed 2026-11-26, before the guard's lone-return rule, chosen on sets A-H, ran on
+    it): interference that leaves lone wrong returns among dropouts, the case that rule gives up. One of
+    two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-H:
+
+    * blackout sparkle: another sensor's light floods a region (an ellipse, 10-40% of the view) and blinds
+      this one: 85-98% of its returns drop out, and 30-70% of the few that survive read too near (30-85%
+      of their depth);
+    * scan ghost: another scanner's beam sweeps a column band (20-120 px wide) and this sensor reads its
+      direct light at scattered pixels (2-10% of the band, returns and dropouts alike) at the other
+      sensor's range (0.4-1.5 m, +-5 cm), while 50-90% of its own returns there drop out.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.5% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "i")
+    blackout = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w]
+    for _ in range(20):
+        if blackout:
+            area = rng.uniform(0.10, 0.40) * h * w
+            ry = np.sqrt(area / np.pi / rng.uniform(0.6, 1.6))
+            rx = area / np.pi / ry
+            ey, ex = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
+            region = ((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2 < 1
+            drop = region & (rng.random((h, w)) < rng.uniform(0.85, 0.98))
+            near = region & ~drop & (rng.random((h, w)) < rng.uniform(0.3, 0.7))
+            new = np.where(drop, 0.0, np.where(near, d * rng.uniform(0.3, 0.85, (h, w)), d))
+        else:
+            x0 = rng.uniform(0, w)
+            band = np.abs(x - x0) < rng.uniform(10, 60)
+            r = rng.uniform(0.4, 1.5)
+            ghost = band & (rng.random((h, w)) < rng.uniform(0.02, 0.10))
+            drop = band & ~ghost & (rng.random((h, w)) < rng.uniform(0.5, 0.9))
+            new = np.where(ghost, r + rng.uniform(-0.05, 0.05, (h, w)), np.where(drop, 0.0, d))
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (where & (d > 0)).sum() >= 0.005 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -444,10 +497,11 @@ SETS = {
     "f": projector_interference,
     "g": tof_interference,
     "h": tof_bias_interference,
+    "i": sparse_interference,
 }
-# Sets only an explicit --set runs (D-G were, each until the decision it was written for; H is, until the
+# Sets only an explicit --set runs (D-H were, each until the decision it was written for; I is, until the
 # decision written for it in docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"i"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -695,7 +749,7 @@ def main() -> None:
         help="outside interference: a (rings, sawtooth), b (Lissajous crosstalk, multipath ghost tiles), "
         "c (range-gated phantom, scan-line echo bursts), d (emitter bloom, unwrapping errors), "
         "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts), "
-        "h (CW-ToF multipath, phase crosstalk)",
+        "h (CW-ToF multipath, phase crosstalk), i (blackout sparkle, scan ghost)",
     )
     ap.add_argument("--scene", action="store_true", help="detect and recover with --scene (a still sensor)")
     ap.add_argument("--scene-repair", action="store_true", help="recover also with --scene-repair")
