@@ -9,7 +9,17 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from d2sr.contract import GUARD_PX, KEEP_M, KEEP_REL, LEAVE_REL, guard, recover_passes, repair_frame
+from d2sr.contract import (
+    GUARD_PX,
+    KEEP_M,
+    KEEP_REL,
+    LEAVE_REL,
+    LONE_MAX,
+    LONE_PX,
+    guard,
+    recover_passes,
+    repair_frame,
+)
 from d2sr.errors import InputError
 from d2sr.frames import Intrinsics
 from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
@@ -104,6 +114,32 @@ def test_guard_keeps_predictions_where_no_trusted_pixel_is_near():
     assert m[:, :32].all() and np.allclose(p[:, :32], 2.0)
 
 
+def test_guard_leaves_lone_returns_and_repairs_a_wrong_surface():
+    # Mostly no return, a far wall on the right, and scattered lone returns at 1.2 m (a sensor's own, or
+    # wrong: nothing around them says which). A model that moves them to the wall is not followed.
+    x = np.zeros((64, 64), np.float32)
+    x[:, 40:] = 3.8
+    lone = np.zeros(x.shape, bool)
+    lone[4:36:7, 3:36:6] = True
+    x[lone] = 1.2
+    x[50:60, 10:20] = 1.2  # a small surface of its own: its returns are not lone
+    mask = np.zeros(x.shape, bool)
+    mask[:, :40] = True
+    p, m = guard(x, np.full_like(x, 3.8), mask)
+    assert not m[lone].any() and (x[lone] == np.float32(1.2)).all()
+    assert m[50:60, 10:20].all() and np.allclose(p[50:60, 10:20], 3.8)
+    assert m[(x == 0) & mask].all()  # the dropouts are still filled
+    # the centre of a 9x9 frame with LONE_MAX + 1 other returns is on a surface; with LONE_MAX, lone
+    y = np.zeros((9, 9), np.float32)
+    y[4, 4] = 1.0
+    y.ravel()[: LONE_MAX + 1] = 1.0
+    _, m = guard(y, np.full_like(y, 3.0), np.ones(y.shape, bool))
+    assert m[4, 4]
+    y.ravel()[LONE_MAX] = 0.0
+    _, m = guard(y, np.full_like(y, 3.0), np.ones(y.shape, bool))
+    assert not m[4, 4]
+
+
 def _guard_rule(x: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """guard's rule written out over the whole frame: no crop to the mask, no gathers."""
     trusted = (x > 0) & ~mask
@@ -112,7 +148,12 @@ def _guard_rule(x: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.n
     hi = cv2.dilate(np.where(trusted, x, np.float32(0)), k)
     tol = np.float32(KEEP_M) + np.float32(KEEP_REL) * x
     p = np.where(hi > 0, np.clip(pred, lo - tol, hi + tol), pred)
-    keep = mask & ~((x > 0) & (np.abs(p - x) <= np.float32(KEEP_M) + np.float32(LEAVE_REL) * x))
+    side = 2 * LONE_PX + 1
+    around = cv2.boxFilter(
+        (x > 0).astype(np.float32), -1, (side, side), normalize=False, borderType=cv2.BORDER_CONSTANT
+    )
+    lone = around <= LONE_MAX + 1
+    keep = mask & ~((x > 0) & ((np.abs(p - x) <= np.float32(KEEP_M) + np.float32(LEAVE_REL) * x) | lone))
     return p, keep
 
 

@@ -109,6 +109,12 @@ GUARD_PX = 12
 # its held-out frames: lower quartile 10% of depth, median 25%). There, 25% fewer clean pixels changed at
 # the same mask threshold, recall 0.306 -> 0.300; a partly hit stripe's returns in between are left alone.
 LEAVE_REL = 0.10
+# ... and leaves a lone return as it is: one with at most ``LONE_MAX`` other returns among the pixels within
+# ``LONE_PX`` (9x9; outside the image: none). No surface around it says where it belongs. On the clean L515
+# frames of outside sets A-H the repair moved about 10 such returns a frame by metres (nearly all farther),
+# most of the harm on sets G and H; leaving them cost set A 3.8 points of RMSE (research/decisions.md).
+LONE_PX = 4
+LONE_MAX = 16
 # Recovery runs the model again on its own repair: once the pixels it was sure of are filled in, the rest of
 # a wide wrong surface stands out against them (a second pass lifted mask F1 0.63 -> 0.70 on sawtooth
 # stripes written outside the project, and left clean frames as they were).
@@ -210,6 +216,7 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
       than all of its neighbours. Where no trusted return is that close (a large hit region), it stands.
     - A returning pixel whose (clamped) prediction is within ``KEEP_M`` + ``LEAVE_REL`` x depth of its own
       value is left alone: the repair would move it by no more than the model's own error.
+    - A lone return (at most ``LONE_MAX`` other returns within ``LONE_PX``) is left alone.
 
     Only masked pixels can be repaired, so only they are clamped (``pred`` is returned as is elsewhere).
     Works on one frame (H, W) or a batch (N, H, W), in metres."""
@@ -240,7 +247,11 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
     pi = np.where(hi > 0, np.minimum(np.maximum(pi, lo - tol), hi + tol), pi)
     pc[m] = pi
     leave = np.float32(KEEP_M) + np.float32(LEAVE_REL) * xi
-    keep[rs, cs][m] = ~((xi > 0) & (np.abs(pi - xi) <= leave))
+    returns = (x > 0).astype(np.float32)
+    side = 2 * LONE_PX + 1
+    around = cv2.boxFilter(returns, -1, (side, side), normalize=False, borderType=cv2.BORDER_CONSTANT)
+    lone = around.ravel()[at] <= LONE_MAX + 1  # the count includes the pixel itself
+    keep[rs, cs][m] = ~((xi > 0) & ((np.abs(pi - xi) <= leave) | lone))
     return p, keep
 
 
