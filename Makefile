@@ -156,7 +156,7 @@ lofo: $(STAMP)
 
 # Every outside set of bench/held_out.py (real L515 frames, interference the generator does not make) with
 # recover's default and each shipped recovery model; then the summary across sets (about 12 min on 2 cores).
-SETS := a b c d e f g h
+SETS := a b c d e f g h i
 OUTSIDE := docs/results/outside
 outside: $(STAMP)
 	mkdir -p $(OUTSIDE)

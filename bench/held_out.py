@@ -18,8 +18,8 @@ the scene's repair): another CW-ToF camera's light, a surface read 2-5 cm off wi
 (``tof_interference``). ``--set h`` (written and sealed 2026-11-26, before any model or scene reference ran
 on it; opened the same day to judge the scene's shifted windows): CW-ToF multipath and phase crosstalk,
 surfaces read 1.5-4 cm off (``tof_bias_interference``). ``--set i`` (written and sealed 2026-11-26, before
-the guard's lone-return rule ran on it): lone wrong returns among dropouts, a blinded region's survivors
-read too near or another scanner's direct beam (``sparse_interference``).
+the guard's lone-return rule ran on it; opened the same day to judge it): lone wrong returns among dropouts,
+a blinded region's survivors read too near or another scanner's direct beam (``sparse_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -499,9 +499,9 @@ SETS = {
     "h": tof_bias_interference,
     "i": sparse_interference,
 }
-# Sets only an explicit --set runs (D-H were, each until the decision it was written for; I is, until the
-# decision written for it in docs/research/decisions.md).
-SEALED: set[str] = {"i"}
+# Sets only an explicit --set runs (D-I were, each until the decision it was written for;
+# docs/research/decisions.md).
+SEALED: set[str] = set()
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -515,6 +515,8 @@ STATUS = {
     "g": "development: sealed until 2026-11-26, when it judged the scene's repair (it failed; "
     "decisions.md); open since",
     "h": "development: sealed until 2026-11-26, when it judged the scene's shifted windows (they failed; "
+    "decisions.md); open since",
+    "i": "development: sealed until 2026-11-26, when it judged the guard's lone-return rule (it held; "
     "decisions.md); open since",
 }
 # Said on every result that uses the real L515 frames (issue 45).
