@@ -34,6 +34,8 @@ def test_version_and_help():
         (["desync", "run", "--seconds", "0"], "duration"),
         (["desync", "run", "--config", "/nonexistent.toml"], "no such file"),
         (["bench", "--sensors", "0"], "sensors >= 1"),
+        (["bench", "--what", "typical"], "pass --frames"),
+        (["bench", "--what", "worst", "--frames", "/nonexistent"], "/nonexistent"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
@@ -134,6 +136,31 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
     assert res.returncode == 2 and "not a sweep.json" in res.stderr
     res = d2sr("desync", "report", str(tmp_path / "nowhere"))
     assert res.returncode == 2 and "no such file" in res.stderr
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_bench_typical_and_worst_on_a_recording(tmp_path):
+    from d2sr.bench import frame_4000
+    from d2sr.frames.png import encode_png, write_meta
+
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    for i in range(40):  # clean frames but a few, so both the detector alone and repairs are timed
+        img = frame_4000(7 + i % 12, interfered=i % 12 in (3, 8))[::2, ::2].copy()
+        (rec / f"{i:04d}.png").write_bytes(encode_png(img, "test"))
+    write_meta(rec, 4000.0, None, [])
+    out = tmp_path / "b.json"
+    res = d2sr("bench", "--what", "typical,worst", "--frames", str(rec), "--repeats", "1", "--json", str(out))
+    assert res.returncode == 0, res.stderr
+    data = json.loads(out.read_text())["benchmarks"]
+    typical, worst = data["typical"], data["worst"]
+    assert typical["frames"] == 40 and typical["size"] == "320x240"
+    shipped, alone = typical["as shipped"], typical["detector only"]
+    assert shipped["cpu_ms_per_frame"] > 0 and alone["cpu_ms_per_frame"] > 0
+    assert alone["flagged"] == shipped["flagged"]  # the same detector decides; only the repair differs
+    assert worst["frames"] == 40 and len(worst["seconds"]["recover 40"]) == 1
+    ratio = worst["recover_ms_per_frame"] / worst["floor_ms_per_frame"]
+    assert ratio > 1 and abs(worst["ratio_to_floor"] - ratio) < 0.02  # repairing costs more than PNG I/O
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

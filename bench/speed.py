@@ -1,0 +1,47 @@
+"""Benchmark (issue 44): the two figures that decide whether a robot can afford d2sr, in one run.
+
+* Typical case: CPU time a clean 640x480 L515 frame costs through ``d2sr.Pipeline`` in process, as shipped
+  (every frame scored, flagged ones repaired) and the detector alone; each L515 view of the outside set
+  (dev0 after the person has left, dev1), 60 frames in order. Bar: at most 5 ms.
+* Worst case: ``d2sr recover --all`` from outside the process on 60 real L515 frames, every one corrupted
+  by interference the project's generator does not make (``held_out.worst_case``), against the floor any
+  whole-process tool pays: the same PNGs read and written by OpenCV alone. Bar: at most 1.5x the floor.
+
+Run:  .venv/bin/python bench/speed.py --data ../shared/data --json docs/results/bench_speed.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from d2sr.bench import bench_typical, bench_worst, check_output, output_args, write_result
+from held_out import OUTSIDE_CAMERAS, outside_set, used_models, worst_case
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--repeats", type=int, default=3, help="typical case: passes over each view (median)")
+    ap.add_argument("--runs", type=int, default=5, help="worst case: runs of each command (median)")
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    clean = outside_set(args.data)
+    typical = {}
+    for view in ("dev0", "dev1"):
+        frames = [f for f, cam in zip(clean, OUTSIDE_CAMERAS, strict=True) if cam == view]
+        typical[view] = bench_typical(frames, 4000.0, args.repeats)
+    worst = bench_worst([f for _, f in worst_case(args.data)], 4000.0, args.runs)
+    result = {
+        "benchmark": "issue 44: typical case (CPU per clean frame, in process) and worst case (from outside) "
+        "against the PNG floor",
+        "typical": typical,
+        "worst": worst,
+    }
+    data = f"{args.data}/l515 (real L515 frames, dev0 and dev1)"
+    print(write_result(result, args.json, models=used_models(None), data=data))
+
+
+if __name__ == "__main__":
+    main()
