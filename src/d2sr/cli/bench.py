@@ -41,7 +41,7 @@ def bench(
     """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
     runtime pipeline at 640x480 and 320x240; the timing world at warehouse scale; writing simulated
     640x480 recordings. On a recording (--frames): typical, the CPU time a clean frame costs through
-    d2sr.Pipeline; worst, recover --all from outside beside the PNG read+write floor.
+    d2sr.Pipeline; worst, d2sr recover repairing every frame, from outside, beside the PNG read+write floor.
 
     Example: d2sr bench --what models,pipeline --json out/bench.json
     """
