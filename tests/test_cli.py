@@ -160,7 +160,7 @@ def test_bench_typical_and_worst_on_a_recording(tmp_path):
     assert alone["flagged"] == shipped["flagged"]  # the same detector decides; only the repair differs
     assert worst["frames"] == 40 and len(worst["seconds"]["recover 40"]) == 1
     ratio = worst["recover_ms_per_frame"] / worst["floor_ms_per_frame"]
-    assert ratio > 1 and abs(worst["ratio_to_floor"] - ratio) < 0.02  # repairing costs more than PNG I/O
+    assert ratio > 1 and worst["ratio_to_floor"] == pytest.approx(ratio, rel=0.02)  # more than PNG I/O
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
