@@ -254,6 +254,16 @@ def bench_models(
     return out
 
 
+def _recording(folder: Path, frames: list[np.ndarray], scale: float) -> None:
+    """Write ``frames`` as a d2sr PNG recording (0000.png, ... and its depth scale) in a new ``folder``."""
+    from d2sr.frames.png import encode_png, write_meta
+
+    folder.mkdir()
+    for i, img in enumerate(frames):
+        (folder / f"{i:04d}.png").write_bytes(encode_png(img, "bench"))
+    write_meta(folder, scale, None, [])
+
+
 def _outside(command: list[str], frames: list[np.ndarray], runs: int = 3) -> dict:
     """Time ``d2sr <command> IN --out OUT`` on 60 frames and on 10 from outside the process; the
     difference over 50 frames is the per-frame cost without start-up. Also the peak resident memory."""
@@ -261,8 +271,6 @@ def _outside(command: list[str], frames: list[np.ndarray], runs: int = 3) -> dic
     import subprocess
     import sys
     import tempfile
-
-    from d2sr.frames.png import encode_png, write_meta
 
     def run(folder: Path, dest: Path) -> float:
         t = time.perf_counter()
@@ -273,11 +281,7 @@ def _outside(command: list[str], frames: list[np.ndarray], runs: int = 3) -> dic
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         for n in (10, 60):
-            (root / f"in{n}").mkdir()
-            for i in range(n):
-                img = frames[i % len(frames)]
-                (root / f"in{n}" / f"{i:04d}.png").write_bytes(encode_png(img, "bench"))
-            write_meta(root / f"in{n}", 4000.0, None, [])
+            _recording(root / f"in{n}", [frames[i % len(frames)] for i in range(n)], 4000.0)
         t10 = [run(root / "in10", root / f"o10_{k}") for k in range(runs)]
         t60 = [run(root / "in60", root / f"o60_{k}") for k in range(runs)]
     per = (statistics.median(t60) - statistics.median(t10)) / 50
@@ -438,8 +442,6 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
     import sys
     import tempfile
 
-    from d2sr.frames.png import encode_png, write_meta
-
     n = len(frames)
     if n <= 10:
         raise ValueError("bench_worst needs more than 10 frames")
@@ -464,10 +466,7 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         for k in (10, n):
-            (root / f"in{k}").mkdir()
-            for i, img in enumerate(frames[:k]):
-                (root / f"in{k}" / f"{i:04d}.png").write_bytes(encode_png(img, "bench"))
-            write_meta(root / f"in{k}", depth_scale, None, [])
+            _recording(root / f"in{k}", frames[:k], depth_scale)
         for r in range(runs):
             times["floor loop"].append(
                 float(run(["-c", floor, str(root / f"in{n}"), str(root / f"f{r}")])[1])

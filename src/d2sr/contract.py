@@ -234,7 +234,8 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
     cs = slice(max(cols[0] - GUARD_PX, 0), cols[-1] + GUARD_PX + 1)
     x = np.ascontiguousarray(metres[rs, cs], np.float32)
     m = mask[rs, cs]
-    trusted = ((x > 0) & ~m).view(np.uint8)
+    returns = x > 0
+    trusted = (returns & ~m).view(np.uint8)
     k = np.ones((2 * GUARD_PX + 1, 2 * GUARD_PX + 1), np.uint8)
     at = np.flatnonzero(m)
     # The trusted returns, inf (for the minimum) or 0 (for the maximum) elsewhere; cv2.copyTo: 6x np.where.
@@ -247,9 +248,11 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
     pi = np.where(hi > 0, np.minimum(np.maximum(pi, lo - tol), hi + tol), pi)
     pc[m] = pi
     leave = np.float32(KEEP_M) + np.float32(LEAVE_REL) * xi
-    side = 2 * LONE_PX + 1  # returns counted as uint8 into uint16: 2.5x a float32 box filter
+    # Returns counted as uint8 into uint16 (2.5x a float32 box filter); the crop's margin, GUARD_PX, holds
+    # every masked pixel's LONE_PX neighbourhood, so only the image's own edges count as no return.
+    side = 2 * LONE_PX + 1
     around = cv2.boxFilter(
-        (x > 0).view(np.uint8), cv2.CV_16U, (side, side), normalize=False, borderType=cv2.BORDER_CONSTANT
+        returns.view(np.uint8), cv2.CV_16U, (side, side), normalize=False, borderType=cv2.BORDER_CONSTANT
     )
     lone = around.ravel()[at] <= LONE_MAX + 1  # the count includes the pixel itself
     keep[rs, cs][m] = ~((xi > 0) & ((np.abs(pi - xi) <= leave) | lone))
