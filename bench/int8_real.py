@@ -16,7 +16,7 @@ from pathlib import Path
 import cv2
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import WEIGHTS
+from d2sr.contract import WEIGHTS, model_files
 from d2sr.models.onnx.quantize import TOLERANCE, agreement, quantize, within_tolerance
 from held_out import outside_interference
 
@@ -36,8 +36,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         for name in ("detector", "unet8"):
-            for ext in (".onnx", ".safetensors"):
-                shutil.copyfile(WEIGHTS / f"{name}{ext}", folder / f"{name}{ext}")
+            for f in model_files(WEIGHTS, name):
+                shutil.copyfile(f, folder / f.name)
             quantize(folder / f"{name}.onnx")
         got = agreement(folder, frames, 4000.0)
     result = {

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import WEIGHTS, repair_frame
+from d2sr.contract import WEIGHTS, model_files, repair_frame
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
 from d2sr.models.onnx.quantize import int8_path, quantize
 from d2sr.runtime.backends import open_backend
@@ -47,7 +47,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         wdir = Path(tmp)
         for name in ("detector", "unet8"):
-            shutil.copy(WEIGHTS / f"{name}.onnx", wdir / f"{name}.onnx")
+            for f in model_files(WEIGHTS, name):
+                shutil.copy(f, wdir / f.name)
             quantize(wdir / f"{name}.onnx")
             result["per_model"][name] = {
                 "fp32_mb": round((wdir / f"{name}.onnx").stat().st_size / 2**20, 3),

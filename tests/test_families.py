@@ -262,7 +262,7 @@ class _Stub:
     def __init__(self, repairs: bool, detector: bool = True) -> None:
         self.repairs, self.detector = repairs, detector
 
-    def scores(self, metres, previous=None):
+    def scores(self, metres, previous=None, cut=None):
         assert self.detector, "a recovery-only model was asked for a score"
         return np.full(len(metres), 0.9, np.float32)
 

@@ -106,7 +106,7 @@ def test_corrupt_missing_and_mismatched_weights(tmp_path):
 def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
-    from d2sr.contract import code_path
+    from d2sr.contract import code_path, pair_path
     from d2sr.models.onnx.export import export, parity
 
     torch.manual_seed(3)
@@ -117,8 +117,10 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     save_model(net, name, w, mask_logit=None if detector else -1.5)
     res = export(w, tmp_path / f"{name}.onnx")
     assert res["max_abs_diff"] < 1e-3
-    # A temporal UNet's encoder of the last clean frame is a file of its own; no other model has one.
+    # A temporal UNet's encoder of the last clean frame is a file of its own, a temporal detector's score of
+    # a frame with its previous one another; no other model has one.
     assert code_path(tmp_path / f"{name}.onnx").is_file() == (name == "unet8-temporal")
+    assert pair_path(tmp_path / f"{name}.onnx").is_file() == (name == "detector-temporal")
     x = torch.cat([_depth(3, 64, 96, seed=5 + k) for k in range(frames)], dim=1)  # another batch and size
     model, _ = load_model(w)
     assert parity(model, detector, tmp_path / f"{name}.onnx", x)["max_abs_diff"] < 1e-3
@@ -130,8 +132,9 @@ def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
 
 @pytest.mark.parametrize("name", ["detector-temporal", "unet8-temporal"])
 def test_streaming_form_is_the_model(name):
-    # The earlier frame's share of the first layers, computed apart and added back, is the same function.
-    from d2sr.models.streaming import streaming
+    # The UNet: the earlier frame's share of the first layers, computed apart and added back. The detector:
+    # the frame alone and the pair, scored apart, the lower counting. The same functions.
+    from d2sr.models.streaming import Pair, streaming
 
     torch.manual_seed(4)
     net = build(name).eval()
@@ -143,11 +146,46 @@ def test_streaming_form_is_the_model(name):
         if name == "unet8-temporal":
             got = stream(x[:, :1], x[:, 1:], *stream.encode(x[:, 1:]))
         else:
-            score, mine = stream(x[:, :1], stream.encode(x[:, 1:]))
-            ref, got = (torch.sigmoid(ref),), (score,)
-            torch.testing.assert_close(mine, stream.encode(x[:, :1]))  # the code it hands to the next frame
+            alone, pair = stream(x[:, :1]), Pair(net)(x[:, :1], x[:, 1:])
+            ref, got = (torch.sigmoid(ref),), (torch.minimum(alone, pair),)
+            self_pair = Pair(net)(x[:, :1], x[:, :1])  # alone: the frame as its own previous frame
+            torch.testing.assert_close(alone, self_pair, atol=1e-5, rtol=1e-5)
     for r, g in zip(ref, got, strict=True):
         torch.testing.assert_close(r, g, atol=1e-4, rtol=1e-4)
+
+
+def test_a_cut_scores_the_pair_only_where_the_frame_alone_reaches_it(tmp_path):
+    # Below the cut alone is below it with the previous frame too: those frames keep their score alone (at
+    # or above the exact one, below the cut) and the pair is never run for them; the others are exact. Both
+    # backends, and the verdict at the cut is the exact one's.
+    from d2sr.models.inference import TorchBackend
+    from d2sr.models.onnx.export import export
+    from d2sr.runtime.backends import OnnxBackend
+
+    torch.manual_seed(6)
+    w = tmp_path / "detector-temporal.safetensors"
+    save_model(build("detector-temporal").eval(), "detector-temporal", w)
+    export(w, tmp_path / "detector-temporal.onnx")
+    cur, prev = _depth(8, 64, 96, seed=11)[:, 0].numpy(), _depth(8, 64, 96, seed=12)[:, 0].numpy()
+    for net in (OnnxBackend(tmp_path / "detector-temporal.onnx", None), TorchBackend(w, None)):
+        exact, alone = net.scores(cur, prev), net.scores(cur, None)
+        assert (exact <= alone + 1e-6).all() and (exact < alone - 1e-4).any()  # the pair weighs in
+        cut = float(np.median(alone))
+        got = net.scores(cur, prev, cut)
+        np.testing.assert_array_equal(got >= cut, exact >= cut)
+        low = alone < cut
+        assert 0 < low.sum() < len(low)
+        np.testing.assert_allclose(got[low], alone[low], atol=1e-6)
+        np.testing.assert_allclose(got[~low], exact[~low], atol=1e-6)
+    net = OnnxBackend(tmp_path / "detector-temporal.onnx", None)
+
+    class Never:
+        def run(self, *args: object) -> None:
+            raise AssertionError("the pair was scored")
+
+    net.pair = Never()  # type: ignore[assignment]
+    over = float(net.scores(cur, None).max()) + 1e-3
+    assert (net.scores(cur, prev, over) < over).all()
 
 
 def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):

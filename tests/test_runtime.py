@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from d2sr.contract import agreement
+from d2sr.contract import THRESHOLD, agreement
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
@@ -36,9 +36,13 @@ class FakeNet:
         self.frames = frames
         self.previous: list[np.ndarray | None] = []
         self.before: list[np.ndarray | None] = []  # what the detector was given as the previous frame
+        self.cuts: list[float | None] = []  # the threshold it was told its scores are held to
 
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
         self.before.append(previous)
+        self.cuts.append(cut)
         return (metres[:, 0, 0] * 4000 == 1).astype(np.float32)
 
     def recover(
@@ -82,7 +86,9 @@ def test_open_loop_makes_a_period_of_every_n_frames_and_repairs_only_flagged():
 
 def test_repairing_every_frame_needs_no_detector():
     class NoDetector(FakeNet):
-        def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+        def scores(
+            self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+        ) -> np.ndarray:
             raise AssertionError("the detector ran")
 
     ctrl = make_controller("static", 30, 3)
@@ -387,6 +393,10 @@ def test_detector_gets_the_previous_frame_whatever_its_flag():
     assert net.before[0] is None  # a stream's first frame has none: the detector's single-frame case
     assert net.before[1] is not None and net.before[1][0, 3, 3] == 1.0  # the flagged frame, as delivered
     assert net.before[2] is None  # a frame of another size is not a previous frame
+    # Every score is asked for against the loop's threshold (contract.gate), its own or the caller's.
+    assert net.cuts == [THRESHOLD] * 3
+    SensorLoop(net, make_controller("static", 30, 3), repair="none", threshold=0.8).process(first)
+    assert net.cuts[-1] == 0.8
 
 
 _FAULTS = """

@@ -126,12 +126,13 @@ def int8_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The shipped detector and unet8 beside their int8 forms (``d2sr export --int8``'s quantizer)."""
     import shutil
 
+    from d2sr.contract import model_files
     from d2sr.models.onnx.quantize import quantize
 
     folder = tmp_path_factory.mktemp("int8")
     for name in ("detector", "unet8"):
-        for ext in (".onnx", ".safetensors"):
-            shutil.copyfile(SHIPPED / f"{name}{ext}", folder / f"{name}{ext}")
+        for f in model_files(SHIPPED, name):
+            shutil.copyfile(f, folder / f.name)
         quantize(folder / f"{name}.onnx")
     return folder
 

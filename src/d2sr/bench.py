@@ -168,15 +168,15 @@ def _weights_with_onnx(names: list[str], tmp: str) -> tuple[Path, dict[str, str]
     the rest; and which each is."""
     import shutil
 
-    from d2sr.contract import WEIGHTS
+    from d2sr.contract import WEIGHTS, model_files
     from d2sr.models import build
     from d2sr.models.onnx.export import export
     from d2sr.models.store import save_model
 
     root, kinds = Path(tmp), {}
     for n in names:
-        files = [WEIGHTS / f"{n}{e}" for e in (".onnx", ".safetensors")]  # thresholds are in their metadata
-        if all(f.is_file() for f in files):
+        files = model_files(WEIGHTS, n)  # thresholds are in their metadata
+        if {f.suffix for f in files} == {".onnx", ".safetensors"}:
             for f in files:
                 shutil.copy(f, root / f.name)
             kinds[n] = "shipped"
@@ -399,7 +399,7 @@ def bench_typical(
         "frames": len(frames),
         "size": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
         "repeats": repeats,
-        "threads": threads or "all cores",
+        "threads": threads or "default (the detector on one core, the repair on all)",
     }
     modes = {"as shipped": "flagged", "detector only": "none"}
     runs: dict[str, dict] = {n: {"cpu": [], "wall": [], "flagged": 0} for n in modes}

@@ -24,6 +24,7 @@ from d2sr.errors import ConfigError, InputError
 __all__ = [
     "AGREE_M",
     "AGREE_REL",
+    "ALONE",
     "AUTO_RECOVERY",
     "AUTO_TEMPORAL_LOGIT",
     "CATALOG",
@@ -35,6 +36,7 @@ __all__ = [
     "MASK_DETECTOR",
     "MODEL_HELP",
     "PAD",
+    "PAIR_INPUTS",
     "RECOVERY_NAMES",
     "REFRESH_FRAMES",
     "REPAIR_MODELS",
@@ -52,9 +54,12 @@ __all__ = [
     "check_size",
     "code_path",
     "detector_input",
+    "gate",
     "guard",
+    "model_files",
     "model_input",
     "padded",
+    "pair_path",
     "recover_passes",
     "refill",
     "repair_frame",
@@ -150,14 +155,45 @@ MODEL_HELP = (
 
 # The inputs of two-frame models in their streaming form (``d2sr.models.streaming``), by kind, and the
 # outputs of a temporal UNet's encoder: a file with other inputs came from an earlier d2sr.
-STREAM_INPUTS = {"detector": ("depth", "code"), "recovery": ("depth", "previous", "code", "head_code")}
+STREAM_INPUTS = {"detector": ("depth",), "recovery": ("depth", "previous", "code", "head_code")}
 STREAM_CODES = ("code", "head_code")
+# A temporal detector's second file (``pair_path``) takes these; its first, the frame alone
+# (``STREAM_INPUTS``), says ``ALONE`` in its metadata (an earlier d2sr's file with that input did not).
+PAIR_INPUTS = ("depth", "previous")
+ALONE = "scores"
 
 
 def code_path(onnx: Path) -> Path:
     """Where an exported temporal UNet's encoder of the last clean frame lies, beside the model
     (``d2sr.models.streaming``): unet8-temporal.onnx -> unet8-temporal.code.onnx."""
     return onnx.with_name(onnx.name.removesuffix(".onnx") + ".code.onnx")
+
+
+def pair_path(onnx: Path) -> Path:
+    """Where an exported temporal detector's second file lies, the one that scores a frame with its previous
+    frame (``d2sr.models.streaming``): detector.onnx -> detector.pair.onnx."""
+    return onnx.with_name(onnx.name.removesuffix(".onnx") + ".pair.onnx")
+
+
+def model_files(folder: Path, name: str) -> list[Path]:
+    """Model ``name``'s files in ``folder`` that exist: its weights, its ONNX export and a streaming model's
+    second file (``code_path``, ``pair_path``). What to copy to move a model."""
+    onnx = folder / f"{name}.onnx"
+    files = [folder / f"{name}.safetensors", onnx, code_path(onnx), pair_path(onnx)]
+    return [f for f in files if f.is_file()]
+
+
+def gate(alone: np.ndarray, cut: float | None, pair: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """A temporal detector's scores (N,): each frame's score alone (``alone``), lowered to its score with its
+    previous frame (``pair(rows)``, for the rows of a bool (N,) selection) where that is lower. With a
+    probability ``cut``, only the frames that reach it alone are scored with their previous frame: the
+    others are below the cut either way and keep their score alone, at or above the exact one. The same
+    verdict at any threshold from ``cut`` up, for half the detector's work on a clean frame."""
+    rows = np.ones(len(alone), bool) if cut is None else alone >= cut
+    out = np.array(alone, np.float32)
+    if rows.any():
+        out[rows] = np.minimum(out[rows], pair(rows))
+    return out
 
 
 def check_probability(value: float, option: str) -> float:

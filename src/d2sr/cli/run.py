@@ -66,7 +66,12 @@ def run(
     topic: Topic = None,
     backend: BackendOpt = "auto",
     models: ModelDir = WEIGHTS,
-    threads: Annotated[int | None, typer.Option(help="onnxruntime threads (default: all cores).")] = None,
+    threads: Annotated[
+        int | None,
+        typer.Option(
+            help="onnxruntime threads per model (default: the detector on one core, the repair on all)."
+        ),
+    ] = None,
     scene: SceneOpt = False,
     int8: Annotated[
         bool,

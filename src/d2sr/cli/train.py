@@ -13,7 +13,7 @@ from rich.progress import TaskID
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
-from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability, code_path
+from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability, code_path, pair_path
 from d2sr.errors import ConfigError, InputError
 from d2sr.train.config import VALIDATION_FRAMES
 from d2sr.ui import console, warn
@@ -156,8 +156,9 @@ def export(
     targets = [(out or w.parent) / (w.stem + ".onnx") for w in files]
     for w, t in zip(files, targets, strict=True):
         written = [t, *([int8_path(t)] if int8 else [])]
-        if isinstance(streaming(load_model(w)[0]), StreamingUNet):  # its encoder is a file of its own
-            written += [code_path(f) for f in written]
+        stream = streaming(load_model(w)[0])  # a streaming model's second file lies beside it
+        if stream is not None:
+            written += [(code_path if isinstance(stream, StreamingUNet) else pair_path)(f) for f in written]
         for f in written:
             check_out(f, is_dir=False, overwrite=overwrite, inputs=files)
     for w, target in zip(files, targets, strict=True):

@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from d2sr.contract import REPAIR_PASSES, THRESHOLD, check_passes, detector_input, model_input, recover_passes
+from d2sr.contract import (
+    REPAIR_PASSES,
+    THRESHOLD,
+    check_passes,
+    detector_input,
+    gate,
+    model_input,
+    recover_passes,
+)
 from d2sr.errors import InputError
+from d2sr.models.detector import FastDetector
 from d2sr.models.registry import check_input_size
 from d2sr.models.store import load_model, torch_device
 from d2sr.models.store import mask_logit as read_mask_logit
@@ -46,13 +56,29 @@ class TorchBackend:
         self.mask_logit = mask_logit
         self.threshold = read_threshold(detector) if detector is not None else THRESHOLD
 
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
         if self.det is None:
             raise InputError("no detector loaded")
         check_input_size(self.det, *metres.shape[1:])
-        x = detector_input(metres, previous, int(getattr(self.det, "frames", 1)))
-        with torch.inference_mode():
-            return torch.sigmoid(self.det(torch.from_numpy(x).to(self.device))).cpu().numpy()
+        det = self.det
+
+        def score(x: np.ndarray, net: Callable[[torch.Tensor], torch.Tensor] = det) -> np.ndarray:
+            with torch.inference_mode():
+                out: np.ndarray = torch.sigmoid(net(torch.from_numpy(x).to(self.device))).cpu().numpy()
+            return out
+
+        if not isinstance(det, FastDetector) or det.frames == 1:
+            return score(detector_input(metres, previous, int(getattr(det, "frames", 1))))
+        # FastDetector.forward's two scores, one at a time: alone (the frame as its own previous one), then
+        # with the previous frame where contract.gate asks for it.
+        alone = score(detector_input(metres, None, 2), det.logit)
+        if previous is None:
+            return alone
+        return gate(
+            alone, cut, lambda rows: score(detector_input(metres[rows], previous[rows], 2), det.logit)
+        )
 
     def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(mask logits, predicted depth), before any threshold."""

@@ -1,19 +1,17 @@
-"""The form two-frame models are exported in for streams (``d2sr.models.onnx.export``): the part of the first
-convolution that reads the earlier frame is linear in it, so it is computed once per frame, handed out as
-an output (``code``) and fed back in with the frames that follow. The same function as the full model,
-within float rounding (the sums are taken in another order).
+"""The forms two-frame models are exported in for streams (``d2sr.models.onnx.export``), each as two files.
+The same functions as the full models, within float rounding (the sums are taken in another order).
 
-- Temporal detector: a frame is scored with its previous frame and alone (``FastDetector.forward``); the
-  previous frame's share of the stem is the code that frame handed out when it was scored itself. One
-  half-size stem per frame instead of two full ones, and no full-resolution copies of the frame pair.
-- Temporal UNet: the last clean frame's share of the first convolution (``code``) and of the head's first
-  layer (``head_code``) stays the same for every frame (and both passes) until the next clean frame. Two
-  inputs rather than one to slice: onnxruntime copies a slice, 0.5 ms of a 17 ms pass.
-
-Both take ``depth`` (N, 1, H, W) and the earlier frame's ``code``. The detector also hands out
-``depth_code``, the code of the frame it scored, for the frame after it. The UNet's codes come from
-``encode``, exported as a file of its own (``contract.code_path``): onnxruntime computes every output of a
-graph whether asked for or not, and a clean frame is encoded only when it becomes the last clean one.
+- Temporal detector: a frame is scored alone and with its previous frame, and the lower score counts
+  (``FastDetector.forward``). The first file scores the frame alone, the second (``contract.pair_path``)
+  with its previous frame. A frame that scores below the threshold alone is below it with its previous
+  frame too, so the runtime scores the pair only for the frames that reach it (``contract.gate``): a clean
+  frame costs one pass of half the work of both.
+- Temporal UNet: the part of the first convolution that reads the last clean frame is linear in it, and it
+  stays the same for every frame (and both passes) until the next clean frame: it is computed once
+  (``code``, and ``head_code`` for the head's first layer) by the encoder, a file of its own
+  (``contract.code_path``; onnxruntime computes every output of a graph whether asked for or not), and fed
+  in with the frames that follow. Two inputs rather than one to slice: onnxruntime copies a slice, 0.5 ms
+  of a 17 ms pass.
 """
 
 from __future__ import annotations
@@ -27,34 +25,43 @@ from torch import nn
 from d2sr.models.detector import FastDetector, features
 from d2sr.models.unet import UNet, push_pull, space_to_depth
 
-__all__ = ["Encoder", "StreamingDetector", "StreamingUNet", "streaming"]
+__all__ = ["Encoder", "Pair", "StreamingDetector", "StreamingUNet", "streaming"]
 
 
 class StreamingDetector(nn.Module):
-    """(depth, code of the previous frame) -> (probability interfered, code of depth)."""
+    """depth -> probability that the frame alone is interfered, as ``FastDetector`` scores it with itself as
+    its previous frame: one stem convolution, both halves' weights summed (``features``' depth scale folded
+    in). ``Pair`` scores it with its previous frame."""
 
     def __init__(self, det: FastDetector) -> None:
         super().__init__()
         if det.frames != 2:
             raise ValueError("only a two-frame detector has a streaming form")
         self.det = det
-        self.stem = cast(nn.Conv2d, det.body[0])
+        stem = cast(nn.Conv2d, det.body[0])
+        scale = features(torch.ones(1, 1, 1, 1))[0, :, 0, 0]  # features() = (scale x depth, return indicator)
+        w = stem.weight.detach() * scale.repeat(2)[None, :, None, None]
+        self.alone = nn.Conv2d(2, stem.out_channels, 4, stride=4).requires_grad_(False)
+        self.alone.weight.copy_(w[:, :2] + w[:, 2:])
+        cast(torch.Tensor, self.alone.bias).copy_(cast(torch.Tensor, stem.bias).detach())
         self.rest = cast(nn.Sequential, det.body[1:])
-        self.code_stride = 4
 
-    def encode(self, depth: torch.Tensor) -> torch.Tensor:
-        return F.conv2d(features(depth), self.stem.weight[:, 2:], stride=4)
-
-    def forward(self, depth: torch.Tensor, code: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        stem = self.stem
-        x = features(depth)
-        own = F.conv2d(x, stem.weight[:, :2], stem.bias, stride=4)
-        mine = F.conv2d(x, stem.weight[:, 2:], stride=4)
-        # Pair (with the previous frame) and alone (the frame as its own previous one) in one batch.
-        f = self.rest(torch.cat([own + code, own + mine], dim=0))
+    def forward(self, depth: torch.Tensor) -> torch.Tensor:
+        f = self.rest(self.alone(torch.cat([depth, (depth > 0).to(depth.dtype)], dim=1)))
         pooled = torch.cat([f.amax(dim=(2, 3)), f.mean(dim=(2, 3))], dim=1)
-        pair, single = self.det.head(pooled)[:, 0].chunk(2)
-        return torch.sigmoid(torch.minimum(pair, single)), mine
+        return torch.sigmoid(self.det.head(pooled)[:, 0])
+
+
+class Pair(nn.Module):
+    """(depth, previous frame) -> probability that the frame is interfered, weighed with its previous frame
+    (``FastDetector.logit`` on the pair)."""
+
+    def __init__(self, det: FastDetector) -> None:
+        super().__init__()
+        self.det = det
+
+    def forward(self, depth: torch.Tensor, previous: torch.Tensor) -> torch.Tensor:
+        return torch.sigmoid(self.det.logit(torch.cat([depth, previous], dim=1)))
 
 
 class StreamingUNet(nn.Module):

@@ -16,11 +16,13 @@ from typing import Any, Generic, Protocol, TypeVar
 import numpy as np
 
 from d2sr.contract import (
+    ALONE,
     AUTO_RECOVERY,
     AUTO_TEMPORAL_LOGIT,
     DEFAULT_RECOVERY,
     DETECTOR,
     LINES_UP,
+    PAIR_INPUTS,
     REPAIR_PASSES,
     SHIPPED_RECOVERY,
     STREAM_INPUTS,
@@ -32,7 +34,9 @@ from d2sr.contract import (
     check_size,
     code_path,
     detector_input,
+    gate,
     model_input,
+    pair_path,
     recover_passes,
 )
 from d2sr.errors import InputError
@@ -45,9 +49,14 @@ class Backend(Protocol):
     threshold: float  # the detector's own probability threshold (stored with it; contract.THRESHOLD)
     passes: int  # recovery runs of the model per frame (contract.recover_passes)
 
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
         """(N, H, W) float32 metres -> (N,) probability that each frame is interfered. ``previous``: the
-        sensor's frame before each (N, H, W), which a temporal detector also weighs (others ignore it)."""
+        sensor's frame before each (N, H, W), which a temporal detector also weighs (others ignore it).
+        ``cut``: the threshold the scores will be held to; a temporal detector then weighs the previous
+        frame only for the frames that reach it alone, and the others' scores are upper bounds below it
+        (``contract.gate``). None: every score exact."""
         ...
 
     @property
@@ -125,23 +134,27 @@ class OnnxBackend:
         mask_logit: float | None = None,
         passes: int = REPAIR_PASSES,
         encoder: Path | None = None,
+        pair: Path | None = None,
     ) -> None:
-        """``encoder``: a streaming temporal UNet's encoder file (default: ``contract.code_path`` of
-        ``recovery``)."""
+        """``threads``: onnxruntime's intra-op threads per session (default: the recovery model on up to 4
+        cores, the detector on one: a second thread cut its wall time on a 640x480 frame by a third but
+        raised its CPU time, docs/runtime.md). ``encoder``: a streaming temporal UNet's encoder file
+        (default: ``contract.code_path`` of ``recovery``); ``pair``: a streaming temporal detector's pair
+        file (default: ``contract.pair_path`` of ``detector``)."""
         self.passes = check_passes(passes)
         try:
             import onnxruntime as ort
         except ImportError:  # pragma: no cover - depends on the install
             raise InputError("onnxruntime is not installed: pip install 'd2sr[edge]'") from None
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = threads or min(os.cpu_count() or 1, 4)
-        opts.inter_op_num_threads = 1
-        opts.log_severity_level = 3
-        # Two sessions (detector, recovery) alternate on the same cores: idle threads that spin-wait for
-        # work would steal the other session's time.
-        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
 
-        def session(path: Path) -> ort.InferenceSession:
+        def session(path: Path, cores: int = threads or min(os.cpu_count() or 1, 4)) -> ort.InferenceSession:
+            opts = ort.SessionOptions()
+            opts.intra_op_num_threads = cores
+            opts.inter_op_num_threads = 1
+            opts.log_severity_level = 3
+            # Two sessions (detector, recovery) alternate on the same cores: idle threads that spin-wait for
+            # work would steal the other session's time.
+            opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
             if not Path(path).is_file():
                 raise InputError(f"{path}: no such model file (d2sr export writes it)")
             try:
@@ -149,7 +162,8 @@ class OnnxBackend:
             except Exception as exc:  # onnxruntime raises its own untyped errors on corrupt files
                 raise InputError(f"{path}: corrupt ONNX model ({str(exc).splitlines()[0][:120]})") from None
 
-        self.det = session(detector) if detector is not None else None
+        self.det = session(detector, threads or 1) if detector is not None else None
+        self.pair = None
         self.rec = session(recovery) if recovery is not None else None
         self._meta = {
             k: self._props(s) for k, s in (("detector", self.det), ("recovery", self.rec)) if s is not None
@@ -157,12 +171,17 @@ class OnnxBackend:
         for kind, path, s in (("detector", detector, self.det), ("recovery", recovery, self.rec)):
             if s is None or self._meta[kind].frames == 1:
                 continue
-            if tuple(i.name for i in s.get_inputs()) != STREAM_INPUTS[kind]:
+            alone = kind != "detector" or s.get_modelmeta().custom_metadata_map.get(ALONE) == "alone"
+            if tuple(i.name for i in s.get_inputs()) != STREAM_INPUTS[kind] or not alone:
                 raise InputError(f"{path}: a two-frame model exported by an earlier d2sr; export it again")
+        if detector is not None and self._meta["detector"].frames == 2:
+            second = pair or pair_path(Path(detector))
+            self.pair = session(second, threads or 1)
+            if tuple(i.name for i in self.pair.get_inputs()) != PAIR_INPUTS:
+                raise InputError(f"{second}: not a detector's pair file; export it again")
         self.enc = None
         if recovery is not None and self._meta["recovery"].code_stride:
             self.enc = session(encoder or code_path(Path(recovery)))
-        self._det_codes: _Codes[np.ndarray] = _Codes()
         self._rec_codes: _Codes[tuple[np.ndarray, np.ndarray]] = _Codes()
         if mask_logit is not None and "recovery" in self._meta:  # the caller's own trade-off
             self._meta["recovery"].mask_logit = mask_logit
@@ -184,39 +203,33 @@ class OnnxBackend:
     def frames(self) -> int:
         return self._meta["recovery"].frames if "recovery" in self._meta else 1
 
-    def detector_feeds(self, metres: np.ndarray, previous: np.ndarray | None) -> dict[str, np.ndarray]:
-        """The detector's inputs for (N, H, W) metres; a streaming one's code of the previous frame (the frame
-        itself when there is none: scored alone) comes from the cache or is computed here."""
-        det = _loaded(self.det, "detector")
+    def detector_feeds(self, metres: np.ndarray, previous: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The detector file's inputs for (N, H, W) metres (a temporal detector's first file scores the frame
+        alone: ``previous`` is for its pair file, ``scores``)."""
+        _loaded(self.det, "detector")
         h, w = metres.shape[1:]
         p = self._meta["detector"]
         check_size(h, w, p.stride, p.height, "the detector")
-        if not p.code_stride:
-            return {"depth": detector_input(metres, previous, p.frames)}
-        if previous is not None and previous.shape != metres.shape:
-            raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
+        if self.pair is not None:
+            return {"depth": metres[:, None].astype(np.float32, copy=False)}
+        return {"depth": detector_input(metres, previous, p.frames)}
 
-        def encode(frame: np.ndarray) -> np.ndarray:  # what the frame hands out when it is scored
-            code: np.ndarray = det.run(None, {"depth": frame[:, None], "code": self._zeros(det, frame, p)})[1]
-            return code
-
-        code = self._det_codes.get(metres if previous is None else previous, encode)
-        return {"depth": metres[:, None].astype(np.float32, copy=False), "code": code}
-
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
         feeds = self.detector_feeds(metres, previous)
-        out = _loaded(self.det, "detector").run(None, feeds)
-        if len(out) > 1:  # streaming: this frame's code, for the frame after it
-            self._det_codes.put(metres, out[1])
-        scores: np.ndarray = out[0]
-        return scores
+        alone: np.ndarray = _loaded(self.det, "detector").run(None, feeds)[0]
+        if self.pair is None or previous is None:  # one file; or no earlier frame: the frame alone is exact
+            return alone
+        if previous.shape != metres.shape:
+            raise InputError(f"the earlier frame is {previous.shape}, the frame {metres.shape}")
+        pair, depth, before = self.pair, feeds["depth"], previous[:, None].astype(np.float32, copy=False)
 
-    @staticmethod
-    def _zeros(session: Any, frame: np.ndarray, p: _Props) -> np.ndarray:
-        """A code of zeros of the right shape for ``frame`` (N, H, W)."""
-        n, h, w = frame.shape
-        c, s = session.get_inputs()[-1].shape[1], p.code_stride
-        return np.zeros((n, c, h // s, w // s), np.float32)
+        def paired(rows: np.ndarray) -> np.ndarray:
+            out: np.ndarray = pair.run(None, {"depth": depth[rows], "previous": before[rows]})[0]
+            return out
+
+        return gate(alone, cut, paired)
 
     def recovery_feeds(self, metres: np.ndarray, previous: np.ndarray | None) -> dict[str, np.ndarray]:
         """The recovery model's inputs; a streaming one's code of the last clean frame (zeros when there is
@@ -272,8 +285,10 @@ class Gated:
         self.single, self.temporal = single, temporal
         self.name, self.threshold, self.passes = single.name, single.threshold, single.passes
 
-    def scores(self, metres: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
-        return self.single.scores(metres, previous)
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
+        return self.single.scores(metres, previous, cut)
 
     def _each(
         self, run: str, metres: np.ndarray, previous: np.ndarray | None

@@ -55,7 +55,7 @@ class PeriodEnd:
 @dataclass
 class Result:
     capture: Capture
-    score: float
+    score: float  # the detector's; below the threshold, possibly the frame's score alone (contract.gate)
     flagged: bool
     depth: np.ndarray  # what the sink gets: repaired where flagged, else the input (same units)
     mask: np.ndarray  # bool, the repaired pixels
@@ -173,7 +173,9 @@ class SensorLoop:
         self._unjudged = 0 if judge else self._unjudged + 1
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
-        score = float(self.backend.scores(metres, before)[0]) if judge else float("nan")
+        # Scored against the cut: a frame clear on its own is not weighed against the one before it (its
+        # score is then its score alone, below the cut either way: contract.gate).
+        score = float(self.backend.scores(metres, before, self._cut)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
         ev = None
         if self.scene and judge:

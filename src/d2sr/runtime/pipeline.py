@@ -205,7 +205,8 @@ class Pipeline:
       closed, each frame's slot comes from the time ``process`` is called, and periods end on the
       actuator's clock. Or any object with ``set_offset(period, offset)``, given slots by the caller.
       Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
-    - ``threads``: onnxruntime's threads [all cores]; ``int8``: the int8 models (``d2sr export --int8``).
+    - ``threads``: onnxruntime's threads per model [the recovery model on all cores, the detector on one];
+      ``int8``: the int8 models (``d2sr export --int8``).
     - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
     - ``scene``: a still sensor; its frames are also judged against the scene its clean frames have shown
       (``d2sr.reference``), and a flagged frame in which nothing deviates from it is passed.

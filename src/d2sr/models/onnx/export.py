@@ -2,8 +2,9 @@
 inference: the edge runtime loads the files with onnxruntime and never imports torch.
 
 One file per model, except that two-frame models are exported in their streaming form
-(``d2sr.models.streaming``): the temporal detector hands out each frame's code for the next one, and the
-temporal UNet's encoder of the last clean frame is a second file beside it (``contract.code_path``)."""
+(``d2sr.models.streaming``), each with a second file beside it: the temporal detector's scores a frame with
+its previous frame's code (``contract.pair_path``), the temporal UNet's encodes the last clean frame
+(``contract.code_path``)."""
 
 from __future__ import annotations
 
@@ -16,12 +17,21 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, STREAM_CODES, STREAM_INPUTS, code_path
+from d2sr.contract import (
+    ALONE,
+    DETECTOR_NAMES,
+    MASK_DETECTOR,
+    PAIR_INPUTS,
+    STREAM_CODES,
+    STREAM_INPUTS,
+    code_path,
+    pair_path,
+)
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
 from d2sr.models.onnx.half import half_weights
 from d2sr.models.store import load_model, mask_logit, stored_in_half, threshold
-from d2sr.models.streaming import Encoder, StreamingDetector, StreamingUNet, streaming
+from d2sr.models.streaming import Encoder, Pair, StreamingDetector, StreamingUNet, streaming
 
 __all__ = ["export", "parity"]
 
@@ -57,7 +67,8 @@ def _onnx(net: nn.Module, args: tuple, path: Path, inputs: list[str], outputs: l
 
 
 def export(weights: Path, out: Path, check: bool = True) -> dict:
-    """Export ``weights`` to ``out`` (.onnx; a temporal UNet also to ``code_path(out)``); with ``check``,
+    """Export ``weights`` to ``out`` (.onnx; a temporal detector also to ``pair_path(out)``, a temporal UNet
+    to ``code_path(out)``); with ``check``,
     compare onnxruntime with torch on random frames and refuse (InputError, nothing written) when they
     disagree. Returns the parity figures."""
     model, name = load_model(weights)
@@ -73,19 +84,20 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
         "mask_logit": repr(mask_logit(weights)),
         "threshold": repr(threshold(weights)),
     }
-    if stream is not None:
+    if isinstance(stream, StreamingUNet):
         meta["code_stride"] = str(stream.code_stride)
     with ExitStack() as stack:
         tmp = stack.enter_context(atomic_file(out))
-        encoder = None
+        second = None
         if isinstance(stream, StreamingDetector):
-            with torch.inference_mode():
-                code = stream.encode(x[:, 1:])
-            inputs = list(STREAM_INPUTS["detector"])
-            _onnx(stream, (x[:, :1], code), tmp, inputs, ["score", "depth_code"], meta)
+            second = stack.enter_context(atomic_file(pair_path(out)))
+            _onnx(
+                stream, (x[:, :1],), tmp, list(STREAM_INPUTS["detector"]), ["score"], meta | {ALONE: "alone"}
+            )
+            _onnx(Pair(stream.det), (x[:, :1], x[:, 1:]), second, list(PAIR_INPUTS), ["score"], meta)
         elif isinstance(stream, StreamingUNet):
-            encoder = stack.enter_context(atomic_file(code_path(out)))
-            _onnx(Encoder(stream), (x[:, 1:],), encoder, ["previous"], list(STREAM_CODES), meta)
+            second = stack.enter_context(atomic_file(code_path(out)))
+            _onnx(Encoder(stream), (x[:, 1:],), second, ["previous"], list(STREAM_CODES), meta)
             with torch.inference_mode():
                 args = (x[:, :1], x[:, 1:], *stream.encode(x[:, 1:]))
             _onnx(stream, args, tmp, list(STREAM_INPUTS["recovery"]), ["mask_logit", "pred_depth"], meta)
@@ -94,7 +106,7 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
                 (Scored(model).eval(), ["score"]) if detector else (model, ["mask_logit", "pred_depth"])
             )
             _onnx(net, (x,), tmp, ["depth"], outputs, meta)
-        result = parity(model, detector, tmp, x, encoder) if check else {}
+        result = parity(model, detector, tmp, x, second) if check else {}
         if check and result["max_abs_diff"] > 1e-3:
             raise InputError(
                 f"{out}: onnxruntime differs from torch by {result['max_abs_diff']:.2e}; not written"
@@ -103,13 +115,18 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
 
 
 def parity(
-    model: nn.Module, detector: bool, onnx_file: Path, x: torch.Tensor, encoder: Path | None = None
+    model: nn.Module, detector: bool, onnx_file: Path, x: torch.Tensor, second: Path | None = None
 ) -> dict:
     """Largest absolute difference between the torch model and the exported file(s) as the runtime runs
-    them (``OnnxBackend``), on ``x`` (metres, (N, frames, H, W)) at batch 2 and batch 1."""
+    them (``OnnxBackend``), on ``x`` (metres, (N, frames, H, W)) at batch 2 and batch 1. ``second``: a
+    streaming model's second file, where it is not beside ``onnx_file`` under its usual name."""
     from d2sr.runtime.backends import OnnxBackend
 
-    backend = OnnxBackend(onnx_file, None) if detector else OnnxBackend(None, onnx_file, encoder=encoder)
+    backend = (
+        OnnxBackend(onnx_file, None, pair=second)
+        if detector
+        else OnnxBackend(None, onnx_file, encoder=second)
+    )
     worst = 0.0
     for batch in (x, x[:1]):
         metres = batch[:, 0].numpy()

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import code_path
+from d2sr.contract import code_path, pair_path
 from d2sr.errors import InputError
 from d2sr.models.onnx.half import float_weights
 from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
@@ -79,11 +79,13 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
             return next(self.it, None)
 
     target = out or int8_path(onnx)
-    encoder = code_path(onnx)  # a streaming temporal UNet's encoder: kept in fp32 beside the int8 model
     with ExitStack() as stack:
         tmp = stack.enter_context(atomic_file(target))
-        if encoder.is_file():
-            shutil.copyfile(encoder, stack.enter_context(atomic_file(code_path(target))))
+        # A streaming model's second file (a temporal UNet's encoder, a temporal detector's pair scorer) is
+        # kept in fp32 beside the int8 model.
+        for second in (code_path, pair_path):
+            if second(onnx).is_file():
+                shutil.copyfile(second(onnx), stack.enter_context(atomic_file(second(target))))
         quantize_static(
             str(_with_float_weights(onnx, Path(stack.enter_context(tempfile.TemporaryDirectory())))),
             str(tmp),
