@@ -88,8 +88,10 @@ def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
 
 
 def to_metres(depth: np.ndarray, depth_scale: float) -> np.ndarray:
-    """float32 metres (0 = no return)."""
-    return depth.astype(np.float32) / np.float32(depth_scale)
+    """float32 metres (0 = no return). One pass and one new array: the cast happens inside the division
+    (the same values as casting first)."""
+    out: np.ndarray = np.divide(depth, np.float32(depth_scale), dtype=np.float32)
+    return out
 
 
 def to_units(metres: np.ndarray, depth_scale: float) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agreement, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, check_depth
+from d2sr.frames.base import Frame, check_depth, to_metres
 from d2sr.reference import EVIDENT, QUIET, Evidence, SceneReference
 from d2sr.runtime.backends import Backend
 
@@ -161,7 +161,7 @@ class SensorLoop:
         if raw.dtype == np.float32 and cap.scale != 1:
             raise InputError(f"{cap.name}: float32 depth is metres; its scale must be 1, got {cap.scale:g}")
         t = time.perf_counter()
-        metres = padded(raw.astype(np.float32)[None] / np.float32(cap.scale))
+        metres = padded(to_metres(raw, cap.scale)[None])
         last = self._last_clean
         previous = last if last is not None and last.shape == metres.shape else None
         judge = self.detect and (
@@ -211,7 +211,7 @@ class SensorLoop:
         the models' memory of earlier frames is restored too, so a resumed run decides as the first did."""
         if cap is not None:
             raw = cap.frame.depth
-            self._remember(raw, padded(raw.astype(np.float32)[None] / np.float32(cap.scale)), not flagged)
+            self._remember(raw, padded(to_metres(raw, cap.scale)[None]), not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
                 self._against_scene(raw, cap.scale, flagged)
         self._buffer(flagged, slot)
