@@ -13,15 +13,13 @@ import contextlib
 import csv
 import io
 import os
-import queue
-import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -33,9 +31,9 @@ from d2sr.frames import Frame, Intrinsics, detect_format
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import checked, checked_counts, open_input
 from d2sr.frames.layout import REPAIRED, FrameFolder
+from d2sr.frames.overlap import Behind, prefetch
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
-from d2sr.runtime.output import Behind
 from d2sr.runtime.pipeline import check_options, open_models
 
 __all__ = [
@@ -45,11 +43,9 @@ __all__ = [
     "Summary",
     "detect_recording",
     "in_order",
-    "prefetch",
     "recover_recording",
 ]
 
-T = TypeVar("T")
 Progress = Callable[[int, int], None]  # (frames done, frames in all)
 CSV_HEADER = CSV_HEADERS[0].split(",")  # detect's columns (how --overwrite knows its file)
 FORMATS = ("auto", "png", "bag")  # recover's outputs: auto is a bag for a ROS bag, else a PNG folder
@@ -73,27 +69,6 @@ class Summary:
 
 def _quiet(line: str) -> None:
     """A library call says nothing unless asked (``say``)."""
-
-
-def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
-    """Produce ``items`` on a thread, ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
-    inference), re-raising its errors here."""
-    q: queue.Queue[Any] = queue.Queue(depth)
-    done = object()
-
-    def run() -> None:
-        try:
-            for it in items:
-                q.put(it)
-        except BaseException as exc:
-            q.put(exc)
-        q.put(done)
-
-    threading.Thread(target=run, daemon=True).start()
-    while (it := q.get()) is not done:
-        if isinstance(it, BaseException):
-            raise it
-        yield it
 
 
 def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Iterator[Result]:

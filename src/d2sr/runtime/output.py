@@ -12,9 +12,6 @@ from __future__ import annotations
 import csv
 import json
 import shutil
-from collections import deque
-from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,10 +19,11 @@ from typing import Any
 from d2sr.atomic import commit
 from d2sr.errors import D2SRError
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
+from d2sr.frames.overlap import Behind
 from d2sr.runtime.loop import Result
 from d2sr.ui import NA
 
-__all__ = ["LOG_COLUMNS", "Behind", "RunFolder", "SensorSink"]
+__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink"]
 
 LOG_COLUMNS = [
     "sensor",
@@ -41,29 +39,6 @@ LOG_COLUMNS = [
     "true_share",
     "ms",
 ]
-
-
-class Behind:
-    """Work on a thread of its own, at most ``depth`` items behind the caller: PNG encoding overlaps the
-    next frame's inference, and a slow disk cannot pile frames up in memory."""
-
-    def __init__(self, depth: int = 4) -> None:
-        self._pool = ThreadPoolExecutor(1)
-        self._pending: deque[Future[None]] = deque()
-        self._depth = depth
-
-    def submit(self, fn: Callable[..., None], *args: Any, **kwargs: Any) -> None:
-        self._pending.append(self._pool.submit(fn, *args, **kwargs))
-        while len(self._pending) > self._depth:
-            self._pending.popleft().result()
-
-    def drain(self) -> None:
-        """Wait for everything handed over (re-raising its errors)."""
-        while self._pending:
-            self._pending.popleft().result()
-
-    def close(self) -> None:
-        self._pool.shutdown(wait=True)
 
 
 class RunFolder:

@@ -5,9 +5,10 @@ every other frame is written synthesized under its own name, with its per-pixel 
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,8 +18,10 @@ import numpy as np
 from d2sr.atomic import atomic_dir, check_out
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import Frame, to_metres
 from d2sr.frames.checks import checked_counts, open_input
 from d2sr.frames.layout import FrameFolder
+from d2sr.frames.overlap import Behind, prefetch
 from d2sr.synth.fill import Filler
 
 __all__ = ["FILLED", "FillSummary", "colour_frames", "fill_recording", "kept"]
@@ -80,31 +83,41 @@ def fill_recording(
     filler = Filler(reader.intrinsics)
     rows: list[dict[str, object]] = []
     methods: dict[str, int] = {}
-    with atomic_dir(out) as tmp:
-        folder = FrameFolder(tmp, FILLED)
+
+    def read() -> Iterator[tuple[Frame, np.ndarray | None]]:
         for i, frame in enumerate(checked_counts(reader, scale, "frame")):
+            yield frame, _colour(colours[i]) if colours is not None else None
+
+    # Depth and colour are decoded ahead and the outputs encoded behind, on threads of their own: the
+    # synthesis in between has the main thread (the job's speed: docs/fill.md).
+    with atomic_dir(out) as tmp, contextlib.closing(Behind()) as writes:
+        folder = FrameFolder(tmp, FILLED)
+        for i, (frame, colour) in enumerate(prefetch(read())):
             if frame.depth.dtype != np.uint16:
                 raise InputError(f"{frame.name}: d2sr fill writes 16-bit frames; this recording's are metres")
-            colour = _colour(colours[i]) if colours is not None else None
-            metres = frame.depth.astype(np.float32) / np.float32(scale)
             if kept(i, active_frames, offset):
-                filler.real(metres, colour)
-                folder.write(frame.name, depth=frame.depth, confidence=_confidence(frame.depth > 0))
+                filler.real(to_metres(frame.depth, scale), colour)
+                writes.submit(
+                    folder.write, frame.name, depth=frame.depth, confidence=_confidence(frame.depth > 0)
+                )
                 rows.append(_row(frame.name, i, "real", 0, frame.depth > 0, frame.depth > 0))
                 continue
             try:
                 s = filler.synthesize(colour)
             except InputError:  # nothing real yet (a window that starts after the recording does)
                 empty = np.zeros_like(frame.depth)
-                folder.write(frame.name, depth=empty, confidence=np.zeros(empty.shape, np.uint8))
+                writes.submit(
+                    folder.write, frame.name, depth=empty, confidence=np.zeros(empty.shape, np.uint8)
+                )
                 rows.append(_row(frame.name, i, "none", 0, empty > 0, empty > 0))
                 continue
             depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
-            folder.write(frame.name, depth=depth, confidence=_confidence(s.confidence))
+            writes.submit(folder.write, frame.name, depth=depth, confidence=_confidence(s.confidence))
             rows.append(_row(frame.name, i, s.method, s.since_real, depth > 0, s.confidence))
             methods[s.method] = methods.get(s.method, 0) + 1
             if progress is not None:
                 progress(i + 1, len(reader))
+        writes.drain()
         folder.finish(scale, reader.intrinsics, [{"name": r["frame"]} for r in rows])
         (tmp / "fill.csv").write_text(_csv(rows))
     k = filler.intrinsics
