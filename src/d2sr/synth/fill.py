@@ -13,7 +13,15 @@ import numpy as np
 from d2sr.errors import InputError
 from d2sr.frames.base import Intrinsics
 from d2sr.synth.motion import ColourMotion, Keyframe
-from d2sr.synth.warp import Pose, fill_from_background, fill_radius, guess_intrinsics, warp_depth
+from d2sr.synth.warp import (
+    Cloud,
+    Pose,
+    cloud,
+    fill_from_background,
+    fill_radius,
+    guess_intrinsics,
+    warp_depth,
+)
 
 __all__ = ["METHODS", "Filler", "Synthesized"]
 
@@ -47,6 +55,7 @@ class Filler:
         self.radius = radius
         self._motion: ColourMotion | None = None
         self._source: np.ndarray | None = None  # the last real frame, metres
+        self._cloud: Cloud | None = None  # its points, made on its first warp
         self._source_pose: Pose | None = None  # its world pose (odometry)
         self._key: Keyframe | None = None  # the previous frame's features with depth
         self._found: tuple[Any, np.ndarray | None] | None = None  # this frame's features (colour path)
@@ -59,7 +68,7 @@ class Filler:
         """A frame the sensor measured: it becomes the source of the next synthesized ones (and comes back
         as it went in, confidence 1 where it has a value)."""
         metres = self._checked(metres, colour)
-        self._source, self._source_pose = metres, pose
+        self._source, self._source_pose, self._cloud = metres, pose, None
         self._moved, self._since = Pose.identity(), 0
         self._key = self._keyframe(colour, metres)
         return Synthesized(metres, (metres > 0).astype(np.float32), "real", 0)
@@ -79,7 +88,9 @@ class Filler:
             conf = np.where(source > 0, HOLD_CONFIDENCE, 0).astype(np.float32)
             return Synthesized(source, conf, "hold", self._since)
         k = self._k(source.shape)
-        warped = warp_depth(source, moved, k)
+        if self._cloud is None:  # every frame synthesized from this real one warps the same points
+            self._cloud = cloud(source, k)
+        warped = warp_depth(self._cloud, moved, k)
         self._moved = moved
         if self._found is not None:
             self._key = self._motion_for(warped.shape).keyframe(self._found, warped)

@@ -10,7 +10,16 @@ import numpy as np
 
 from d2sr.frames.base import Intrinsics
 
-__all__ = ["FILL_SHARE", "Pose", "fill_from_background", "fill_radius", "guess_intrinsics", "warp_depth"]
+__all__ = [
+    "FILL_SHARE",
+    "Cloud",
+    "Pose",
+    "cloud",
+    "fill_from_background",
+    "fill_radius",
+    "guess_intrinsics",
+    "warp_depth",
+]
 
 #: How far a hole is filled inward from its farther (background) side, as a share of the image width (32 px
 #: at 640). Chosen on the development sequence, the hand-held D435 (docs/fill.md: 16 px left 87% of
@@ -50,32 +59,54 @@ def guess_intrinsics(width: int, height: int) -> Intrinsics:
     return Intrinsics(width, height, f, f, (width - 1) / 2, (height - 1) / 2)
 
 
-def warp_depth(metres: np.ndarray, pose: Pose, k: Intrinsics) -> np.ndarray:
-    """``metres`` (0 = no return) as the camera moved by ``pose`` would see it: the nearest surface wins
-    each pixel, single-pixel cracks between projected points are closed, and what the move uncovered is 0."""
+@dataclass(frozen=True)
+class Cloud:
+    """A depth frame's returns as camera-frame points (metres, float32) and the frame's shape: what every
+    warp of the same frame starts from (``cloud``), computed once per real frame."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    shape: tuple[int, int]
+
+
+def cloud(metres: np.ndarray, k: Intrinsics) -> Cloud:
+    """``metres``' returns (0 = none) back-projected through ``k``."""
     h, w = metres.shape
     v, u = np.nonzero(metres > 0)
     z = metres[v, u].astype(np.float32)
-    rot, t = pose.R.astype(np.float32), pose.t.astype(np.float32)
     x = (u.astype(np.float32) - np.float32(k.px)) * z / np.float32(k.fx)
     y = (v.astype(np.float32) - np.float32(k.py)) * z / np.float32(k.fy)
+    return Cloud(x, y, z, (h, w))
+
+
+def warp_depth(metres: np.ndarray | Cloud, pose: Pose, k: Intrinsics) -> np.ndarray:
+    """``metres`` (0 = no return; or its ``cloud``) as the camera moved by ``pose`` would see it: the nearest
+    surface wins each pixel, single-pixel cracks between projected points are closed, and what the move
+    uncovered is 0."""
+    c = metres if isinstance(metres, Cloud) else cloud(metres, k)
+    h, w = c.shape
+    x, y, z = c.x, c.y, c.z
+    rot, t = pose.R.astype(np.float32), pose.t.astype(np.float32)
     zz = rot[2, 0] * x + rot[2, 1] * y + rot[2, 2] * z + t[2]
     ahead = zz > 0.05
-    x, y, z, zz = x[ahead], y[ahead], z[ahead], zz[ahead]
+    if not ahead.all():  # usually every point stays in front: no copies then
+        x, y, z, zz = x[ahead], y[ahead], z[ahead], zz[ahead]
     xx = rot[0, 0] * x + rot[0, 1] * y + rot[0, 2] * z + t[0]
     yy = rot[1, 0] * x + rot[1, 1] * y + rot[1, 2] * z + t[1]
-    uu = np.rint(xx / zz * np.float32(k.fx) + np.float32(k.px)).astype(np.int64)
-    vv = np.rint(yy / zz * np.float32(k.fy) + np.float32(k.py)).astype(np.int64)
+    # int32 pixel indices: a frame has far fewer than 2**31 pixels.
+    uu = np.rint(xx / zz * np.float32(k.fx) + np.float32(k.px)).astype(np.int32)
+    vv = np.rint(yy / zz * np.float32(k.fy) + np.float32(k.py)).astype(np.int32)
     inside = (uu >= 0) & (uu < w) & (vv >= 0) & (vv < h)
-    out = np.full(h * w, np.inf, np.float32)  # float32 throughout: minimum.at is 30x slower on a cast
-    np.minimum.at(out, vv[inside] * w + uu[inside], zz[inside])
-    out = out.reshape(h, w)
+    flat = np.full(h * w, np.inf, np.float32)  # float32 throughout: minimum.at is 30x slower on a cast
+    np.minimum.at(flat, vv[inside] * w + uu[inside], zz[inside])
+    out = flat.reshape(h, w)
     empty = np.isinf(out)
     nearest = cv2.erode(np.where(empty, 1e9, out).astype(np.float32), np.ones((3, 3), np.uint8))
     crack = empty & (nearest < 1e8)
     out[crack] = nearest[crack]
     out[np.isinf(out)] = 0
-    return out.astype(np.float32)
+    return out
 
 
 def fill_from_background(metres: np.ndarray, radius: int) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +114,7 @@ def fill_from_background(metres: np.ndarray, radius: int) -> tuple[np.ndarray, n
     background): each hole pixel within ``radius`` (chessboard distance) of a value takes the farthest
     value within that distance. Returns the filled depth and each pixel's confidence: 1 where it was
     warped, falling linearly to 0 at ``radius`` for filled ones, 0 where still empty."""
-    out = metres.astype(np.float32).copy()
+    out = metres.astype(np.float32)  # a copy
     hole = out == 0
     conf = (~hole).astype(np.float32)
     if not hole.any() or hole.all():
