@@ -18,11 +18,11 @@ import argparse
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.frames.base import Intrinsics
 from d2sr.provenance import command_line
+from d2sr.runtime.session import odometry, rig_intrinsics
 from d2sr.sim.scene import Renderer
 from d2sr.sim.world import make_rig
-from d2sr.synth import Filler, Pose
+from d2sr.synth import Filler
 from fill_eval import Pool, plot_curves
 
 
@@ -44,16 +44,13 @@ def main() -> None:
         for seed in range(args.rooms):
             rig = make_rig(seed, sensors=2, moving_robot=True)
             cam = Renderer(rig.room, rig.intr)
-            k = rig.intr  # the renderer's pixel centres sit half a pixel off the warp's convention
-            intr = Intrinsics(k.width, k.height, k.fx, k.fy, k.px - 0.5, k.py - 0.5)
-            warp, last = Filler(intr), None
+            warp, last = Filler(rig_intrinsics(rig)), None
             for i in range(round(args.seconds * 30)):
                 t = i / 30
-                p = rig.pose(1, t)
-                cam.move(p)
+                cam.move(rig.pose(1, t))
                 true = cam.render(t).depth.astype(np.float32)
                 true[~np.isfinite(true)] = 0
-                pose = Pose(p.axes().T, p.position)  # camera to world
+                pose = odometry(rig, 1, t)  # camera to world
                 if i % 30 < n:
                     warp.real(true, pose=pose)
                     last = true

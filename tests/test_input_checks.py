@@ -113,3 +113,12 @@ def test_run_on_a_recording_says_n_a_where_nothing_applies(tmp_path, weights):
     assert "n/a" in out  # no ground truth: precision, recall and RMSE do not apply
     rows = list(csv.DictReader((tmp_path / "r" / "log.csv").open()))
     assert rows and all(r["time_s"] == "n/a" and r["interfered"] == "n/a" for r in rows)
+
+
+def test_run_fill_is_refused_where_no_slot_is_skipped(tmp_path, weights):
+    # A recording's frames are all real (d2sr fill synthesizes a duty-cycled one): one line, exit 2.
+    rng = np.random.default_rng(8)
+    src = _folder(tmp_path / "in", [_room(rng, 2.0) for _ in range(3)], 1000)
+    code, _, err = _run(["run", str(src), "--out", str(tmp_path / "r"), "--fill", "--models", str(weights)])
+    assert code == 2 and "--fill" in err and "d2sr fill" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "r").exists()

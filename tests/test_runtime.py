@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import csv
 import hashlib
+from itertools import pairwise
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -262,6 +264,48 @@ def test_closed_loop_in_a_room_desynchronizes_and_repairs(net):
     assert all(len(o_) == 8 for o_ in ours["offsets"])
 
 
+def test_run_sim_fill_writes_every_slot_and_leaves_the_real_frames_as_they_were(net, tmp_path):
+    # --fill: each slot a sensor's laser skipped gets a synthesized frame (logged as such, no verdict, its
+    # confidence beside it); the real frames and their log lines are those of the same run without it.
+    kw = {"sensors": 2, "seconds": 2, "seed": 3, "moving": True}
+    plain = run_sim(net, tmp_path / "plain", DEFAULT_CONTROLLER, **kw)
+    filled = run_sim(net, tmp_path / "filled", DEFAULT_CONTROLLER, fill=True, **kw)
+    slots = 2 * 30
+    for i in range(2):
+        real = sorted(p.name for p in (tmp_path / "plain" / f"sensor{i}" / "depth").glob("*.png"))
+        out = tmp_path / "filled" / f"sensor{i}"
+        every = sorted(p.name for p in (out / "depth").glob("*.png"))
+        assert len(every) == slots and set(real) < set(every)
+        assert sorted(p.name for p in (out / "confidence").glob("*.png")) == every
+        for name in real:
+            assert (out / "depth" / name).read_bytes() == (
+                tmp_path / "plain" / f"sensor{i}" / "depth" / name
+            ).read_bytes()
+        assert filled["synthesized"][i] == slots - len(real) == slots - plain["sensors"][i]["frames"]
+    rows = list(csv.DictReader((tmp_path / "filled" / "log.csv").open()))
+    made = [r for r in rows if r["synthesized"] == "1"]
+    assert len(made) == sum(filled["synthesized"]) and all(r["flagged"] == "n/a" for r in made)
+    before = [
+        {k: v for k, v in r.items() if k not in ("ms", "synthesized")}
+        for r in rows
+        if r["synthesized"] == "0"
+    ]
+    plain_rows = list(csv.DictReader((tmp_path / "plain" / "log.csv").open()))
+    assert before == [{k: v for k, v in r.items() if k not in ("ms", "synthesized")} for r in plain_rows]
+    # The moving sensor's synthesized frames follow its odometry: not its last real frame held.
+    moving = tmp_path / "filled" / "sensor1"
+    seq = sorted((r["frame"], r["synthesized"]) for r in rows if r["sensor"] == "1")
+    pairs = [(a, b) for (a, ra), (b, rb) in pairwise(seq) if (ra, rb) == ("0", "1")]
+    assert pairs  # a real frame followed by a skipped slot
+
+    def read(name: str) -> np.ndarray:
+        return cv2.imread(str(moving / "depth" / f"{name}.png"), cv2.IMREAD_UNCHANGED)
+
+    assert all(read(b).any() and not np.array_equal(read(a), read(b)) for a, b in pairs)
+    with pytest.raises(ConfigError, match="fill"):
+        run_sim(net, None, DEFAULT_CONTROLLER, fill=True, **kw)
+
+
 def _recording(tmp_path: Path, n: int = 12) -> Path:
     rng = np.random.default_rng(0)
     frames = []
@@ -282,7 +326,7 @@ def _digest(out: Path) -> dict[str, str]:
     files = sorted(p for p in out.rglob("*.png"))
     digest = {str(p.relative_to(out)): hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
     with (out / "log.csv").open() as fh:  # every column but the timing
-        rows = [r[:-1] for r in csv.reader(fh)]
+        rows = [{k: v for k, v in r.items() if k != "ms"} for r in csv.DictReader(fh)]
     digest["log"] = hashlib.sha256(repr(rows).encode()).hexdigest()
     return digest
 
@@ -401,6 +445,7 @@ def test_detector_gets_the_previous_frame_whatever_its_flag():
 
 _FAULTS = """
 import resource, sys
+import cv2
 import numpy as np
 from d2sr.runtime.memory import reuse_freed_memory
 print(reuse_freed_memory() if sys.argv[1] == "1" else False)

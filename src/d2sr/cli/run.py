@@ -73,6 +73,15 @@ def run(
         ),
     ] = None,
     scene: SceneOpt = False,
+    fill: Annotated[
+        bool,
+        typer.Option(
+            "--fill",
+            metavar="",
+            help="sim: also write a frame for every slot a sensor's laser skipped, synthesized from its last "
+            "frame and odometry, with its confidence (docs/fill.md).",
+        ),
+    ] = False,
     int8: Annotated[
         bool,
         typer.Option(
@@ -109,6 +118,10 @@ def run(
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     is_live = source.partition(":")[0] in CAMERAS
     is_recording = source != "sim" and not is_live
+    if fill and source != "sim":
+        raise ConfigError(
+            "--fill: only 'sim' for now; a recording: d2sr fill; a camera: Pipeline.synthesize or d2sr ros2"
+        )
     if scene and source == "sim":
         raise ConfigError("--scene judges a recording's or a camera's frames against its scene; not 'sim'")
     if trigger is not None and not is_live:
@@ -146,7 +159,7 @@ def run(
             task = bar.add_task(f"{sensors} sensors, {controller} ({net.name})", total=1.0)
             summary = session.run_sim(
                 net, out, controller, sensors, seconds, active_frames, seed, moving, repair, threshold,
-                progress=lambda f: bar.update(task, completed=f), on_result=on_result,
+                progress=lambda f: bar.update(task, completed=f), on_result=on_result, fill=fill,
             )  # fmt: skip
         elif is_live:
             summary = run_live(
@@ -161,4 +174,7 @@ def run(
                 on_result=on_result, scene=scene,
             )  # fmt: skip
     console.print(stats_table(summary, f"d2sr run {source}"))
+    if fill:
+        made = ", ".join(str(n) for n in summary["synthesized"])
+        console.print(f"synthesized for the slots without a frame, per sensor: {made}")
     console.print(f"-> {out}")

@@ -1,8 +1,9 @@
 """The on-disk layout of the frame folders d2sr writes, in one place: a recording of a simulated room
 (``d2sr simulate``: per sensor ``depth/``, ``clean/``, ``masks/``), a run (``d2sr run``: per sensor
-``depth/``, ``masks/``), repaired frames (``d2sr recover``: ``<name>.png`` and ``masks/``) and labels
-(``d2sr label``: ``depth/``, ``masks/``). Each stream is a PNG folder a reader opens again: 16-bit depth
-in the recording's scale, masks as uint8 (255 = interfered), and a ``meta.json`` once finished."""
+``depth/``, ``masks/``, and ``confidence/`` with ``--fill``), repaired frames (``d2sr recover``:
+``<name>.png`` and ``masks/``) and labels (``d2sr label``: ``depth/``, ``masks/``). Each stream is a PNG
+folder a reader opens again: 16-bit depth in the recording's scale, masks as uint8 (255 = interfered),
+and a ``meta.json`` once finished."""
 
 from __future__ import annotations
 
@@ -15,11 +16,12 @@ import numpy as np
 from d2sr.frames.base import Intrinsics
 from d2sr.frames.png import encode_png, write_meta
 
-__all__ = ["LABELS", "RECORDING", "REPAIRED", "RUN", "FrameFolder", "sensor_dir"]
+__all__ = ["LABELS", "RECORDING", "REPAIRED", "RUN", "RUN_FILLED", "FrameFolder", "sensor_dir"]
 
 #: stream -> its sub-folder ("" = the folder itself)
 RECORDING = {"depth": "depth", "clean": "clean", "masks": "masks"}
 RUN = {"depth": "depth", "masks": "masks"}
+RUN_FILLED = {"depth": "depth", "masks": "masks", "confidence": "confidence"}  # d2sr run --fill
 REPAIRED = {"depth": "", "masks": "masks"}
 LABELS = {"depth": "depth", "masks": "masks"}
 MASK_STREAMS = ("masks",)

@@ -16,14 +16,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from d2sr.atomic import commit
 from d2sr.errors import D2SRError
-from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
+from d2sr.frames.layout import RUN, RUN_FILLED, FrameFolder, sensor_dir
 from d2sr.frames.overlap import Behind
 from d2sr.runtime.loop import Result
+from d2sr.synth.recording import confidence_image
 from d2sr.ui import NA
 
-__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink"]
+__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink", "SynthFrame"]
 
 LOG_COLUMNS = [
     "sensor",
@@ -38,6 +41,7 @@ LOG_COLUMNS = [
     "interfered",
     "true_share",
     "ms",
+    "synthesized",  # 1: a slot the laser skipped, synthesized (d2sr run --fill; score and flag n/a)
 ]
 
 
@@ -46,8 +50,10 @@ class RunFolder:
     ``run.finish(summary)``. Leaving the block on a D2SRError (bad input) discards the partial run; a kill
     leaves it for the next run to resume."""
 
-    def __init__(self, out: Path, settings: dict[str, Any], resumable: bool) -> None:
+    def __init__(self, out: Path, settings: dict[str, Any], resumable: bool, fill: bool = False) -> None:
+        """``fill``: the run also holds synthesized frames, and every frame its ``confidence``."""
         self.out = Path(out)
+        self.layout = RUN_FILLED if fill else RUN
         self.partial = self.out.with_name(f".{self.out.name}.partial")
         self.settings = json.loads(json.dumps(settings, default=str))
         self.done: dict[tuple[int, str], dict[str, Any]] = {}
@@ -110,7 +116,7 @@ class RunFolder:
     def _folder(self, sensor: int, create: bool = True) -> FrameFolder:
         """Sensor ``sensor``'s frames in the partial run (made on first write)."""
         if sensor not in self._folders:
-            folder = FrameFolder(sensor_dir(self.partial, sensor), RUN, create)
+            folder = FrameFolder(sensor_dir(self.partial, sensor), self.layout, create)
             if not create:
                 return folder
             self._folders[sensor] = folder
@@ -126,7 +132,8 @@ class RunFolder:
 
     def _write(self, sensor: int, res: Result) -> None:
         name = res.capture.name
-        self._folder(sensor).write(name, depth=res.depth, masks=res.mask)
+        extra = {"confidence": confidence_image(res.depth > 0)} if self.layout is RUN_FILLED else {}
+        self._folder(sensor).write(name, depth=res.depth, masks=res.mask, **extra)
         cap = res.capture
         truth = cap.interfered
         self._csv.writerow(
@@ -143,7 +150,23 @@ class RunFolder:
                 NA if truth is None else int(truth),
                 NA if cap.mask is None else f"{cap.mask.mean():.5f}",
                 f"{res.seconds * 1000:.2f}",
+                0,
             ]
+        )
+        self._log.flush()
+
+    def write_synthesized(self, sensor: int, frame: SynthFrame) -> None:
+        """Queue a synthesized frame (``d2sr run --fill``): its depth, an empty mask and its confidence."""
+        if self.layout is not RUN_FILLED:
+            raise ValueError("a run folder without fill=True holds no synthesized frames")
+        self._writes.submit(self._write_synthesized, sensor, frame)
+
+    def _write_synthesized(self, sensor: int, f: SynthFrame) -> None:
+        masks, conf = np.zeros(f.depth.shape, bool), confidence_image(f.confidence)
+        self._folder(sensor).write(f.name, depth=f.depth, masks=masks, confidence=conf)
+        t = NA if f.timestamp_ns is None else f"{f.timestamp_ns / 1e9:.6f}"
+        self._csv.writerow(
+            [sensor, f.name, t, f.period, f.slot, f.offset, NA, NA, NA, NA, NA, f"{f.ms:.2f}", 1]
         )
         self._log.flush()
 
@@ -162,6 +185,21 @@ class RunFolder:
         self._writes.close()
         if not self._log.closed:
             self._log.close()
+
+
+@dataclass(frozen=True)
+class SynthFrame:
+    """A frame synthesized for a slot the laser skipped, as a run folder logs it: ``depth`` in the run's
+    units, ``confidence`` per pixel in [0, 1], and where it lies (its period, slot and the window offset)."""
+
+    name: str
+    depth: np.ndarray
+    confidence: np.ndarray
+    timestamp_ns: int | None
+    period: int
+    slot: int
+    offset: int
+    ms: float
 
 
 @dataclass

@@ -24,7 +24,7 @@ from d2sr.frames.layout import FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
 from d2sr.synth.fill import Filler
 
-__all__ = ["FILLED", "FillSummary", "colour_frames", "fill_recording", "kept"]
+__all__ = ["FILLED", "FillSummary", "colour_frames", "confidence_image", "fill_recording", "kept"]
 
 FILLED = {"depth": "", "confidence": "confidence"}  # stream -> sub-folder of a fill output
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -98,7 +98,7 @@ def fill_recording(
             if kept(i, active_frames, offset):
                 filler.real(to_metres(frame.depth, scale), colour)
                 writes.submit(
-                    folder.write, frame.name, depth=frame.depth, confidence=_confidence(frame.depth > 0)
+                    folder.write, frame.name, depth=frame.depth, confidence=confidence_image(frame.depth > 0)
                 )
                 rows.append(_row(frame.name, i, "real", 0, frame.depth > 0, frame.depth > 0))
                 continue
@@ -112,7 +112,7 @@ def fill_recording(
                 rows.append(_row(frame.name, i, "none", 0, empty > 0, empty > 0))
                 continue
             depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
-            writes.submit(folder.write, frame.name, depth=depth, confidence=_confidence(s.confidence))
+            writes.submit(folder.write, frame.name, depth=depth, confidence=confidence_image(s.confidence))
             rows.append(_row(frame.name, i, s.method, s.since_real, depth > 0, s.confidence))
             methods[s.method] = methods.get(s.method, 0) + 1
             if progress is not None:
@@ -137,7 +137,8 @@ def _colour(path: Path) -> np.ndarray:
     return img
 
 
-def _confidence(conf: np.ndarray) -> np.ndarray:
+def confidence_image(conf: np.ndarray) -> np.ndarray:
+    """A per-pixel confidence in [0, 1] (or a bool) as the uint8 PNG its folder holds (255 = 1)."""
     return np.clip(np.rint(conf.astype(np.float32) * 255), 0, 255).astype(np.uint8)
 
 
