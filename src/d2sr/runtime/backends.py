@@ -138,7 +138,7 @@ class OnnxBackend:
     ) -> None:
         """``threads``: onnxruntime's intra-op threads per session (default: the recovery model on up to 4
         cores, the detector on one: a second thread cut its wall time on a 640x480 frame by a third but
-        raised its CPU time, docs/runtime.md). ``encoder``: a streaming temporal UNet's encoder file
+        raised its CPU time, docs/models.md). ``encoder``: a streaming temporal UNet's encoder file
         (default: ``contract.code_path`` of ``recovery``); ``pair``: a streaming temporal detector's pair
         file (default: ``contract.pair_path`` of ``detector``)."""
         self.passes = check_passes(passes)
