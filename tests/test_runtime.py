@@ -437,10 +437,41 @@ def test_detector_gets_the_previous_frame_whatever_its_flag():
     assert net.before[0] is None  # a stream's first frame has none: the detector's single-frame case
     assert net.before[1] is not None and net.before[1][0, 3, 3] == 1.0  # the flagged frame, as delivered
     assert net.before[2] is None  # a frame of another size is not a previous frame
-    # Every score is asked for against the loop's threshold (contract.gate), its own or the caller's.
+    # Every score is asked for against the loop's threshold (contract.gate), its own or the caller's;
+    # exact_scores (d2sr detect) asks for every score exact.
     assert net.cuts == [THRESHOLD] * 3
     SensorLoop(net, make_controller("static", 30, 3), repair="none", threshold=0.8).process(first)
     assert net.cuts[-1] == 0.8
+    SensorLoop(net, make_controller("static", 30, 3), repair="none", exact_scores=True).process(first)
+    assert net.cuts[-1] is None
+
+
+def test_detect_writes_every_score_exact_with_the_shipped_temporal_detector(tmp_path):
+    # The live loop may report a frame's score alone below the threshold; d2sr detect's CSV, which a user
+    # thresholds later, holds the exact score: the lower of alone and with the frame before.
+    from d2sr.runtime.batch import detect_recording
+    from d2sr.train.synth import synth_sequence_frame
+
+    frames = []
+    for i in range(6):
+        s = synth_sequence_frame(1_000_400 + i, bool(i % 2), previous=True)
+        frames.append(
+            np.clip(np.rint(s.frame.astype(np.float64) * (4000 / s.scale)), 0, 65535).astype(np.uint16)
+        )
+    root = tmp_path / "rec"
+    with PngWriter(root, 4000.0) as w:
+        for i, f in enumerate(frames):
+            w.write(Frame(f"f{i:03d}", f))
+    detect_recording(root, tmp_path / "d.csv", depth_scale=4000.0)
+    got = [float(r["score"]) for r in csv.DictReader((tmp_path / "d.csv").open())]
+    net, prev, want, gated = open_backend(None), None, [], []
+    for f in frames:
+        m = (f.astype(np.float32) / np.float32(4000))[None]
+        want.append(float(net.scores(m, prev)[0]))
+        gated.append(float(net.scores(m, prev, THRESHOLD)[0]))
+        prev = m
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    assert max(abs(g - w) for g, w in zip(gated, want, strict=True)) > 1e-3  # the loop's would differ
 
 
 _FAULTS = """

@@ -157,7 +157,8 @@ def detect_recording(
     say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
-    detector's probability that the frame is interfered; interfered: 1 at or above ``threshold``, and with
+    detector's probability that the frame is interfered, exact for every frame, so that any threshold can
+    be applied to it later; interfered: 1 at or above ``threshold``, and with
     ``scene`` only if the frame also deviates from the still sensor's own scene, ``SensorLoop.scene``).
     ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
     if threshold is not None:
@@ -172,6 +173,7 @@ def detect_recording(
         threshold=threshold,
         repair="none",
         scene=scene,
+        exact_scores=True,  # the CSV's scores serve any threshold the user picks later
     )
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

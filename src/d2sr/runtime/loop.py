@@ -116,6 +116,10 @@ class SensorLoop:
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
     # model's repair. Experimental: it failed sealed sets G and H (docs/research/decisions.md).
     scene_repair: bool = False
+    # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
+    # clear on its own is not weighed against the one before it; its score is then its score alone, below
+    # the threshold either way (contract.gate), for half the detector's work on a clean frame.
+    exact_scores: bool = False
     period: int = 0
     _reference: SceneReference | None = None
     _flags: dict[int, bool] = field(default_factory=dict)
@@ -173,9 +177,8 @@ class SensorLoop:
         self._unjudged = 0 if judge else self._unjudged + 1
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
-        # Scored against the cut: a frame clear on its own is not weighed against the one before it (its
-        # score is then its score alone, below the cut either way: contract.gate).
-        score = float(self.backend.scores(metres, before, self._cut)[0]) if judge else float("nan")
+        cut = None if self.exact_scores else self._cut
+        score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
         ev = None
         if self.scene and judge:
