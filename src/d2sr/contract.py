@@ -158,9 +158,9 @@ MODEL_HELP = (
 STREAM_INPUTS = {"detector": ("depth",), "recovery": ("depth", "previous", "code", "head_code")}
 STREAM_CODES = ("code", "head_code")
 # A temporal detector's second file (``pair_path``) takes these; its first, the frame alone
-# (``STREAM_INPUTS``), says ``ALONE`` in its metadata (an earlier d2sr's file with that input did not).
+# (``STREAM_INPUTS``), has ``ALONE`` in its metadata (an earlier d2sr's file with that input did not).
 PAIR_INPUTS = ("depth", "previous")
-ALONE = "scores"
+ALONE = {"scores": "alone"}
 
 
 def code_path(onnx: Path) -> Path:

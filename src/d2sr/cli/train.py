@@ -13,7 +13,7 @@ from rich.progress import TaskID
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
-from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability, code_path, pair_path
+from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.train.config import VALIDATION_FRAMES
 from d2sr.ui import console, warn
@@ -146,7 +146,7 @@ def export(
     from d2sr.models.onnx.export import export as run
     from d2sr.models.onnx.quantize import int8_path, quantize
     from d2sr.models.store import load_model
-    from d2sr.models.streaming import StreamingUNet, streaming
+    from d2sr.models.streaming import streaming
 
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
@@ -158,7 +158,7 @@ def export(
         written = [t, *([int8_path(t)] if int8 else [])]
         stream = streaming(load_model(w)[0])  # a streaming model's second file lies beside it
         if stream is not None:
-            written += [(code_path if isinstance(stream, StreamingUNet) else pair_path)(f) for f in written]
+            written += [stream.second_path(f) for f in written]
         for f in written:
             check_out(f, is_dir=False, overwrite=overwrite, inputs=files)
     for w, target in zip(files, targets, strict=True):

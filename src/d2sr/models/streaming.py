@@ -22,6 +22,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from d2sr.contract import code_path, pair_path
 from d2sr.models.detector import FastDetector, features
 from d2sr.models.unet import UNet, push_pull, space_to_depth
 
@@ -32,6 +33,8 @@ class StreamingDetector(nn.Module):
     """depth -> probability that the frame alone is interfered, as ``FastDetector`` scores it with itself as
     its previous frame: one stem convolution, both halves' weights summed (``features``' depth scale folded
     in). ``Pair`` scores it with its previous frame."""
+
+    second_path = staticmethod(pair_path)  # where the export puts the Pair beside it
 
     def __init__(self, det: FastDetector) -> None:
         super().__init__()
@@ -66,6 +69,8 @@ class Pair(nn.Module):
 
 class StreamingUNet(nn.Module):
     """(depth, last clean frame, its code, its head code) -> (mask logits, depth in metres)."""
+
+    second_path = staticmethod(code_path)  # where the export puts its Encoder beside it
 
     def __init__(self, net: UNet) -> None:
         super().__init__()

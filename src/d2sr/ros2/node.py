@@ -18,6 +18,7 @@ import numpy as np
 
 from d2sr.errors import ConfigError, InputError
 from d2sr.runtime.stats import median_p99_ms
+from d2sr.synth.recording import confidence_image
 
 __all__ = ["ENCODINGS", "QOS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
 
@@ -267,7 +268,7 @@ class Ros2Node:
         enc = "32FC1" if out.dtype.kind == "f" else "16UC1"
         self.repaired.write(Image(header, h, w, enc, 0, w * out.itemsize, out.view(np.uint8).reshape(-1)))
         self.mask.write(Image(header, h, w, "mono8", 0, w, np.zeros(h * w, np.uint8)))
-        conf = np.clip(np.rint(s.confidence * 255), 0, 255).astype(np.uint8)
+        conf = confidence_image(s.confidence)
         self.confidence.write(Image(header, h, w, "mono8", 0, w, conf.reshape(-1)))
         self.status.write(self._synth_status(header, s))
         self.stats.synthesized += 1

@@ -171,7 +171,7 @@ class OnnxBackend:
         for kind, path, s in (("detector", detector, self.det), ("recovery", recovery, self.rec)):
             if s is None or self._meta[kind].frames == 1:
                 continue
-            alone = kind != "detector" or s.get_modelmeta().custom_metadata_map.get(ALONE) == "alone"
+            alone = kind != "detector" or ALONE.items() <= s.get_modelmeta().custom_metadata_map.items()
             if tuple(i.name for i in s.get_inputs()) != STREAM_INPUTS[kind] or not alone:
                 raise InputError(f"{path}: a two-frame model exported by an earlier d2sr; export it again")
         if detector is not None and self._meta["detector"].frames == 2:

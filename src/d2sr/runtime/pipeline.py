@@ -21,7 +21,7 @@ import numpy as np
 from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe
+from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe, to_units
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
@@ -316,7 +316,7 @@ class Pipeline:
         if dtype.kind == "f":
             depth = np.where(s.depth > 0, s.depth, np.nan).astype(dtype)
         else:
-            depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
+            depth = to_units(s.depth, scale)
         return Synthesized(depth, s.confidence, s.method, s.since_real)
 
     def decide(

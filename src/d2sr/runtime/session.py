@@ -13,7 +13,7 @@ import numpy as np
 
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frames, Intrinsics, to_metres
+from d2sr.frames.base import Frames, Intrinsics, to_metres, to_units
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result, SensorLoop
 from d2sr.runtime.output import RunFolder, SynthFrame
@@ -127,17 +127,14 @@ def _fill(
     """A sensor's slot for ``run_sim(fill=True)``: its delivered frame becomes the filler's source, or the
     slot is synthesized from the last one and written."""
     i, scale, total = ev.sensor, room.model.depth_scale, room.cfg.total_frames
+    start = ev.time_s - float(room.tau[i])  # a slot's frame is taken at its start
     if res is not None:  # what the sensor gave (repaired where flagged)
-        t = res.capture.frame.timestamp_ns
-        at = ev.time_s - float(room.tau[i]) if t is None else (t - EPOCH_NS) / 1e9
-        filler.real(to_metres(res.depth, scale), pose=odometry(rig, i, at))
+        filler.real(to_metres(res.depth, scale), pose=odometry(rig, i, start))
         return
-    start = ev.time_s - float(room.tau[i])  # the slot's frame would have been taken at its start
     t0 = time.perf_counter()
     try:
         s = filler.synthesize(pose=odometry(rig, i, start))
-        depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
-        conf = s.confidence
+        depth, conf = to_units(s.depth, scale), s.confidence
     except InputError:  # no frame yet to synthesize from: an empty one, confidence 0
         k = rig.intr
         depth, conf = np.zeros((k.height, k.width), np.uint16), np.zeros((k.height, k.width), np.float32)

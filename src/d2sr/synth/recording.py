@@ -18,7 +18,7 @@ import numpy as np
 from d2sr.atomic import atomic_dir, check_out
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, to_metres
+from d2sr.frames.base import Frame, to_metres, to_units
 from d2sr.frames.checks import checked_counts, open_input
 from d2sr.frames.layout import FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
@@ -111,7 +111,7 @@ def fill_recording(
                 )
                 rows.append(_row(frame.name, i, "none", 0, empty > 0, empty > 0))
                 continue
-            depth = np.clip(np.rint(s.depth * scale), 0, 65535).astype(np.uint16)
+            depth = to_units(s.depth, scale)
             writes.submit(folder.write, frame.name, depth=depth, confidence=confidence_image(s.confidence))
             rows.append(_row(frame.name, i, s.method, s.since_real, depth > 0, s.confidence))
             methods[s.method] = methods.get(s.method, 0) + 1

@@ -2,9 +2,9 @@
 inference: the edge runtime loads the files with onnxruntime and never imports torch.
 
 One file per model, except that two-frame models are exported in their streaming form
-(``d2sr.models.streaming``), each with a second file beside it: the temporal detector's scores a frame with
-its previous frame's code (``contract.pair_path``), the temporal UNet's encodes the last clean frame
-(``contract.code_path``)."""
+(``d2sr.models.streaming``), each with a second file beside it (``second_path``): the temporal detector's
+scores a frame with its previous frame (``contract.pair_path``), the temporal UNet's encodes the last
+clean frame (``contract.code_path``)."""
 
 from __future__ import annotations
 
@@ -24,8 +24,6 @@ from d2sr.contract import (
     PAIR_INPUTS,
     STREAM_CODES,
     STREAM_INPUTS,
-    code_path,
-    pair_path,
 )
 from d2sr.errors import InputError
 from d2sr.models.detector import Scored
@@ -90,13 +88,11 @@ def export(weights: Path, out: Path, check: bool = True) -> dict:
         tmp = stack.enter_context(atomic_file(out))
         second = None
         if isinstance(stream, StreamingDetector):
-            second = stack.enter_context(atomic_file(pair_path(out)))
-            _onnx(
-                stream, (x[:, :1],), tmp, list(STREAM_INPUTS["detector"]), ["score"], meta | {ALONE: "alone"}
-            )
+            second = stack.enter_context(atomic_file(stream.second_path(out)))
+            _onnx(stream, (x[:, :1],), tmp, list(STREAM_INPUTS["detector"]), ["score"], meta | ALONE)
             _onnx(Pair(stream.det), (x[:, :1], x[:, 1:]), second, list(PAIR_INPUTS), ["score"], meta)
         elif isinstance(stream, StreamingUNet):
-            second = stack.enter_context(atomic_file(code_path(out)))
+            second = stack.enter_context(atomic_file(stream.second_path(out)))
             _onnx(Encoder(stream), (x[:, 1:],), second, ["previous"], list(STREAM_CODES), meta)
             with torch.inference_mode():
                 args = (x[:, :1], x[:, 1:], *stream.encode(x[:, 1:]))
