@@ -381,7 +381,7 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
     truth: dict[str, tuple[int, int]] = {}
     other: set[int] = set()
 
-    def camera(kind, serial, seconds, actuator, trigger):  # the board's pulses are the camera's frames
+    def shots(seconds):  # the board's pulses are the camera's frames
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             try:
@@ -392,9 +392,9 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
             time.sleep(max(0.0, arrival - time.monotonic()))
             name = f"{period:04d}_{slot:02d}"
             truth[name] = (period, slot)
-            yield Frame(name, _frame(slot, other, period * 30 + slot), None), SCALE, arrival
+            yield live.Shot(Frame(name, _frame(slot, other, period * 30 + slot), None), SCALE, arrival)
 
-    monkeypatch.setattr(live, "_camera", camera)
+    monkeypatch.setattr(live, "_camera", lambda kind, serial, seconds, *_: (shots(seconds), None))
     net = open_models()
     first = d2sr.make_controller("robust", 30, 6, seed=0).offset
     other.update((first + k) % 30 for k in range(3, 11))

@@ -29,6 +29,7 @@ from d2sr.cli.common import (
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames import open_colours
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.frames.checks import Checked, open_input
 from d2sr.runtime.live import CAMERAS, check_camera, run_live
@@ -78,10 +79,18 @@ def run(
         typer.Option(
             "--fill",
             metavar="",
-            help="sim: also write a frame for every slot a sensor's laser skipped, synthesized from its last "
-            "frame and odometry, with its confidence (docs/fill.md).",
+            help="Also write a frame for every slot the laser skipped, synthesized from the last frame and "
+            "where the camera went, with its confidence (docs/fill.md). sim: from odometry; a bag: every "
+            "colour frame of --colour-topic with no depth frame of its stamp; a camera: every colour frame "
+            "that comes without depth.",
         ),
     ] = False,
+    colour_topic: Annotated[
+        str | None,
+        typer.Option(
+            help="A bag's colour topic (bgr8/rgb8/mono8 or jpeg/png, depth aligned to it), for --fill."
+        ),
+    ] = None,
     int8: Annotated[
         bool,
         typer.Option(
@@ -118,9 +127,12 @@ def run(
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     is_live = source.partition(":")[0] in CAMERAS
     is_recording = source != "sim" and not is_live
-    if fill and source != "sim":
+    if colour_topic is not None and not (fill and is_recording):
+        raise ConfigError("--colour-topic is a bag's colour stream for --fill")
+    if fill and is_recording and colour_topic is None:
         raise ConfigError(
-            "--fill: only 'sim' for now; a recording: d2sr fill; a camera: Pipeline.synthesize or d2sr ros2"
+            "--fill on a recording needs its colour stream (--colour-topic, a bag's); a recording with every "
+            "frame: d2sr fill"
         )
     if scene and source == "sim":
         raise ConfigError("--scene judges a recording's or a camera's frames against its scene; not 'sim'")
@@ -149,6 +161,7 @@ def run(
         if not path.exists():
             raise InputError(f"{source}: no such recording (or use 'sim' / 'realsense')")
         reader, scale = open_input(path, topic, depth_scale, "input", 1000.0, max_range)
+        colours = open_colours(path, colour_topic) if colour_topic is not None else None
     shown = sensors if source == "sim" else 1
     with (
         RerunLog(rerun, shown, f"d2sr run {source}") if rerun else nullcontext() as log,
@@ -164,14 +177,14 @@ def run(
         elif is_live:
             summary = run_live(
                 net, out, source, trigger, controller, seconds, active_frames, repair, threshold, seed,
-                on_result=on_result, scene=scene,
+                on_result=on_result, scene=scene, fill=fill,
             )  # fmt: skip
         else:
             task = bar.add_task(f"{path.name} ({net.name})", total=1.0)
             summary = session.run_recording(
                 net, Checked(reader, scale), scale, out, controller, str(path.resolve()), active_frames,
                 repair, threshold, seed, progress=lambda f: bar.update(task, completed=f),
-                on_result=on_result, scene=scene,
+                on_result=on_result, scene=scene, colours=colours, intrinsics=reader.intrinsics,
             )  # fmt: skip
     console.print(stats_table(summary, f"d2sr run {source}"))
     if fill:

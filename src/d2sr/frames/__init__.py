@@ -14,9 +14,12 @@ realsense  RealSense ``.db3`` / ``.bag`` recording     ``d2sr.frames.realsense``
 from __future__ import annotations
 
 import importlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, to_metres
@@ -29,6 +32,7 @@ __all__ = [
     "Writer",
     "check_depth",
     "detect_format",
+    "open_colours",
     "open_frames",
     "open_writer",
     "to_metres",
@@ -94,6 +98,16 @@ def open_frames(path: Path, topic: str | None = None, format: str | None = None)
     reader = cls(Path(path), topic) if spec.takes_topic else cls(Path(path))
     assert isinstance(reader, Reader)
     return reader
+
+
+def open_colours(path: Path, topic: str) -> Iterable[tuple[int, np.ndarray]]:
+    """A bag's colour stream (``topic``) as ``(stamp ns, BGR or grey image)`` in time order."""
+    fmt = detect_format(Path(path))
+    if not FORMATS[fmt].takes_topic:
+        raise InputError(f"{path}: a colour topic is read from a ROS bag, not a {fmt} recording")
+    from d2sr.frames.rosbag import BagColours
+
+    return BagColours(Path(path), topic)
 
 
 def open_writer(

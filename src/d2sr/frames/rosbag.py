@@ -23,9 +23,10 @@ from rosbags.typesys import Stores, get_typestore
 from d2sr.atomic import CALLER, discard
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
+from d2sr.frames.colour import decode_colour
 from d2sr.frames.png import decode_png, encode_png
 
-__all__ = ["BagReader", "Ros1Writer", "Ros2Writer", "bag_topics", "is_ros2_bag"]
+__all__ = ["BagColours", "BagReader", "Ros1Writer", "Ros2Writer", "bag_topics", "is_ros2_bag"]
 
 IMAGE = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 INFO = "sensor_msgs/msg/CameraInfo"
@@ -168,11 +169,46 @@ class BagReader(Reader):
                 except Exception as exc:  # rosbags raises several types for damaged messages
                     raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
                 depth, scale = decode_image(msg, conn.msgtype, where)
-                st = msg.header.stamp
-                ns = int(st.sec) * 1_000_000_000 + int(getattr(st, "nanosec", getattr(st, "nsec", 0)))
-                yield Frame(f"{i:06d}", depth, ns or int(stamp), {"depth_scale": scale})
+                yield Frame(f"{i:06d}", depth, _stamp(msg, stamp), {"depth_scale": scale})
         finally:
             reader.close()
+
+
+class BagColours:
+    """The colour frames of one topic of a ROS 1 or ROS 2 bag, as ``(stamp ns, BGR or grey image)`` in bag
+    order: what frame synthesis follows the camera with (``d2sr run BAG --fill --colour-topic``)."""
+
+    def __init__(self, path: Path, topic: str) -> None:
+        self.path, self.topic = Path(path), topic
+        topics = bag_topics(self.path)
+        if topic not in topics:
+            have = ", ".join(sorted(t for t, m in topics.items() if m in IMAGE)) or "none"
+            raise InputError(f"{self.path}: no colour topic {topic!r} (image topics: {have})")
+        if topics[topic] not in IMAGE:
+            raise InputError(f"{self.path}: colour topic {topic!r} is {topics[topic]}, not an image")
+        self.msgtype = topics[topic]
+
+    def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
+        reader = _open(self.path)
+        compressed = self.msgtype.endswith("CompressedImage")
+        try:
+            conns = [c for c in reader.connections if c.topic == self.topic]
+            for i, (conn, stamp, raw) in enumerate(reader.messages(connections=conns)):
+                where = f"{self.path}: {self.topic} message {i}"
+                try:
+                    msg: Any = reader.deserialize(raw, conn.msgtype)
+                except Exception as exc:  # rosbags raises several types for damaged messages
+                    raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
+                yield _stamp(msg, stamp), decode_colour(msg, where, compressed)
+        finally:
+            reader.close()
+
+
+def _stamp(msg: Any, bag_ns: int) -> int:
+    """A message's header stamp in ns (ROS 1 or 2), or its bag time when the header has none."""
+    st = msg.header.stamp
+    ns = int(st.sec) * 1_000_000_000 + int(getattr(st, "nanosec", getattr(st, "nsec", 0)))
+    return ns or int(bag_ns)
 
 
 def _message(ts: Any, frame: Frame, compressed: bool, ros1: bool) -> tuple[Any, str]:

@@ -17,7 +17,9 @@ from typing import Any
 import numpy as np
 
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames.colour import decode_colour
 from d2sr.runtime.stats import median_p99_ms
+from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.synth.recording import confidence_image
 
 __all__ = ["ENCODINGS", "QOS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
@@ -29,8 +31,6 @@ ENCODINGS: dict[str, np.dtype[Any]] = {
     "32FC1": np.dtype(np.float32),
 }
 QOS = ("reliable", "best-effort")
-PAIR_NS = 10_000_000  # a colour and a depth frame whose stamps differ by less are one moment
-WAIT_S = 0.1  # how long a colour frame waits for its depth frame before the laser is taken to be off
 _NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -151,11 +151,7 @@ class Ros2Node:
             )
         for cond in self._ready:
             self._waitset.attach(cond)
-        # recent colour frames (stamp, header, image, arrival): all, for pairing; pending, for synthesis
-        self._colours: deque[tuple[int, Any, np.ndarray, float]] = deque(maxlen=90)
-        self._pending: deque[tuple[int, Any, np.ndarray, float]] = deque(maxlen=90)
-        self._depth_stamps: deque[int] = deque(maxlen=90)
-        self._last_real = -1  # stamp of the newest depth frame kept as synthesis's source
+        self._gaps = ColourGaps()  # which colour frames have no depth frame (extra: the message header)
         self._stop = threading.Event()
         self._duration = duration
 
@@ -197,7 +193,10 @@ class Ros2Node:
             self.stats.refused += 1
             return
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        self._depth_stamps.append(stamp)
+        unjoined = self._gaps.depth(stamp)
+        if unjoined:  # the slots before this window: made from the last real frame, before this one is
+            self._publish_done(wait=True)
+            self._synthesize(unjoined)
         try:
             decided = self.pipeline.decide(depth, stamp, arrival_s=taken)
         except InputError as exc:  # e.g. a --depth-scale given for a float topic: say so, keep running
@@ -215,50 +214,31 @@ class Ros2Node:
             self._publish(msg, taken, r)
             if self.colour_reader is not None:
                 stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-                self.pipeline.keep(r, self._colour_at(stamp))
-                self._last_real = max(self._last_real, stamp)
+                self.pipeline.keep(r, self._gaps.colour_at(stamp))
+                self._gaps.real(stamp)
             wait = False
 
     def _colour(self, msg: Any, taken: float) -> None:
         """A colour frame: kept for pairing with its depth frame, or for synthesis if none comes."""
-        channels = {"bgr8": 3, "rgb8": 3, "mono8": 1}.get(msg.encoding)
-        if channels is None:
-            self._warn(f"colour encoding {msg.encoding!r} is not bgr8, rgb8 or mono8; colour skipped")
+        try:
+            img = decode_colour(msg, "colour")
+        except InputError as exc:
+            self._warn(f"{exc}; skipped")
             return
-        data = np.asarray(msg.data, np.uint8)
-        row = msg.width * channels
-        if msg.step < row or data.size < msg.step * msg.height:
-            self._warn("a colour image's size, step and data disagree; skipped")
-            return
-        img = np.ascontiguousarray(data[: msg.step * msg.height].reshape(msg.height, msg.step)[:, :row])
-        img = (
-            img.reshape(msg.height, msg.width, channels)
-            if channels == 3
-            else img.reshape(msg.height, msg.width)
-        )
-        if msg.encoding == "rgb8":
-            img = img[:, :, ::-1]
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        self._colours.append((stamp, msg.header, img, taken))
-        self._pending.append((stamp, msg.header, img, taken))
-
-    def _colour_at(self, stamp: int) -> np.ndarray | None:
-        for s, _, img, _ in self._colours:
-            if abs(s - stamp) <= PAIR_NS:
-                return img
-        return None
+        self._gaps.colour(ColourFrame(stamp, img, taken, msg.header))
 
     def _synthesize_due(self, now: float) -> None:
-        """Colour frames older than ``WAIT_S`` with no depth frame of their stamp: the laser skipped them."""
-        while self._pending and now - self._pending[0][3] >= WAIT_S:
-            stamp, header, img, taken = self._pending.popleft()
-            if any(abs(s - stamp) <= PAIR_NS for s in self._depth_stamps) or stamp < self._last_real:
-                continue  # a real frame has it, or synthesis's source is newer than it
+        """Colour frames that waited with no depth frame of their stamp: the laser skipped them."""
+        self._synthesize(self._gaps.due(now))
+
+    def _synthesize(self, colours: list[ColourFrame]) -> None:
+        for c in colours:
             try:
-                s = self.pipeline.synthesize(img)
+                s = self.pipeline.synthesize(c.image)
             except InputError:
                 continue  # no real frame yet
-            self._publish_synthesized(header, s, taken)
+            self._publish_synthesized(c.extra, s, c.arrival)
 
     def _publish_synthesized(self, header: Any, s: Any, taken: float) -> None:
         from d2sr.ros2.msgs import Image

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -15,21 +16,35 @@ import numpy as np
 
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame
+from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.realsense import import_rs
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder
-from d2sr.runtime.session import summarize
+from d2sr.runtime.session import RunFiller, summarize
 from d2sr.runtime.stats import RunStats
+from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.triggers import Actuator, open_trigger, parse_trigger
 
 __all__ = ["CAMERAS", "check_camera", "run_live"]
 
 CAMERAS = ("realsense", "orbbec")
 
-LiveFrames = Iterator[tuple[Frame, float, float]]  # frame, units per metre, host arrival (monotonic)
+
+@dataclass(frozen=True)
+class Shot:
+    """One moment from a camera: its depth frame (None: the laser was off), units per metre, when it reached
+    the host (``time.monotonic``), and with ``fill`` its colour image (BGR, depth aligned to it)."""
+
+    depth: Frame | None
+    scale: float
+    arrival: float
+    colour: np.ndarray | None = None
+    stamp: int = 0  # ns, the camera's clock: pairs colour with depth
+
+
+LiveFrames = Iterator[Shot]
 
 
 def check_camera(source: str, trigger: str | None) -> tuple[str, str | None]:
@@ -45,9 +60,11 @@ def check_camera(source: str, trigger: str | None) -> tuple[str, str | None]:
     return camera, serial or None
 
 
-def _realsense(serial: str | None, actuator: Actuator | None, trigger: str | None) -> tuple[Any, Any]:
+def _realsense(
+    serial: str | None, actuator: Actuator | None, trigger: str | None, colour: bool
+) -> tuple[Any, Any]:
     """(pipeline, profile) of a started RealSense, waiting for its sync input or with its emitter driven
-    when an actuator is given."""
+    when an actuator is given; with ``colour``, its colour stream too."""
     rs = import_rs()
     ctx = rs.context()
     serials = [d.get_info(rs.camera_info.serial_number) for d in ctx.query_devices()]
@@ -59,6 +76,8 @@ def _realsense(serial: str | None, actuator: Actuator | None, trigger: str | Non
     if serial:
         cfg.enable_device(serial)
     cfg.enable_stream(rs.stream.depth, rs.format.z16, 30)
+    if colour:
+        cfg.enable_stream(rs.stream.color, rs.format.bgr8, 30)
     profile = pipe.start(cfg)
     sensor = profile.get_device().first_depth_sensor()
     if actuator is not None and trigger is not None:
@@ -70,9 +89,10 @@ def _realsense(serial: str | None, actuator: Actuator | None, trigger: str | Non
     return pipe, profile
 
 
-def _realsense_frames(pipe: Any, profile: Any, seconds: float) -> LiveFrames:
+def _realsense_frames(pipe: Any, profile: Any, seconds: float, colour: bool) -> LiveFrames:
     rs = import_rs()
     scale = 1.0 / profile.get_device().first_depth_sensor().get_depth_scale()
+    align = rs.align(rs.stream.color) if colour else None  # depth onto the colour camera's pixels
     end = time.monotonic() + seconds
     try:
         while time.monotonic() < end:
@@ -80,15 +100,28 @@ def _realsense_frames(pipe: Any, profile: Any, seconds: float) -> LiveFrames:
             if not ok:
                 continue  # a triggered camera sends nothing outside its window
             d = fs.get_depth_frame()
-            arrival = _arrival(d, rs)
+            c = fs.get_color_frame() if colour else None
+            if not d:  # the laser was off: colour alone, if any
+                if c:
+                    image = np.asanyarray(c.get_data()).copy()
+                    yield Shot(None, scale, _arrival(c, rs), image, int(c.get_timestamp() * 1e6))
+                continue
+            if align is not None and c:
+                fs = align.process(fs)
+                d = fs.get_depth_frame()
+            image = np.asanyarray(c.get_data()).copy() if c else None
             stamp = int(d.get_timestamp() * 1e6)
-            yield (
-                Frame(f"{d.get_frame_number():08d}", np.asanyarray(d.get_data()).copy(), stamp),
-                scale,
-                arrival,
-            )
+            frame = Frame(f"{d.get_frame_number():08d}", np.asanyarray(d.get_data()).copy(), stamp)
+            yield Shot(frame, scale, _arrival(d, rs), image, stamp)
     finally:
         pipe.stop()
+
+
+def _colour_intrinsics(profile: Any) -> Intrinsics:
+    """The colour camera's intrinsics: aligned depth has them."""
+    rs = import_rs()
+    i = profile.get_stream(rs.stream.color).as_video_stream_profile().get_intrinsics()
+    return Intrinsics(i.width, i.height, i.fx, i.fy, i.ppx, i.ppy)
 
 
 def _arrival(frame: Any, rs: Any) -> float:
@@ -102,17 +135,28 @@ def _arrival(frame: Any, rs: Any) -> float:
 
 
 def _camera(
-    camera: str, serial: str | None, seconds: float, actuator: Actuator | None, trigger: str | None
-) -> LiveFrames:
+    camera: str,
+    serial: str | None,
+    seconds: float,
+    actuator: Actuator | None,
+    trigger: str | None,
+    fill: bool,
+) -> tuple[LiveFrames, Intrinsics | None]:
+    """The camera's moments, and with ``fill`` the intrinsics of the depth aligned to its colour."""
     if camera == "realsense":
-        return _realsense_frames(*_realsense(serial, actuator, trigger), seconds)
+        pipe, profile = _realsense(serial, actuator, trigger, fill)
+        return _realsense_frames(pipe, profile, seconds, fill), _colour_intrinsics(profile) if fill else None
+    if fill:
+        raise ConfigError(
+            "--fill on a live camera: a RealSense for now (an Orbbec: d2sr ros2 --colour-topic)"
+        )
     from d2sr.triggers.orbbec import OrbbecActuator, open_orbbec, orbbec_frames
 
     triggered = isinstance(actuator, OrbbecActuator)
     device, pipe = open_orbbec(serial, triggered)
     if triggered:
         actuator.device = device  # type: ignore[union-attr]
-    return orbbec_frames(pipe, seconds)
+    return (Shot(f, scale, arrival) for f, scale, arrival in orbbec_frames(pipe, seconds)), None
 
 
 def run_live(
@@ -128,10 +172,13 @@ def run_live(
     seed: int,
     on_result: Callable[[int, Result], None] | None = None,
     scene: bool = False,
+    fill: bool = False,
 ) -> dict[str, Any]:
     """A live camera (``realsense[:SERIAL]`` or ``orbbec[:SERIAL]``) through one loop for ``seconds``;
     closed through ``trigger`` (a ``d2sr.triggers`` spec) when given; with ``scene``, a still camera's
-    frames are also judged against its scene (``SensorLoop.scene``)."""
+    frames are also judged against its scene (``SensorLoop.scene``). With ``fill`` (a RealSense), its colour
+    stream is read too, and every colour frame that no depth frame joins (the laser was off) gets a frame
+    synthesized from the last one, written into the run with its confidence (``d2sr.synth``)."""
     camera, serial = check_camera(source, trigger)
     stats = RunStats()
     settings = {
@@ -140,22 +187,47 @@ def run_live(
         "controller": controller,
         "seconds": seconds,
         "scene": scene,
+        "fill": fill,
     }
     actuator = open_trigger(trigger, active_frames) if trigger is not None else None
     with contextlib.ExitStack() as stack:
         if actuator is not None:
             stack.callback(actuator.close)
-        frames = _camera(camera, serial, seconds, actuator, trigger)
-        folder = stack.enter_context(RunFolder(out, settings, resumable=False))
+        shots, intrinsics = _camera(camera, serial, seconds, actuator, trigger, fill)
+        folder = stack.enter_context(RunFolder(out, settings, resumable=False, fill=fill))
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
         closed = ClosedLoop(loop, actuator) if actuator is not None else None
-        for frame, scale, arrival in frames:
-            cap = Capture(frame, scale)
-            res = loop.process(cap) if closed is None else closed.process(cap, arrival)
-            stats.add(res)
-            if on_result is not None:
-                on_result(0, res)
+        filler = RunFiller(folder, intrinsics)
+        gaps = ColourGaps()
+
+        def synthesize(colours: list[ColourFrame], scale: float) -> None:
+            for c in colours:
+                period, slot = actuator.locate(c.arrival) if actuator is not None else (loop.period, None)
+                filler.skipped(c.image, c.stamp, (period, slot, loop.controller.offset), scale)
+
+        scale = 1000.0  # the camera's units per metre, from its first shot
+        for shot in shots:
+            scale = shot.scale
+            if shot.depth is not None:
+                if fill:
+                    synthesize(gaps.depth(shot.stamp), scale)
+                cap = Capture(shot.depth, shot.scale)
+                res = loop.process(cap) if closed is None else closed.process(cap, shot.arrival)
+                stats.add(res)
+                if on_result is not None:
+                    on_result(0, res)
+                if fill:
+                    filler.real(shot.depth.name, res, shot.scale, shot.colour)
+                    gaps.real(shot.stamp)
+            elif fill and shot.colour is not None:
+                gaps.colour(ColourFrame(shot.stamp, shot.colour, shot.arrival))
+            if fill:
+                synthesize(gaps.due(time.monotonic()), scale)
+        if fill:
+            synthesize(gaps.flush(), scale)
         summary = summarize(settings, [stats])
+        if fill:
+            summary["synthesized"] = [filler.made]
         folder.finish(summary)
     return summary

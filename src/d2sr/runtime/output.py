@@ -166,7 +166,21 @@ class RunFolder:
         self._folder(sensor).write(f.name, depth=f.depth, masks=masks, confidence=conf)
         t = NA if f.timestamp_ns is None else f"{f.timestamp_ns / 1e9:.6f}"
         self._csv.writerow(
-            [sensor, f.name, t, f.period, f.slot, f.offset, NA, NA, NA, NA, NA, f"{f.ms:.2f}", 1]
+            [
+                sensor,
+                f.name,
+                t,
+                f.period,
+                NA if f.slot is None else f.slot,
+                f.offset,
+                NA,
+                NA,
+                NA,
+                NA,
+                NA,
+                f"{f.ms:.2f}",
+                1,
+            ]
         )
         self._log.flush()
 
@@ -197,7 +211,7 @@ class SynthFrame:
     confidence: np.ndarray
     timestamp_ns: int | None
     period: int
-    slot: int
+    slot: int | None  # None: a recording's or an open-loop camera's (no clock says)
     offset: int
     ms: float
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -15,17 +15,18 @@ from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frames, Intrinsics, to_metres, to_units
 from d2sr.runtime.backends import Backend
-from d2sr.runtime.loop import Result, SensorLoop
+from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder, SynthFrame
-from d2sr.runtime.sources import RoomTrigger, recording, run_room
+from d2sr.runtime.sources import RoomTrigger, run_room
 from d2sr.runtime.stats import RunStats
 from d2sr.sim.record import EPOCH_NS
 from d2sr.sim.room import SimRoom, SlotEnd
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import Rig, make_rig
 from d2sr.synth import Filler, Pose
+from d2sr.synth.gaps import interleave
 
-__all__ = ["odometry", "rig_intrinsics", "run_recording", "run_sim", "summarize"]
+__all__ = ["odometry", "rig_intrinsics", "run_recording", "run_sim", "summarize", "synth_frame"]
 
 Progress = Callable[[float], None]
 
@@ -131,20 +132,58 @@ def _fill(
     if res is not None:  # what the sensor gave (repaired where flagged)
         filler.real(to_metres(res.depth, scale), pose=odometry(rig, i, start))
         return
+    period, k = ev.slot // total, rig.intr
+    where = (period, ev.slot % total, room.offset(i, period))
+    stamp = EPOCH_NS + round(start * 1e9)
+    pose = odometry(rig, i, start)
+    frame = synth_frame(filler, f"{ev.slot:06d}", stamp, where, (k.height, k.width), scale, pose=pose)
+    folder.write_synthesized(i, frame)
+
+
+def synth_frame(
+    filler: Filler,
+    name: str,
+    stamp: int | None,
+    where: tuple[int, int | None, int],
+    shape: tuple[int, int],
+    scale: float,
+    colour: np.ndarray | None = None,
+    pose: Pose | None = None,
+) -> SynthFrame:
+    """The frame ``filler`` synthesizes for a slot without one (``where``: its period, slot and the window
+    offset), in the run's units; an empty one with confidence 0 when no real frame came yet."""
     t0 = time.perf_counter()
     try:
-        s = filler.synthesize(pose=odometry(rig, i, start))
+        s = filler.synthesize(colour, pose)
         depth, conf = to_units(s.depth, scale), s.confidence
-    except InputError:  # no frame yet to synthesize from: an empty one, confidence 0
-        k = rig.intr
-        depth, conf = np.zeros((k.height, k.width), np.uint16), np.zeros((k.height, k.width), np.float32)
-    ms = 1000 * (time.perf_counter() - t0)
-    period = ev.slot // total
-    frame = SynthFrame(
-        f"{ev.slot:06d}", depth, conf, EPOCH_NS + round(start * 1e9), period, ev.slot % total,
-        room.offset(i, period), ms,
-    )  # fmt: skip
-    folder.write_synthesized(i, frame)
+    except InputError:  # no frame yet to synthesize from
+        depth, conf = np.zeros(shape, np.uint16), np.zeros(shape, np.float32)
+    return SynthFrame(name, depth, conf, stamp, *where, 1000 * (time.perf_counter() - t0))
+
+
+class RunFiller:
+    """Synthesis inside a run folder (a recording's or a camera's run with fill): each frame the run wrote
+    becomes the source, and each moment the laser skipped is written as ``<last frame>_<k>``."""
+
+    def __init__(self, folder: RunFolder, intrinsics: Intrinsics | None, sensor: int = 0) -> None:
+        self.folder, self.sensor = folder, sensor
+        self.filler = Filler(intrinsics)
+        self.made = 0
+        self._last, self._since = "start", 0
+
+    def real(self, name: str, res: Result, scale: float, colour: np.ndarray | None) -> None:
+        self.filler.real(to_metres(res.depth, scale), colour)
+        self._last, self._since = name, 0
+
+    def skipped(
+        self, colour: np.ndarray, stamp: int | None, where: tuple[int, int | None, int], scale: float
+    ) -> None:
+        self._since += 1
+        shape = (colour.shape[0], colour.shape[1])  # depth is aligned to colour
+        name = f"{self._last}_{self._since:02d}"
+        f = synth_frame(self.filler, name, stamp, where, shape, scale, colour=colour)
+        self.folder.write_synthesized(self.sensor, f)
+        self.made += 1
 
 
 def run_recording(
@@ -161,10 +200,18 @@ def run_recording(
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
     scene: bool = False,
+    colours: Iterable[tuple[int, np.ndarray]] | None = None,
+    intrinsics: Intrinsics | None = None,
 ) -> dict[str, Any]:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied); with
     ``scene``, a still sensor's frames are also judged against its scene (``SensorLoop.scene``).
-    A killed run resumes: logged frames are skipped and the controller is replayed from their flags."""
+    A killed run resumes: logged frames are skipped and the controller is replayed from their flags.
+
+    ``colours``: the recording's colour stream, ``(stamp ns, image)`` in time order (depth aligned to it);
+    every colour frame no depth frame joins (a slot the laser skipped, ``d2sr.synth.interleave``) gets a frame
+    synthesized from the last one and the colour stream, written with the others; such a run starts over
+    when killed. ``intrinsics``: the depth camera's, for that synthesis [guessed]."""
+    fill = colours is not None
     settings = {
         "source": source,
         "frames": len(reader),
@@ -176,14 +223,23 @@ def run_recording(
         "threshold": threshold if threshold is not None else backend.threshold,
         "backend": backend.name,
         "scene": scene,
+        "fill": fill,
     }
     stats = RunStats()
     total = len(reader)
-    with RunFolder(out, settings, resumable=True) as folder:
+    with RunFolder(out, settings, resumable=not fill, fill=fill) as folder:
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
         loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
+        filler = RunFiller(folder, intrinsics)
         done = folder.done
-        for k, cap in enumerate(recording(reader, scale)):
+        frames = interleave(reader, colours) if colours is not None else ((f, None, 0) for f in reader)
+        k = 0
+        for frame, colour, stamp in frames:
+            if frame is None:  # a moment the laser skipped: colour alone
+                assert colour is not None
+                filler.skipped(colour, stamp, (loop.period, None, loop.controller.offset), scale)
+                continue
+            cap = Capture(frame, scale)
             rec = done.get((0, cap.name))
             if rec is not None:  # resumed: replay the controller from the logged flag
                 loop.replay(bool(int(rec["flagged"])), cap=cap)
@@ -192,9 +248,14 @@ def run_recording(
                 stats.add(res)
                 if on_result is not None:
                     on_result(0, res)
+                if fill:
+                    filler.real(frame.name, res, scale, colour)
+            k += 1
             if progress is not None:
-                progress((k + 1) / total)
+                progress(k / total)
         summary = summarize(settings, [stats]) | {"resumed_frames": len(done)}
+        if fill:
+            summary["synthesized"] = [filler.made]
         folder.finish(summary)
     return summary
 

@@ -1,14 +1,10 @@
-"""Frame sources and triggers for the loop: a simulated room, a recording, a live RealSense.
-
-* ``room_loops``: N sensors of one ``SimRoom``, each an independent ``SensorLoop`` whose trigger sets
-  only its own window in the world; the loops share nothing but the world.
-* ``recording``: any reader's frames (PNG folder, bag, RealSense recording), open loop.
-* ``d2sr.runtime.realsense``: a live sensor (optional extra, kept thin behind the same protocols).
-"""
+"""The simulated room as the loops' frame source: ``run_room`` gives each sensor's slots to its own
+``SensorLoop``, whose ``RoomTrigger`` sets only that sensor's window in the world; the loops share nothing
+but the world. (A recording: ``session.run_recording``; a live camera: ``live.run_live``.)"""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from d2sr.frames.base import Frame
@@ -16,7 +12,7 @@ from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.sim.record import EPOCH_NS
 from d2sr.sim.room import SimRoom, SlotEnd
 
-__all__ = ["RoomTrigger", "recording", "run_room"]
+__all__ = ["RoomTrigger", "run_room"]
 
 
 @dataclass
@@ -49,9 +45,3 @@ def run_room(
             if progress is not None and ev.sensor == 0:
                 progress(min(1.0, ev.time_s / seconds))
         yield ev, res
-
-
-def recording(reader: Iterable[Frame], scale: float) -> Iterator[Capture]:
-    """A recording's frames in time order (open loop: the loop makes a period of every n frames)."""
-    for frame in reader:
-        yield Capture(frame, scale)

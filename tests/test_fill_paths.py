@@ -1,0 +1,192 @@
+"""Synthesis on the loop's other paths: which colour frames the laser skipped (``d2sr.synth.gaps``), a bag's
+colour stream through ``d2sr run BAG --fill --colour-topic``, and a live camera's through ``run_live``."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Writer
+from rosbags.typesys import Stores, get_typestore
+
+from d2sr.frames.base import Frame
+from d2sr.synth.gaps import ColourFrame, ColourGaps, interleave
+from helpers import d2sr_inprocess
+from test_fill import K, _colour_of_wall, _texture
+
+DEPTH, COLOUR = "/camera/depth/image_raw", "/camera/color/image_raw"
+STEP = 33_333_333  # ns between slots
+SLOTS = 45  # a period and a half, the laser on in slots 0-5 of every 30
+T0 = 10**9
+
+
+def _on(k: int) -> bool:
+    return k % 30 < 6
+
+
+def _wall_and_colours() -> tuple[np.ndarray, list[np.ndarray]]:
+    """A wall 3 m away in millimetres, and the colour of a camera sliding 4 mm a slot along it."""
+    tex = _texture(3)
+    return np.full((K.height, K.width), 3000, np.uint16), [
+        _colour_of_wall(np.array([0.004 * k, 0.0, 0.0]), tex) for k in range(SLOTS)
+    ]
+
+
+def test_every_colour_frame_without_depth_is_a_skipped_slot_in_time_order():
+    """The frame just before each window is one too: no depth frame joins it once the window's first came."""
+    depths = [Frame(f"{k:03d}", np.zeros((2, 2), np.uint16), T0 + k * STEP) for k in range(SLOTS) if _on(k)]
+    # colour stamps a few ms off the depth's, as two sensors' clocks give them; one colour frame lost (7)
+    colours = [(T0 + k * STEP + 3_000_000, np.full((2, 2), k, np.uint8)) for k in range(SLOTS) if k != 7]
+    out = list(interleave(depths, colours))
+    assert [int(f.name) for f, _, _ in out if f is not None] == [k for k in range(SLOTS) if _on(k)]
+    skipped = [int(c[0, 0]) for f, c, _ in out if f is None]
+    assert skipped == [k for k in range(SLOTS) if not _on(k) and k != 7]  # 29 included
+    joined = [(int(f.name), None if c is None else int(c[0, 0])) for f, c, _ in out if f is not None]
+    assert all(k == c for k, c in joined)  # each depth frame got its own colour frame
+    stamps = [t for _, _, t in out]
+    assert stamps == sorted(stamps)
+
+
+def test_colour_gaps_wait_for_the_depth_frame_then_come_due():
+    gaps = ColourGaps(wait_s=0.1)
+    img = np.zeros((2, 2), np.uint8)
+    gaps.colour(ColourFrame(T0, img, 5.0))
+    gaps.colour(ColourFrame(T0 + STEP, img, 5.03))
+    assert gaps.due(5.05) == []  # still waiting for its depth frame
+    # the older one can no longer be joined
+    assert [c.stamp for c in gaps.depth(T0 + STEP + 2_000_000)] == [T0]
+    assert gaps.due(5.2) == []  # the newer one was joined
+    gaps.real(T0 + 2 * STEP)
+    gaps.colour(ColourFrame(T0 + STEP // 2, img, 5.3))  # older than synthesis's source: never made
+    assert gaps.flush() == []
+
+
+def _bag(path: Path, colour: bool = True) -> np.ndarray:
+    """A ROS 2 bag of a duty-cycled camera: colour (bgr8) every slot, depth (16UC1, mm, aligned to colour)
+    only in the window, the camera's intrinsics."""
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    wall, colours = _wall_and_colours()
+    with Writer(path, version=9) as bag:
+        dc = bag.add_connection(DEPTH, "sensor_msgs/msg/Image", typestore=ts)
+        cc = bag.add_connection(COLOUR, "sensor_msgs/msg/Image", typestore=ts)
+        ic = bag.add_connection("/camera/depth/camera_info", "sensor_msgs/msg/CameraInfo", typestore=ts)
+
+        def header(ns: int) -> object:
+            t = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            return T["std_msgs/msg/Header"](stamp=t, frame_id="camera")
+
+        k9 = np.array([K.fx, 0, K.px, 0, K.fy, K.py, 0, 0, 1], np.float64)
+        roi = T["sensor_msgs/msg/RegionOfInterest"](0, 0, 0, 0, False)
+        info = T["sensor_msgs/msg/CameraInfo"](
+            header(T0), K.height, K.width, "plumb_bob", np.zeros(5), k9, np.eye(3).ravel(), np.zeros(12),
+            0, 0, roi,
+        )  # fmt: skip
+        bag.write(ic, T0, ts.serialize_cdr(info, "sensor_msgs/msg/CameraInfo"))
+        for k in range(SLOTS):
+            ns = T0 + k * STEP
+            if colour:
+                img = cv2.cvtColor(colours[k], cv2.COLOR_GRAY2BGR)
+                m = T["sensor_msgs/msg/Image"](
+                    header(ns), K.height, K.width, "bgr8", 0, K.width * 3, img.reshape(-1)
+                )
+                bag.write(cc, ns, ts.serialize_cdr(m, "sensor_msgs/msg/Image"))
+            if _on(k):
+                data = np.frombuffer(wall.tobytes(), np.uint8)
+                m = T["sensor_msgs/msg/Image"](header(ns), K.height, K.width, "16UC1", 0, K.width * 2, data)
+                bag.write(dc, ns + 1000, ts.serialize_cdr(m, "sensor_msgs/msg/Image"))
+    return wall
+
+
+def _log(run: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader((run / "log.csv").open()))
+
+
+def test_run_on_a_bag_fills_every_slot_its_laser_skipped(tmp_path, weights):
+    """``d2sr run BAG --fill --colour-topic``: each colour frame with no depth frame comes back synthesized,
+    following the camera from colour, after the real frame it was made from; the real frames and their
+    verdicts are those of the same run without --fill."""
+    _bag(tmp_path / "bag")
+    args = ["run", str(tmp_path / "bag"), "--topic", DEPTH, "--models", str(weights)]
+    code, out, err = d2sr_inprocess(*args, "--out", str(tmp_path / "plain"))
+    assert code == 0, err
+    code, out, err = d2sr_inprocess(
+        *args, "--out", str(tmp_path / "filled"), "--fill", "--colour-topic", COLOUR
+    )
+    assert code == 0, err
+    plain, filled = _log(tmp_path / "plain"), _log(tmp_path / "filled")
+    real = [r for r in filled if r["synthesized"] == "0"]
+    synth = [r for r in filled if r["synthesized"] == "1"]
+    assert len(real) == 12 and len(synth) == SLOTS - 12
+    keep = ("frame", "period", "offset", "score", "flagged")
+    assert [{k: r[k] for k in keep} for r in real] == [{k: r[k] for k in keep} for r in plain]
+    assert [r["frame"] for r in filled] == sorted(r["frame"] for r in filled)  # each after its source
+    assert (
+        synth[0]["frame"] == "000005_01"
+        and synth[23]["frame"] == "000005_24"
+        and synth[-1]["frame"] == "000011_09"
+    )
+    stamps = [round((float(r["time_s"]) - 1.0) * 1e9 / STEP) for r in synth]
+    assert stamps == [k for k in range(SLOTS) if not _on(k)]
+    depth_dir, conf_dir = (
+        tmp_path / "filled" / "sensor0" / "depth",
+        tmp_path / "filled" / "sensor0" / "confidence",
+    )
+    for r in synth:
+        d = cv2.imread(str(depth_dir / f"{r['frame']}.png"), cv2.IMREAD_UNCHANGED)
+        c = cv2.imread(str(conf_dir / f"{r['frame']}.png"), cv2.IMREAD_UNCHANGED)
+        sure = c == 255
+        assert sure.mean() > 0.5 and np.abs(d[sure].astype(int) - 3000).max() <= 45
+    summary = json.loads((tmp_path / "filled" / "summary.json").read_text())
+    assert summary["synthesized"] == [SLOTS - 12]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--fill"], "--colour-topic"),
+        (["--fill", "--colour-topic", "/camera/nope"], "no colour topic"),
+        (["--fill", "--colour-topic", DEPTH + "_info"], "no colour topic"),
+        (["--colour-topic", COLOUR], "--fill"),
+    ],
+)
+def test_run_fill_on_a_recording_refuses_what_it_cannot_use(tmp_path, extra, message):
+    _bag(tmp_path / "bag")
+    code, out, err = d2sr_inprocess(
+        "run", str(tmp_path / "bag"), "--topic", DEPTH, "--out", str(tmp_path / "o"), *extra
+    )
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_live_run_fills_what_the_camera_sent_as_colour_alone(tmp_path, monkeypatch, weights):
+    """``run_live(fill=True)`` with a camera whose laser is on in slots 0-5: every colour-only moment is written
+    synthesized into the run, the real ones as they came."""
+    from d2sr.runtime import live
+    from d2sr.runtime.pipeline import open_models
+
+    wall, colours = _wall_and_colours()
+
+    def shots(seconds):
+        for k in range(SLOTS):
+            ns = T0 + k * STEP
+            frame = Frame(f"{k:08d}", wall.copy(), ns) if _on(k) else None
+            yield live.Shot(frame, 1000.0, ns / 1e9, colours[k], ns)
+
+    monkeypatch.setattr(live, "_camera", lambda kind, serial, seconds, *_: (shots(seconds), K))
+    net = open_models(models=weights)
+    summary = live.run_live(net, tmp_path / "run", "realsense", None, "robust", 2.0, 6, "flagged", None, 0,
+                            fill=True)  # fmt: skip
+    rows = _log(tmp_path / "run")
+    synth = [r for r in rows if r["synthesized"] == "1"]
+    assert summary["synthesized"] == [len(synth)] == [SLOTS - 12]
+    assert summary["all"]["frames"] == 12
+    assert synth[0]["frame"] == "00000005_01" and all(r["slot"] == "n/a" for r in synth)
+    d = cv2.imread(
+        str(tmp_path / "run" / "sensor0" / "depth" / f"{synth[-1]['frame']}.png"), cv2.IMREAD_UNCHANGED
+    )
+    assert np.median(d[d > 0]) == pytest.approx(3000, abs=30)
