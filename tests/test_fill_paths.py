@@ -112,12 +112,12 @@ def test_run_on_a_bag_fills_every_slot_its_laser_skipped(tmp_path, weights):
     verdicts are those of the same run without --fill."""
     _bag(tmp_path / "bag")
     args = ["run", str(tmp_path / "bag"), "--topic", DEPTH, "--models", str(weights)]
-    code, out, err = d2sr_inprocess(*args, "--out", str(tmp_path / "plain"))
+    code, _, err = d2sr_inprocess(*args, "--out", str(tmp_path / "plain"))
     assert code == 0, err
     code, out, err = d2sr_inprocess(
         *args, "--out", str(tmp_path / "filled"), "--fill", "--colour-topic", COLOUR
     )
-    assert code == 0, err
+    assert code == 0 and f"per sensor: {SLOTS - 12}" in out, err
     plain, filled = _log(tmp_path / "plain"), _log(tmp_path / "filled")
     real = [r for r in filled if r["synthesized"] == "0"]
     synth = [r for r in filled if r["synthesized"] == "1"]
@@ -156,7 +156,7 @@ def test_run_on_a_bag_fills_every_slot_its_laser_skipped(tmp_path, weights):
 )
 def test_run_fill_on_a_recording_refuses_what_it_cannot_use(tmp_path, extra, message):
     _bag(tmp_path / "bag")
-    code, out, err = d2sr_inprocess(
+    code, _, err = d2sr_inprocess(
         "run", str(tmp_path / "bag"), "--topic", DEPTH, "--out", str(tmp_path / "o"), *extra
     )
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
@@ -164,8 +164,8 @@ def test_run_fill_on_a_recording_refuses_what_it_cannot_use(tmp_path, extra, mes
 
 
 def test_live_run_fills_what_the_camera_sent_as_colour_alone(tmp_path, monkeypatch, weights):
-    """``run_live(fill=True)`` with a camera whose laser is on in slots 0-5: every colour-only moment is written
-    synthesized into the run, the real ones as they came."""
+    """``run_live(fill=True)`` with a camera whose laser is on in slots 0-5: every colour-only moment is
+    written synthesized into the run, the real ones as they came."""
     from d2sr.runtime import live
     from d2sr.runtime.pipeline import open_models
 
