@@ -190,3 +190,78 @@ def test_live_run_fills_what_the_camera_sent_as_colour_alone(tmp_path, monkeypat
         str(tmp_path / "run" / "sensor0" / "depth" / f"{synth[-1]['frame']}.png"), cv2.IMREAD_UNCHANGED
     )
     assert np.median(d[d > 0]) == pytest.approx(3000, abs=30)
+
+
+def test_a_realsense_gives_every_moment_its_depth_aligned_to_colour_or_colour_alone():
+    """``shots.rgbd_shots`` on a pyrealsense2 software_device: depth only in slots 0-5 of every 30, colour in
+    every slot, both in real time. Each depth frame comes joined with its own colour frame and aligned to
+    it; each other colour frame comes alone, in time order (a pipeline's syncer dropped the 8 after each
+    window)."""
+    import threading
+    import time
+
+    from d2sr.frames.realsense import import_rs
+    from d2sr.runtime.shots import rgbd_shots
+
+    rs = import_rs()
+    dev = rs.software_device()
+    ds, cs = dev.add_sensor("Depth"), dev.add_sensor("Color")
+    profiles = []
+    for sensor, stream, fmt, bpp, uid in ((ds, rs.stream.depth, rs.format.z16, 2, 0),
+                                          (cs, rs.stream.color, rs.format.bgr8, 3, 1)):  # fmt: skip
+        intr = rs.intrinsics()
+        intr.width, intr.height, intr.fx, intr.fy, intr.ppx, intr.ppy = (
+            K.width,
+            K.height,
+            K.fx,
+            K.fy,
+            K.px,
+            K.py,
+        )
+        vs = rs.video_stream()
+        vs.type, vs.fmt, vs.index, vs.uid, vs.width, vs.height, vs.fps, vs.bpp = (
+            stream, fmt, 0, uid, K.width, K.height, 30, bpp,
+        )  # fmt: skip
+        vs.intrinsics = intr
+        profiles.append(sensor.add_video_stream(vs))
+    ds.add_read_only_option(rs.option.depth_units, 0.001)
+    same = rs.extrinsics()
+    same.rotation, same.translation = [1, 0, 0, 0, 1, 0, 0, 0, 1], [0, 0, 0]
+    profiles[0].register_extrinsics_to(profiles[1], same)
+    wall, colours = _wall_and_colours()
+    n = 40
+
+    def camera() -> None:
+        time.sleep(0.2)
+        t0 = time.monotonic()
+        for k in range(n):
+            bgr = cv2.cvtColor(colours[k], cv2.COLOR_GRAY2BGR)
+            for sensor, profile, pixels, bpp, on in ((ds, profiles[0], wall, 2, _on(k)),
+                                                     (cs, profiles[1], bgr, 3, True)):  # fmt: skip
+                if not on:
+                    continue
+                f = rs.software_video_frame()
+                f.pixels, f.stride, f.bpp, f.timestamp, f.frame_number = (
+                    pixels,
+                    K.width * bpp,
+                    bpp,
+                    k * 33.3,
+                    k,
+                )
+                f.domain, f.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
+                sensor.on_video_frame(f)
+            time.sleep(max(0.0, t0 + (k + 1) / 30 - time.monotonic()))
+
+    shots, intrinsics = rgbd_shots(ds.as_depth_sensor(), cs, 2.5)
+    assert (intrinsics.width, intrinsics.fx) == (K.width, K.fx)
+    feeder = threading.Thread(target=camera)
+    feeder.start()
+    got = list(shots)
+    feeder.join()
+    slots = [round(s.stamp / 33.3e6) for s in got]
+    assert slots == list(range(n))  # every moment once, in time order
+    for k, s in zip(slots, got, strict=True):
+        assert s.colour is not None and np.array_equal(s.colour[..., 0], colours[k])
+        assert (s.depth is not None) == _on(k)
+        if s.depth is not None:
+            assert s.scale == pytest.approx(1000.0) and np.median(s.depth.depth) == 3000

@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +22,8 @@ from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder
 from d2sr.runtime.session import RunFiller, summarize
+from d2sr.runtime.shots import Shot, host_arrival, rgbd_shots
 from d2sr.runtime.stats import RunStats
-from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.triggers import Actuator, open_trigger, parse_trigger
 
 __all__ = ["CAMERAS", "check_camera", "run_live"]
@@ -32,19 +31,7 @@ __all__ = ["CAMERAS", "check_camera", "run_live"]
 CAMERAS = ("realsense", "orbbec")
 
 
-@dataclass(frozen=True)
-class Shot:
-    """One moment from a camera: its depth frame (None: the laser was off), units per metre, when it reached
-    the host (``time.monotonic``), and with ``fill`` its colour image (BGR, depth aligned to it)."""
-
-    depth: Frame | None
-    scale: float
-    arrival: float
-    colour: np.ndarray | None = None
-    stamp: int = 0  # ns, the camera's clock: pairs colour with depth
-
-
-LiveFrames = Iterator[Shot]
+LiveFrames = Iterator[Shot]  # in time order; a shot of colour alone: a moment the laser skipped
 
 
 def check_camera(source: str, trigger: str | None) -> tuple[str, str | None]:
@@ -61,38 +48,37 @@ def check_camera(source: str, trigger: str | None) -> tuple[str, str | None]:
 
 
 def _realsense(
-    serial: str | None, actuator: Actuator | None, trigger: str | None, colour: bool
-) -> tuple[Any, Any]:
-    """(pipeline, profile) of a started RealSense, waiting for its sync input or with its emitter driven
-    when an actuator is given; with ``colour``, its colour stream too."""
+    serial: str | None, actuator: Actuator | None, trigger: str | None, seconds: float, colour: bool
+) -> tuple[LiveFrames, Intrinsics | None]:
+    """A started RealSense's shots, waiting for its sync input or with its emitter driven when an actuator
+    is given; with ``colour``, its colour stream too (``shots.rgbd_shots``) and the intrinsics of the
+    depth aligned to it."""
     rs = import_rs()
     ctx = rs.context()
-    serials = [d.get_info(rs.camera_info.serial_number) for d in ctx.query_devices()]
-    if not serials:
+    devices = {d.get_info(rs.camera_info.serial_number): d for d in ctx.query_devices()}
+    if not devices:
         raise InputError("no RealSense device connected")
-    if serial is not None and serial not in serials:
-        raise InputError(f"no RealSense with serial {serial}; connected: {', '.join(serials)}")
-    pipe, cfg = rs.pipeline(ctx), rs.config()
-    if serial:
-        cfg.enable_device(serial)
-    cfg.enable_stream(rs.stream.depth, rs.format.z16, 30)
-    if colour:
-        cfg.enable_stream(rs.stream.color, rs.format.bgr8, 30)
-    profile = pipe.start(cfg)
-    sensor = profile.get_device().first_depth_sensor()
+    if serial is not None and serial not in devices:
+        raise InputError(f"no RealSense with serial {serial}; connected: {', '.join(devices)}")
+    device = devices[serial] if serial is not None else next(iter(devices.values()))
+    sensor = device.first_depth_sensor()
     if actuator is not None and trigger is not None:
         kind, _, sync = parse_trigger(trigger)
         if kind == "realsense-emitter":
             actuator.attach(sensor)  # type: ignore[attr-defined]
         elif sync.rs_mode is not None and sensor.supports(rs.option.inter_cam_sync_mode):
             sensor.set_option(rs.option.inter_cam_sync_mode, sync.rs_mode)
-    return pipe, profile
+    if colour:
+        return rgbd_shots(sensor, device.first_color_sensor(), seconds)
+    pipe, cfg = rs.pipeline(ctx), rs.config()
+    cfg.enable_device(device.get_info(rs.camera_info.serial_number))
+    cfg.enable_stream(rs.stream.depth, rs.format.z16, 30)
+    pipe.start(cfg)
+    return _realsense_frames(pipe, 1.0 / sensor.get_depth_scale(), seconds), None
 
 
-def _realsense_frames(pipe: Any, profile: Any, seconds: float, colour: bool) -> LiveFrames:
+def _realsense_frames(pipe: Any, scale: float, seconds: float) -> LiveFrames:
     rs = import_rs()
-    scale = 1.0 / profile.get_device().first_depth_sensor().get_depth_scale()
-    align = rs.align(rs.stream.color) if colour else None  # depth onto the colour camera's pixels
     end = time.monotonic() + seconds
     try:
         while time.monotonic() < end:
@@ -100,38 +86,11 @@ def _realsense_frames(pipe: Any, profile: Any, seconds: float, colour: bool) -> 
             if not ok:
                 continue  # a triggered camera sends nothing outside its window
             d = fs.get_depth_frame()
-            c = fs.get_color_frame() if colour else None
-            if not d:  # the laser was off: colour alone, if any
-                if c:
-                    image = np.asanyarray(c.get_data()).copy()
-                    yield Shot(None, scale, _arrival(c, rs), image, int(c.get_timestamp() * 1e6))
-                continue
-            if align is not None and c:
-                fs = align.process(fs)
-                d = fs.get_depth_frame()
-            image = np.asanyarray(c.get_data()).copy() if c else None
             stamp = int(d.get_timestamp() * 1e6)
             frame = Frame(f"{d.get_frame_number():08d}", np.asanyarray(d.get_data()).copy(), stamp)
-            yield Shot(frame, scale, _arrival(d, rs), image, stamp)
+            yield Shot(frame, scale, host_arrival(d, rs), None, stamp)
     finally:
         pipe.stop()
-
-
-def _colour_intrinsics(profile: Any) -> Intrinsics:
-    """The colour camera's intrinsics: aligned depth has them."""
-    rs = import_rs()
-    i = profile.get_stream(rs.stream.color).as_video_stream_profile().get_intrinsics()
-    return Intrinsics(i.width, i.height, i.fx, i.fy, i.ppx, i.ppy)
-
-
-def _arrival(frame: Any, rs: Any) -> float:
-    """When a frame reached the host, on ``time.monotonic``: the driver's time of arrival where the frame
-    carries it (a loop that lags would otherwise stamp queued frames late and put them in later slots)."""
-    toa = rs.frame_metadata_value.time_of_arrival
-    now = time.monotonic()
-    if frame.supports_frame_metadata(toa):
-        return now - (time.time() - float(frame.get_frame_metadata(toa)) / 1000.0)
-    return now
 
 
 def _camera(
@@ -144,8 +103,7 @@ def _camera(
 ) -> tuple[LiveFrames, Intrinsics | None]:
     """The camera's moments, and with ``fill`` the intrinsics of the depth aligned to its colour."""
     if camera == "realsense":
-        pipe, profile = _realsense(serial, actuator, trigger, fill)
-        return _realsense_frames(pipe, profile, seconds, fill), _colour_intrinsics(profile) if fill else None
+        return _realsense(serial, actuator, trigger, seconds, fill)
     if fill:
         raise ConfigError(
             "--fill on a live camera: a RealSense for now (an Orbbec: d2sr ros2 --colour-topic)"
@@ -199,33 +157,19 @@ def run_live(
         loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
         closed = ClosedLoop(loop, actuator) if actuator is not None else None
         filler = RunFiller(folder, intrinsics)
-        gaps = ColourGaps()
-
-        def synthesize(colours: list[ColourFrame], scale: float) -> None:
-            for c in colours:
-                period, slot = actuator.locate(c.arrival) if actuator is not None else (loop.period, None)
-                filler.skipped(c.image, c.stamp, (period, slot, loop.controller.offset), scale)
-
-        scale = 1000.0  # the camera's units per metre, from its first shot
         for shot in shots:
-            scale = shot.scale
-            if shot.depth is not None:
-                if fill:
-                    synthesize(gaps.depth(shot.stamp), scale)
-                cap = Capture(shot.depth, shot.scale)
-                res = loop.process(cap) if closed is None else closed.process(cap, shot.arrival)
-                stats.add(res)
-                if on_result is not None:
-                    on_result(0, res)
-                if fill:
-                    filler.real(shot.depth.name, res, shot.scale, shot.colour)
-                    gaps.real(shot.stamp)
-            elif fill and shot.colour is not None:
-                gaps.colour(ColourFrame(shot.stamp, shot.colour, shot.arrival))
+            if shot.depth is None:  # colour alone: a moment the laser skipped
+                if fill and shot.colour is not None:
+                    where = actuator.locate(shot.arrival) if actuator is not None else (loop.period, None)
+                    filler.skipped(shot.colour, shot.stamp, (*where, loop.controller.offset), shot.scale)
+                continue
+            cap = Capture(shot.depth, shot.scale)
+            res = loop.process(cap) if closed is None else closed.process(cap, shot.arrival)
+            stats.add(res)
+            if on_result is not None:
+                on_result(0, res)
             if fill:
-                synthesize(gaps.due(time.monotonic()), scale)
-        if fill:
-            synthesize(gaps.flush(), scale)
+                filler.real(shot.depth.name, res, shot.scale, shot.colour)
         summary = summarize(settings, [stats])
         if fill:
             summary["synthesized"] = [filler.made]

@@ -68,10 +68,19 @@ class ColourGaps:
 
     def colour_at(self, stamp: int) -> np.ndarray | None:
         """The colour image taken with the depth frame of ``stamp``, if it came."""
+        c = self.joined(stamp)
+        return None if c is None else c.image
+
+    def joined(self, stamp: int) -> ColourFrame | None:
+        """The colour frame taken with the depth frame of ``stamp``, if it came."""
         for c in self._colours:
             if abs(c.stamp - stamp) <= self.pair_ns:
-                return c.image
+                return c
         return None
+
+    def newest(self) -> int | None:
+        """The newest colour frame's stamp."""
+        return self._colours[-1].stamp if self._colours else None
 
     def due(self, now: float) -> list[ColourFrame]:
         """Colour frames that waited ``wait_s`` with no depth frame of their stamp: the laser skipped them."""
