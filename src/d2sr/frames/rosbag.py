@@ -159,19 +159,9 @@ class BagReader(Reader):
         return self._shape
 
     def __iter__(self) -> Iterator[Frame]:
-        reader = _open(self.path)
-        try:
-            conns = [c for c in reader.connections if c.topic == self.topic]
-            for i, (conn, stamp, raw) in enumerate(reader.messages(connections=conns)):
-                where = f"{self.path}: {self.topic} message {i}"
-                try:
-                    msg: Any = reader.deserialize(raw, conn.msgtype)
-                except Exception as exc:  # rosbags raises several types for damaged messages
-                    raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
-                depth, scale = decode_image(msg, conn.msgtype, where)
-                yield Frame(f"{i:06d}", depth, _stamp(msg, stamp), {"depth_scale": scale})
-        finally:
-            reader.close()
+        for i, msg, stamp, where in _messages(self.path, self.topic):
+            depth, scale = decode_image(msg, self.msgtype, where)
+            yield Frame(f"{i:06d}", depth, stamp, {"depth_scale": scale})
 
 
 class BagColours:
@@ -189,19 +179,25 @@ class BagColours:
         self.msgtype = topics[topic]
 
     def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
-        reader = _open(self.path)
         compressed = self.msgtype.endswith("CompressedImage")
-        try:
-            conns = [c for c in reader.connections if c.topic == self.topic]
-            for i, (conn, stamp, raw) in enumerate(reader.messages(connections=conns)):
-                where = f"{self.path}: {self.topic} message {i}"
-                try:
-                    msg: Any = reader.deserialize(raw, conn.msgtype)
-                except Exception as exc:  # rosbags raises several types for damaged messages
-                    raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
-                yield _stamp(msg, stamp), decode_colour(msg, where, compressed)
-        finally:
-            reader.close()
+        for _, msg, stamp, where in _messages(self.path, self.topic):
+            yield stamp, decode_colour(msg, where, compressed)
+
+
+def _messages(path: Path, topic: str) -> Iterator[tuple[int, Any, int, str]]:
+    """``topic``'s messages in bag order: (index, message, stamp ns, where for errors)."""
+    reader = _open(path)
+    try:
+        conns = [c for c in reader.connections if c.topic == topic]
+        for i, (conn, stamp, raw) in enumerate(reader.messages(connections=conns)):
+            where = f"{path}: {topic} message {i}"
+            try:
+                msg: Any = reader.deserialize(raw, conn.msgtype)
+            except Exception as exc:  # rosbags raises several types for damaged messages
+                raise InputError(f"{where}: cannot decode ({type(exc).__name__})") from None
+            yield i, msg, _stamp(msg, stamp), where
+    finally:
+        reader.close()
 
 
 def _stamp(msg: Any, bag_ns: int) -> int:
