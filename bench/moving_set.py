@@ -55,7 +55,7 @@ def sequences(which: str) -> Iterator[list[Shot]]:
             if f is None:
                 continue
             true = odometry(rig, 0, f.time_s)
-            bad = which == "dev" and i % 2 == 1 or which == "j" and bool(rng.random() < 0.5)
+            bad = (which == "dev" and i % 2 == 1) or (which == "j" and bool(rng.random() < 0.5))
             if which == "j":
                 drift = drift.then(_step(rng))
                 depth = passing_tof(f.depth, scale, k, true, other, f.time_s, rng) if bad else f.depth

@@ -18,9 +18,11 @@ import numpy as np
 from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agreement, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, check_depth, to_metres
+from d2sr.frames.base import Frame, Intrinsics, check_depth, to_metres
+from d2sr.moving_reference import MovingReference
 from d2sr.reference import EVIDENT, QUIET, Evidence, SceneReference
 from d2sr.runtime.backends import Backend
+from d2sr.synth.warp import Pose
 
 REPAIR = ("flagged", "all", "none")
 
@@ -39,6 +41,7 @@ class Capture:
     mask: np.ndarray | None = None
     interfered: bool | None = None
     counted: bool = True  # False: a frame that arrived after its period closed (repaired, not counted)
+    pose: Pose | None = None  # the camera's pose (camera to world), for a moving sensor's scene
 
     @property
     def name(self) -> str:
@@ -111,7 +114,10 @@ class SensorLoop:
     # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
     # deviations in patches (not something that moved) is interfered, flagged or not.
+    # A frame that comes with a pose (``Capture.pose``) is judged against the last clean frame warped into
+    # its view instead (``d2sr.moving_reference``, a moving sensor): that evidence only adds flags.
     scene: bool = False
+    intrinsics: Intrinsics | None = None  # the depth camera's, for a moving sensor's scene [guessed]
     # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
     # model's repair. Experimental: it failed sealed sets G and H (docs/research/decisions.md).
@@ -122,6 +128,7 @@ class SensorLoop:
     exact_scores: bool = False
     period: int = 0
     _reference: SceneReference | None = None
+    _moving: MovingReference | None = None
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
@@ -181,7 +188,9 @@ class SensorLoop:
         score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
         ev = None
-        if self.scene and judge:
+        if self.scene and judge and cap.pose is not None:
+            flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
+        elif self.scene and judge:
             flagged, ev = self._against_scene(raw, cap.scale, flagged)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
@@ -233,6 +242,20 @@ class SensorLoop:
         if not flagged:
             ref.add(raw)
         return flagged, ev
+
+    def _against_moving(self, raw: np.ndarray, scale: float, flagged: bool, pose: Pose) -> bool:
+        """A moving sensor's frame against its last clean frame seen from ``pose``: flagged where its depth
+        deviates there in patches (``EVIDENT``), whatever the detector says; the reference never clears a
+        flag (dropouts depend on the view, so it cannot see interference made of them)."""
+        if raw.dtype != np.uint16:  # metres: judged in millimetres
+            raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
+        ref = self._moving
+        if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
+            ref = self._moving = MovingReference(scale, self.intrinsics)
+        flagged = flagged or ref.evidence(raw, pose).dense >= EVIDENT
+        if not flagged:
+            ref.add(raw, pose)
+        return flagged
 
     def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
         """What the next frame's models see: this frame (temporal detector) and, when the detector passed

@@ -207,7 +207,8 @@ class Pipeline:
       Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
     - ``threads``: onnxruntime's threads per model [the recovery model on all cores, the detector on one];
       ``int8``: the int8 models (``d2sr export --int8``).
-    - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
+    - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` and a moving
+      sensor's scene [guessed].
     - ``scene``: a still sensor; its frames are also judged against the scene its clean frames have shown
       (``d2sr.reference``), and a flagged frame in which nothing deviates from it is passed.
     - the repair's ``options``: ``Options``.
@@ -244,6 +245,7 @@ class Pipeline:
             threshold=options.get("threshold"),
             repair=mode,
             scene=scene,
+            intrinsics=intrinsics,
         )
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()
@@ -284,9 +286,10 @@ class Pipeline:
         lies in its 1 s period, for a sensor whose trigger sets it (None: every ``active_frames`` frames
         make a period; with an actuator, its clock tells from ``arrival_s``, the ``time.monotonic()`` at
         which the frame reached the host, by default now). ``colour``: the colour frame taken with it (depth
-        aligned to colour), ``pose``: the camera's pose (odometry), which ``synthesize`` follows the camera
-        with."""
-        r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
+        aligned to colour), ``pose``: the camera's pose (odometry, camera to world), which ``synthesize``
+        follows the camera with; with ``scene``, a frame with a pose is judged against the last clean frame
+        seen from there (a moving sensor: ``d2sr.moving_reference``)."""
+        r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s, pose))
         self.keep(r, colour, pose)
         return r
 
@@ -325,10 +328,12 @@ class Pipeline:
         timestamp_ns: int | None = None,
         slot: int | None = None,
         arrival_s: float | None = None,
+        pose: Pose | None = None,
     ) -> Decided:
-        """The first half of ``process``, which must run in frame order: the detector's verdict and the
-        controller's window. ``finish`` then repairs; several decided frames may be finished at once (on
-        threads), so a live stream keeps its rate on several cores."""
+        """The first half of ``process``, which must run in frame order: the detector's verdict (with
+        ``scene``, weighed against the scene seen from ``pose`` when given) and the controller's window.
+        ``finish`` then repairs; several decided frames may be finished at once (on threads), so a live
+        stream keeps its rate on several cores."""
         if slot is not None and self.closed is not None:
             raise ConfigError("slot: the actuator's clock gives each frame its slot; pass none")
         arrival = time.monotonic() if arrival_s is None else arrival_s
@@ -338,7 +343,7 @@ class Pipeline:
         if not self._probed:  # the first frame tells whether the scale makes sense
             _probe(frame, scale, name)
             self._probed = True
-        cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot)
+        cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot, pose=pose)
         decision = self.loop.decide(cap) if self.closed is None else self.closed.decide(cap, arrival)
         return Decided(depth, decision)
 
