@@ -32,10 +32,11 @@ def run(which: str, scene: bool) -> dict:
             t = time.process_time()
             flagged = pipe.process(shot.depth, pose=shot.pose).interfered
             cpu.append(1000 * (time.process_time() - t))
-            tp += flagged and shot.interfered
-            fp += flagged and not shot.interfered
-            fn += not flagged and shot.interfered
-            tn += not flagged and not shot.interfered
+            bad = bool(shot.interfered)
+            tp += flagged and bad
+            fp += flagged and not bad
+            fn += not flagged and bad
+            tn += not flagged and not bad
     return {
         "precision": round(tp / max(tp + fp, 1), 3),
         "recall": round(tp / max(tp + fn, 1), 3),
