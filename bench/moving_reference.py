@@ -28,6 +28,7 @@ def run(which: str, scene: bool) -> dict:
         first = seq[0]
         pipe = Pipeline(first.scale, active_frames=30, controller="static", scene=scene,
                         intrinsics=first.intrinsics)  # fmt: skip
+        pipe.loop.moving_scene = scene  # experimental, off in the library since set J
         for shot in seq:
             t = time.process_time()
             flagged = pipe.process(shot.depth, pose=shot.pose).interfered

@@ -8,8 +8,9 @@ it. The still sensor's is ``d2sr.reference``.
   loop missed becomes a clean frame, and against it alone the next clean frame would deviate.
 - A pixel deviates by more than ``TOL_ABS`` + ``TOL_REL`` of its range; a frame's ``dense`` share counts
   deviating pixels amid others (half of a 9x9 neighbourhood), as the still reference does.
-- Chosen on the simulator's moving robot with set G's light (docs/research/decisions.md, 2026-11-27), for
-  sealed set J to judge.
+- Chosen on the simulator's moving robot with set G's light (docs/research/decisions.md, 2026-11-27). It
+  failed sealed set J there: 65% of J's clean frames flagged with drifting odometry, 29% with exact poses
+  (two missed frames in a row poison both references). So ``SensorLoop.moving_scene`` is off.
 """
 
 from __future__ import annotations

@@ -114,10 +114,12 @@ class SensorLoop:
     # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
     # deviations in patches (not something that moved) is interfered, flagged or not.
-    # A frame that comes with a pose (``Capture.pose``) is judged against the last clean frame warped into
-    # its view instead (``d2sr.moving_reference``, a moving sensor): that evidence only adds flags.
     scene: bool = False
-    intrinsics: Intrinsics | None = None  # the depth camera's, for a moving sensor's scene [guessed]
+    # True (with ``scene``, experimental, off): a frame that comes with a pose (``Capture.pose``) is judged
+    # against the last clean frames warped into its view instead (``d2sr.moving_reference``): that evidence
+    # only adds flags. It failed sealed set J (docs/research/decisions.md, 2026-11-27).
+    moving_scene: bool = False
+    intrinsics: Intrinsics | None = None  # the depth camera's, for ``moving_scene`` [guessed]
     # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
     # model's repair. Experimental: it failed sealed sets G and H (docs/research/decisions.md).
@@ -188,7 +190,7 @@ class SensorLoop:
         score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
         flagged = score >= self._cut  # False for NaN
         ev = None
-        if self.scene and judge and cap.pose is not None:
+        if self.scene and self.moving_scene and judge and cap.pose is not None:
             flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
         elif self.scene and judge:
             flagged, ev = self._against_scene(raw, cap.scale, flagged)

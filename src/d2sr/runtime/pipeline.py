@@ -207,8 +207,7 @@ class Pipeline:
       Close a Pipeline with a trigger (``close`` or ``with``) to stop its clock.
     - ``threads``: onnxruntime's threads per model [the recovery model on all cores, the detector on one];
       ``int8``: the int8 models (``d2sr export --int8``).
-    - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` and a moving
-      sensor's scene [guessed].
+    - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
     - ``scene``: a still sensor; its frames are also judged against the scene its clean frames have shown
       (``d2sr.reference``), and a flagged frame in which nothing deviates from it is passed.
     - the repair's ``options``: ``Options``.
@@ -287,8 +286,7 @@ class Pipeline:
         make a period; with an actuator, its clock tells from ``arrival_s``, the ``time.monotonic()`` at
         which the frame reached the host, by default now). ``colour``: the colour frame taken with it (depth
         aligned to colour), ``pose``: the camera's pose (odometry, camera to world), which ``synthesize``
-        follows the camera with; with ``scene``, a frame with a pose is judged against the last clean frame
-        seen from there (a moving sensor: ``d2sr.moving_reference``)."""
+        follows the camera with."""
         r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s, pose))
         self.keep(r, colour, pose)
         return r
@@ -330,8 +328,8 @@ class Pipeline:
         arrival_s: float | None = None,
         pose: Pose | None = None,
     ) -> Decided:
-        """The first half of ``process``, which must run in frame order: the detector's verdict (with
-        ``scene``, weighed against the scene seen from ``pose`` when given) and the controller's window.
+        """The first half of ``process``, which must run in frame order: the detector's verdict and the
+        controller's window (``pose``: the camera's, for the experimental ``SensorLoop.moving_scene``).
         ``finish`` then repairs; several decided frames may be finished at once (on threads), so a live
         stream keeps its rate on several cores."""
         if slot is not None and self.closed is not None:
