@@ -197,3 +197,16 @@ def test_pipeline_synthesizes_skipped_slots_in_the_callers_units():
     f.process(wall.astype(np.float32) / 1000)
     held = f.synthesize()
     assert held.method == "hold" and held.depth.dtype == np.float32 and np.allclose(held.depth, 3.0)
+
+
+def test_a_colour_step_that_cannot_be_measured_is_said_as_a_guess():
+    """A real frame that came without colour gives the first frame synthesized from colour no step to
+    measure: it is the real one where it was, at a held frame's confidence, not 1; the next is measured."""
+    tex = _texture()
+    wall = np.full((K.height, K.width), 3.0, np.float32)
+    f = Filler(K)
+    f.real(wall)  # no colour with it
+    first = f.synthesize(_colour_of_wall(np.array([0.0, 0.0, 0.04]), tex))
+    assert first.method == "warp-colour" and first.confidence.max() <= 0.5
+    second = f.synthesize(_colour_of_wall(np.array([0.0, 0.0, 0.08]), tex))
+    assert (second.confidence == 1).mean() > 0.8

@@ -40,6 +40,13 @@ Scale = Annotated[
 ]
 Input = Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")]
 Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
+ColourTopic = Annotated[
+    str | None,
+    typer.Option(
+        help="A ROS bag's colour topic (bgr8/rgb8/mono8 or jpeg/png, depth aligned to it): each colour frame "
+        "that no depth frame of its stamp joins (the laser was off) gets a synthesized depth frame."
+    ),
+]
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 # A folder of models is --models on every command; one model by name is --model.
 ModelDir = Annotated[

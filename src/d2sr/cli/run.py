@@ -12,6 +12,7 @@ from d2sr.atomic import check_out
 from d2sr.cli.common import (
     ActiveFrames,
     BackendOpt,
+    ColourTopic,
     MaskLogit,
     MaxRange,
     ModelDir,
@@ -85,12 +86,7 @@ def run(
             "that comes without depth.",
         ),
     ] = False,
-    colour_topic: Annotated[
-        str | None,
-        typer.Option(
-            help="A bag's colour topic (bgr8/rgb8/mono8 or jpeg/png, depth aligned to it), for --fill."
-        ),
-    ] = None,
+    colour_topic: ColourTopic = None,
     int8: Annotated[
         bool,
         typer.Option(

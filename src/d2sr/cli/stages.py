@@ -11,6 +11,7 @@ import typer
 
 from d2sr.cli.common import (
     BackendOpt,
+    ColourTopic,
     Input,
     MaskLogit,
     MaxRange,
@@ -105,6 +106,7 @@ def recover(
             "fresh deviations, and the model leaves alone what reads as the scene.",
         ),
     ] = False,
+    colour_topic: ColourTopic = None,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
@@ -121,7 +123,8 @@ def recover(
         s = recover_recording(
             input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
             threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair, overwrite=overwrite,
-            progress=progress, say=print_line,
+            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair,
+            colour_topic=colour_topic, overwrite=overwrite, progress=progress, say=print_line,
         )  # fmt: skip
-    typer.echo(f"repaired {s.repaired} of {s.frames} frames -> {out}")
+    made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""
+    typer.echo(f"repaired {s.repaired} of {s.frames} frames{made} -> {out}")

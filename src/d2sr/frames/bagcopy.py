@@ -2,6 +2,12 @@
 and message copied unchanged, in order, plus ``T/repaired`` (the input's message type and encoding) and
 ``T/mask`` (``sensor_msgs/Image`` mono8, 255 = interfered), one message each per depth message, with its
 header and bag time. A ROS 2 bag keeps its storage (MCAP or sqlite3); a ROS 1 ``.bag`` gives a ``.bag``.
+
+With a colour topic (``--colour-topic C``, a duty-cycled sensor's bag): every colour message that no depth
+message of its stamp joins (the laser was off) also gets a ``T/repaired`` frame synthesized from the last
+repaired one and the colour (``d2sr.synth``), an empty ``T/mask`` and ``T/confidence`` (mono8, 255 =
+measured or warped from a measurement), with the colour message's header and bag time: what ``d2sr ros2
+--colour-topic`` publishes.
 """
 
 from __future__ import annotations
@@ -9,7 +15,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from rosbags.rosbag1 import Writer as Writer1
@@ -19,13 +25,15 @@ from rosbags.rosbag2 import Writer as Writer2
 from d2sr.atomic import CALLER, commit, discard, temp_for
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
+from d2sr.frames.colour import PAIR_NS, decode_colour
 from d2sr.frames.png import decode_png, encode_png
-from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open
+from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open, _stamp
 
-__all__ = ["MASK", "REPAIRED", "BagCopy"]
+__all__ = ["CONFIDENCE", "MASK", "REPAIRED", "BagCopy", "Synthesis"]
 
 REPAIRED = "/repaired"  # suffixes of the topics d2sr adds
 MASK = "/mask"
+CONFIDENCE = "/confidence"
 IMAGE = "sensor_msgs/msg/Image"
 
 
@@ -50,12 +58,30 @@ def _pixels(msg: Any, dtype: np.dtype[Any]) -> tuple[np.ndarray, np.ndarray]:
     return rows, rows[:, : w * dtype.itemsize].view(stored)
 
 
+class Synthesis(Protocol):
+    """Frames for the moments a duty-cycled sensor's laser skipped (``runtime.batch`` gives one)."""
+
+    topic: str  # the colour topic
+
+    def real(self, depth: np.ndarray, colour: np.ndarray | None) -> None:
+        """A repaired frame (the bag's units) and its colour: what the next are made from."""
+
+    def skipped(self, colour: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(16-bit depth in the bag's units, uint8 confidence) for a colour frame; None before any real."""
+
+
 class BagCopy:
     """``write(frame, depth, mask, repaired)`` for each depth message in order, then ``finish``; ``close``
     moves the bag into place, ``abort`` removes it."""
 
-    def __init__(self, src: Path, topic: str, out: Path, ros1: bool) -> None:
+    def __init__(self, src: Path, topic: str, out: Path, ros1: bool, colour: Synthesis | None = None) -> None:
+        """``colour``: what synthesizes the frames of the colour messages no depth message joins."""
         self.topic, self.out, self.ros1 = topic, Path(out), ros1
+        self.colour = colour
+        self.synthesized = 0
+        self._source: np.ndarray | None = None  # the last repaired frame, not yet synthesis's source
+        self._coming: np.ndarray | None = None  # the colour of the depth message being copied up to
+        self._last_stamp: int | None = None  # the last depth message's stamp
         self.ts = _TS1 if ros1 else _TS2
         self.reader = _open(src)
         self.tmp: Path | None = temp_for(self.out, is_dir=not ros1)
@@ -69,7 +95,7 @@ class BagCopy:
     def _open_writer(self, src: Path) -> None:
         assert self.tmp is not None
         taken = {c.topic for c in self.reader.connections}
-        for t in (self.topic + REPAIRED, self.topic + MASK):
+        for t in (self.topic + REPAIRED, self.topic + MASK, self.topic + CONFIDENCE):
             if t in taken:
                 raise InputError(f"{src}: already has {t} (a bag d2sr repaired); give it the original")
         if self.ros1:
@@ -79,9 +105,16 @@ class BagCopy:
         self.bag.open()
         self.conns = {c.id: self._copy_connection(c) for c in self.reader.connections}
         kind = next(c.msgtype for c in self.reader.connections if c.topic == self.topic)
+        if self.colour is not None and kind != IMAGE:
+            raise InputError(f"{self.topic}: is {kind}; frames are synthesized into sensor_msgs/Image topics")
         who: dict[str, Any] = {"callerid": CALLER} if self.ros1 else {}  # how --overwrite knows the bag
         self.repaired = self.bag.add_connection(self.topic + REPAIRED, kind, typestore=self.ts, **who)
         self.mask = self.bag.add_connection(self.topic + MASK, IMAGE, typestore=self.ts, **who)
+        self.confidence = (
+            self.bag.add_connection(self.topic + CONFIDENCE, IMAGE, typestore=self.ts, **who)
+            if self.colour is not None
+            else None
+        )
         self.messages: Iterator[tuple[Any, int, bytes]] = self.reader.messages()
 
     def _copy_connection(self, c: Any) -> Any:
@@ -109,18 +142,65 @@ class BagCopy:
             self.bag.write(self.conns[conn.id], stamp, raw)
             if conn.topic == self.topic:
                 break
+            self._colour(conn, stamp, raw, frame.timestamp_ns)
         else:
             raise InputError(f"{frame.name}: the bag has fewer {self.topic} messages than frames read")
         msg: Any = self.reader.deserialize(raw, conn.msgtype)
         header = _header(self.ts, msg.header, self.ros1)
         fixed = self._repaired(msg, conn.msgtype, header, depth, mask)
         self.bag.write(self.repaired, stamp, self._serialize(fixed, conn.msgtype))
-        h, w = mask.shape
-        shown = self.ts.types[IMAGE](
-            header=header, height=h, width=w, encoding="mono8", is_bigendian=0, step=w,
-            data=(mask.astype(np.uint8) * 255).ravel(),
-        )  # fmt: skip
-        self.bag.write(self.mask, stamp, self._serialize(shown, IMAGE))
+        self.bag.write(self.mask, stamp, self._mono8(header, mask.astype(np.uint8) * 255))
+        if self.colour is not None:
+            self._feed(None)  # the frame before, if its colour never came
+            self._last_stamp = frame.timestamp_ns
+            self._source = depth
+            if self._coming is not None:  # its colour came first
+                self._feed(self._coming)
+                self._coming = None
+
+    def _mono8(self, header: Any, image: np.ndarray) -> Any:
+        h, w = image.shape
+        img = self.ts.types[IMAGE](
+            header=header, height=h, width=w, encoding="mono8", is_bigendian=0, step=w, data=image.ravel()
+        )
+        return self._serialize(img, IMAGE)
+
+    def _colour(self, conn: Any, stamp: int, raw: bytes, coming: int | None) -> None:
+        """A colour message before the depth message of stamp ``coming``: its frame's colour, the colour
+        of the frame before it, or a moment the laser skipped (synthesized and written now)."""
+        if self.colour is None or conn.topic != self.colour.topic:
+            return
+        msg: Any = self.reader.deserialize(raw, conn.msgtype)
+        at = _stamp(msg, stamp)
+        image = decode_colour(msg, f"{self.colour.topic} at {at}", conn.msgtype.endswith("CompressedImage"))
+        if coming is not None and abs(at - coming) <= PAIR_NS:
+            self._coming = image  # the coming frame's own colour, for when that frame is repaired
+            return
+        if self._last_stamp is not None and abs(at - self._last_stamp) <= PAIR_NS:
+            self._feed(image)  # the frame before's colour, come after it
+            return
+        self._feed(None)
+        made = self.colour.skipped(image)
+        if made is None:
+            return  # nothing real yet to synthesize from
+        depth, confidence = made
+        header = _header(self.ts, msg.header, self.ros1)
+        h, w = depth.shape
+        data = np.frombuffer(depth.astype("<u2").tobytes(), np.uint8)
+        out = self.ts.types[IMAGE](
+            header=header, height=h, width=w, encoding="16UC1", is_bigendian=0, step=w * 2, data=data
+        )
+        self.bag.write(self.repaired, stamp, self._serialize(out, IMAGE))
+        self.bag.write(self.mask, stamp, self._mono8(header, np.zeros((h, w), np.uint8)))
+        assert self.confidence is not None
+        self.bag.write(self.confidence, stamp, self._mono8(header, confidence))
+        self.synthesized += 1
+
+    def _feed(self, image: np.ndarray | None) -> None:
+        """The last repaired frame becomes synthesis's source (once), with its colour if it came."""
+        if self._source is not None and self.colour is not None:
+            self.colour.real(self._source, image)
+            self._source = None
 
     def _repaired(self, msg: Any, msgtype: str, header: Any, depth: np.ndarray, m: np.ndarray) -> Any:
         """The depth message with the repaired pixels written in, in its own encoding; every other pixel
@@ -149,6 +229,7 @@ class BagCopy:
         """Copy what follows the last depth message."""
         for conn, stamp, raw in self.messages:
             self.bag.write(self.conns[conn.id], stamp, raw)
+            self._colour(conn, stamp, raw, None)
 
     def close(self) -> None:
         """Close the bag and move it into place (a ROS 2 folder gets d2sr's manifest)."""

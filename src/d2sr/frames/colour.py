@@ -11,9 +11,10 @@ import numpy as np
 
 from d2sr.errors import InputError
 
-__all__ = ["COLOUR_ENCODINGS", "decode_colour"]
+__all__ = ["COLOUR_ENCODINGS", "PAIR_NS", "decode_colour"]
 
 COLOUR_ENCODINGS = {"bgr8": 3, "rgb8": 3, "mono8": 1}  # encoding -> channels
+PAIR_NS = 10_000_000  # a colour and a depth frame whose stamps differ by less are one moment
 
 
 def decode_colour(msg: Any, where: str, compressed: bool = False) -> np.ndarray:

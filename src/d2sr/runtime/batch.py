@@ -27,8 +27,8 @@ from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
 from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame, Intrinsics, detect_format
-from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.frames import Frame, Intrinsics, detect_format, open_colours
+from d2sr.frames.base import PLAUSIBLE_M, to_metres, to_units
 from d2sr.frames.checks import checked, checked_counts, open_input
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
@@ -65,6 +65,7 @@ class Summary:
     model: str
     backend: str
     depth_scale: float
+    synthesized: int = 0  # frames made for colour frames no depth frame joined (a bag's colour topic)
 
 
 def _quiet(line: str) -> None:
@@ -119,8 +120,36 @@ class _PngSink:
         self.folder.finish(scale, intrinsics, self.rows)
 
 
+class _BagFiller:
+    """``bagcopy.Synthesis`` through ``d2sr.synth``: the frames of a bag's colour messages no depth
+    message joins."""
+
+    def __init__(self, topic: str, scale: float, intrinsics: Intrinsics | None) -> None:
+        from d2sr.synth import Filler
+
+        self.topic, self.scale, self.filler = topic, scale, Filler(intrinsics)
+
+    def real(self, depth: np.ndarray, colour: np.ndarray | None) -> None:
+        if depth.dtype != np.uint16:
+            raise InputError(
+                "--colour-topic: frames are synthesized into 16-bit depth topics; this one is 32FC1"
+            )
+        self.filler.real(to_metres(depth, self.scale), colour)
+
+    def skipped(self, colour: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        from d2sr.synth.recording import confidence_image
+
+        try:
+            s = self.filler.synthesize(colour)
+        except InputError:  # nothing real yet
+            return None
+        return to_units(s.depth, self.scale), confidence_image(s.confidence)
+
+
 @contextlib.contextmanager
-def _open_sink(kind: str, out: Path, input: Path, reader: Any) -> Iterator[_Sink]:
+def _open_sink(
+    kind: str, out: Path, input: Path, reader: Any, colour: _BagFiller | None = None
+) -> Iterator[_Sink]:
     """The output, in place only when the block ends without error (nothing half-written otherwise)."""
     if kind == "png":
         with atomic_dir(out) as tmp:
@@ -132,7 +161,7 @@ def _open_sink(kind: str, out: Path, input: Path, reader: Any) -> Iterator[_Sink
         return
     from d2sr.frames.bagcopy import BagCopy
 
-    bag = BagCopy(Path(input), reader.topic, Path(out), ros1=kind == "ros1")
+    bag = BagCopy(Path(input), reader.topic, Path(out), ros1=kind == "ros1", colour=colour)
     try:
         yield bag
     except BaseException:
@@ -207,6 +236,7 @@ def recover_recording(
     rerun: str | None = None,
     scene: bool = False,
     scene_repair: bool = False,
+    colour_topic: str | None = None,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
@@ -216,11 +246,14 @@ def recover_recording(
     ``scene``): the scene's own depth where it is trusted, ``SensorLoop.scene_repair``. ``format``:
     ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``.
     ``rerun``: also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
-    ``every``) come out bit for bit as they went in."""
+    ``every``) come out bit for bit as they went in. ``colour_topic`` (a bag in and out, 16-bit depth): every
+    colour message no depth message joins gets a synthesized frame (``d2sr.frames.bagcopy``)."""
     from d2sr.runtime.viewer import LIVE, RerunLog
 
     check_options(model, "all" if every else "flagged", threshold, "--")
     kind = _out_format(input, format)
+    if colour_topic is not None and kind == "png":
+        raise ConfigError("--colour-topic: frames are synthesized into a bag; give a ROS bag and a bag out")
     check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=_inputs(input))
     if rerun is not None and rerun != LIVE:
         check_out(
@@ -240,6 +273,12 @@ def recover_recording(
     if net.name != "onnxruntime":
         workers = 1
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
+    filler = None
+    if colour_topic is not None:
+        open_colours(Path(input), colour_topic)  # a topic the bag has, of images
+        if getattr(reader, "msgtype", "") != "sensor_msgs/msg/Image":
+            raise InputError(f"{input}: --colour-topic needs the depth as sensor_msgs/Image")
+        filler = _BagFiller(colour_topic, scale, reader.intrinsics)
     loop = SensorLoop(
         net,
         make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
@@ -254,7 +293,7 @@ def recover_recording(
     )
     log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
     flagged = repaired = done = 0
-    with log as view, _open_sink(kind, Path(out), Path(input), reader) as sink:
+    with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
         for res in in_order(loop, (Capture(f, scale) for f in frames), workers):
             if view is not None:
@@ -267,7 +306,8 @@ def recover_recording(
             if progress is not None:
                 progress(done, len(reader))
         sink.finish(scale, reader.intrinsics)
-    return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale)
+    made = getattr(sink, "synthesized", 0)
+    return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale, made)
 
 
 def _inputs(input: Path) -> list[Path]:

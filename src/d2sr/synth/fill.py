@@ -80,10 +80,11 @@ class Filler:
             raise InputError("no real frame yet: the filler has nothing to synthesize from")
         source = self._source
         self._found = None
+        measured = True
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
         elif colour is not None:
-            moved, method = self._colour_pose(colour), "warp-colour"
+            (moved, measured), method = self._colour_pose(colour), "warp-colour"
         else:
             conf = np.where(source > 0, HOLD_CONFIDENCE, 0).astype(np.float32)
             return Synthesized(source, conf, "hold", self._since)
@@ -96,16 +97,19 @@ class Filler:
             self._key = self._motion_for(warped.shape).keyframe(self._found, warped)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
+        if not measured:  # the camera's step was not seen: where it went is a guess, said as a held frame's
+            conf = np.minimum(conf, np.float32(HOLD_CONFIDENCE))
         return Synthesized(depth, conf, method, self._since)
 
-    def _colour_pose(self, colour: np.ndarray) -> Pose:
-        """Last real camera -> this camera: the previous frame's pose followed by the step to this one; the
-        previous pose again when the step cannot be trusted."""
+    def _colour_pose(self, colour: np.ndarray) -> tuple[Pose, bool]:
+        """Last real camera -> this camera: the previous frame's pose followed by the step to this one, and
+        True; the previous pose again and False when the step cannot be measured (no colour came with the
+        frame before, or too few matches agree)."""
         grey = _grey(colour)
         motion = self._motion_for(grey.shape)
         self._found = motion.features(grey)
         step = motion.pose(self._key, self._found) if self._key is not None else None
-        return self._moved if step is None else self._moved.then(step)
+        return (self._moved, False) if step is None else (self._moved.then(step), True)
 
     def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
         if colour is None:

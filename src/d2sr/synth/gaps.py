@@ -15,10 +15,10 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame
+from d2sr.frames.colour import PAIR_NS
 
 __all__ = ["PAIR_NS", "WAIT_S", "ColourFrame", "ColourGaps", "interleave"]
 
-PAIR_NS = 10_000_000  # a colour and a depth frame whose stamps differ by less are one moment
 WAIT_S = 0.1  # how long a colour frame waits for its depth frame before the laser is taken to be off
 KEEP = 90  # frames remembered of each stream (3 s at 30 Hz)
 
