@@ -28,6 +28,7 @@ from rosbags.typesys import Stores, get_typestore
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.synth import fill_recording
+from fill_d435 import read
 from fill_eval import Pool
 from held_out import used_models
 
@@ -58,10 +59,6 @@ def write_bag(path: Path, depth: list[Path], colour: list[Path], active: int) ->
                 px = cv2.imread(str(d), cv2.IMREAD_UNCHANGED)
                 m = image(header(ns), h, w, "16UC1", 0, w * 2, np.frombuffer(px.tobytes(), np.uint8))
                 bag.write(dc, ns, ts.serialize_cdr(m, "sensor_msgs/msg/Image"))
-
-
-def read(p: Path) -> np.ndarray:
-    return cv2.imread(str(p), cv2.IMREAD_UNCHANGED).astype(np.float64)
 
 
 def main() -> None:

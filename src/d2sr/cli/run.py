@@ -135,7 +135,7 @@ def run(
     if trigger is not None and not is_live:
         raise ConfigError("--trigger needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL])")
     if is_live:
-        check_camera(source, trigger)
+        check_camera(source, trigger, fill)
     if source == "sim" and not 1 <= sensors <= 63:
         raise ConfigError(f"--sensors must be in 1..63, got {sensors}")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[Path(source)] if is_recording else [])

@@ -30,15 +30,19 @@ __all__ = ["CAMERAS", "check_camera", "run_live"]
 
 CAMERAS = ("realsense", "orbbec")
 
-
 LiveFrames = Iterator[Shot]  # in time order; a shot of colour alone: a moment the laser skipped
 
 
-def check_camera(source: str, trigger: str | None) -> tuple[str, str | None]:
-    """``realsense[:SERIAL]`` / ``orbbec[:SERIAL]`` and a trigger that can drive it -> (camera, serial)."""
+def check_camera(source: str, trigger: str | None, fill: bool = False) -> tuple[str, str | None]:
+    """``realsense[:SERIAL]`` / ``orbbec[:SERIAL]`` and a trigger that can drive it -> (camera, serial);
+    ``fill`` (colour read for synthesis) needs a RealSense."""
     camera, _, serial = source.partition(":")
     if camera not in CAMERAS:
         raise ConfigError(f"unknown camera {camera!r}; choose from {', '.join(CAMERAS)}")
+    if fill and camera != "realsense":
+        raise ConfigError(
+            "--fill on a live camera: a RealSense for now (an Orbbec: d2sr ros2 --colour-topic)"
+        )
     if trigger is not None:
         kind = parse_trigger(trigger)[0]
         own = {"orbbec": "orbbec", "realsense-emitter": "realsense"}.get(kind, camera)
@@ -101,13 +105,10 @@ def _camera(
     trigger: str | None,
     fill: bool,
 ) -> tuple[LiveFrames, Intrinsics | None]:
-    """The camera's moments, and with ``fill`` the intrinsics of the depth aligned to its colour."""
+    """The camera's moments, and with ``fill`` (a RealSense: ``check_camera``) the intrinsics of the depth
+    aligned to its colour."""
     if camera == "realsense":
         return _realsense(serial, actuator, trigger, seconds, fill)
-    if fill:
-        raise ConfigError(
-            "--fill on a live camera: a RealSense for now (an Orbbec: d2sr ros2 --colour-topic)"
-        )
     from d2sr.triggers.orbbec import OrbbecActuator, open_orbbec, orbbec_frames
 
     triggered = isinstance(actuator, OrbbecActuator)
@@ -137,7 +138,7 @@ def run_live(
     frames are also judged against its scene (``SensorLoop.scene``). With ``fill`` (a RealSense), its colour
     stream is read too, and every colour frame that no depth frame joins (the laser was off) gets a frame
     synthesized from the last one, written into the run with its confidence (``d2sr.synth``)."""
-    camera, serial = check_camera(source, trigger)
+    camera, serial = check_camera(source, trigger, fill)
     stats = RunStats()
     settings = {
         "source": source,
