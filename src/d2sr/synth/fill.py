@@ -58,6 +58,7 @@ class Filler:
         self._cloud: Cloud | None = None  # its points, made on its first warp
         self._source_pose: Pose | None = None  # its world pose (odometry)
         self._key: Keyframe | None = None  # the previous frame's features with depth
+        self._real_key: Keyframe | None = None  # the last real frame's
         self._found: tuple[Any, np.ndarray | None] | None = None  # this frame's features (colour path)
         self._moved = Pose.identity()  # last real camera -> previous frame's camera
         self._since = 0
@@ -70,7 +71,7 @@ class Filler:
         metres = self._checked(metres, colour)
         self._source, self._source_pose, self._cloud = metres, pose, None
         self._moved, self._since = Pose.identity(), 0
-        self._key = self._keyframe(colour, metres)
+        self._key = self._real_key = self._keyframe(colour, metres)
         return Synthesized(metres, (metres > 0).astype(np.float32), "real", 0)
 
     def synthesize(self, colour: np.ndarray | None = None, pose: Pose | None = None) -> Synthesized:
@@ -83,6 +84,7 @@ class Filler:
         measured = True
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
+            self._moved = moved  # a colour step after it chains from here
         elif colour is not None:
             (moved, measured), method = self._colour_pose(colour), "warp-colour"
         else:
@@ -92,7 +94,6 @@ class Filler:
         if self._cloud is None:  # every frame synthesized from this real one warps the same points
             self._cloud = cloud(source, k)
         warped = warp_depth(self._cloud, moved, k)
-        self._moved = moved
         if self._found is not None:
             self._key = self._motion_for(warped.shape).keyframe(self._found, warped)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
@@ -102,14 +103,25 @@ class Filler:
         return Synthesized(depth, conf, method, self._since)
 
     def _colour_pose(self, colour: np.ndarray) -> tuple[Pose, bool]:
-        """Last real camera -> this camera: the previous frame's pose followed by the step to this one, and
-        True; the previous pose again and False when the step cannot be measured (no colour came with the
-        frame before, or too few matches agree)."""
+        """Last real camera -> this camera, and whether it was measured. The chain (the previous frame's
+        pose followed by the step to this one) is kept, or the previous pose again when the step cannot be
+        measured (no colour came with the frame before, or too few matches agree). The frame is warped by
+        the chain unless the matches to the last real frame show no motion: then a still camera's frame is
+        the real one, not the chain's drift through noise (docs/research/decisions.md, 2026-11-27)."""
         grey = _grey(colour)
         motion = self._motion_for(grey.shape)
         self._found = motion.features(grey)
-        step = motion.pose(self._key, self._found) if self._key is not None else None
-        return (self._moved, False) if step is None else (self._moved.then(step), True)
+        fit = motion.fit(self._key, self._found) if self._key is not None else None
+        if fit is None:
+            return self._moved, False
+        self._moved = self._moved.then(fit[0])
+        # the first frame after the real one has its step from it: the same fit
+        same = self._key is self._real_key
+        still = (
+            self._real_key is not None
+            and motion.moved(self._real_key, self._found, fit if same else None) is False
+        )
+        return (Pose.identity() if still else self._moved), True
 
     def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
         if colour is None:
