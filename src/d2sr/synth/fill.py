@@ -59,6 +59,7 @@ class Filler:
         self._source_pose: Pose | None = None  # its world pose (odometry)
         self._key: Keyframe | None = None  # the previous frame's features with depth
         self._real_key: Keyframe | None = None  # the last real frame's
+        self._went = False  # a frame since the last real one showed the camera moved from it
         self._found: tuple[Any, np.ndarray | None] | None = None  # this frame's features (colour path)
         self._moved = Pose.identity()  # last real camera -> previous frame's camera
         self._since = 0
@@ -70,7 +71,7 @@ class Filler:
         as it went in, confidence 1 where it has a value)."""
         metres = self._checked(metres, colour)
         self._source, self._source_pose, self._cloud = metres, pose, None
-        self._moved, self._since = Pose.identity(), 0
+        self._moved, self._since, self._went = Pose.identity(), 0, False
         self._key = self._real_key = self._keyframe(colour, metres)
         return Synthesized(metres, (metres > 0).astype(np.float32), "real", 0)
 
@@ -107,7 +108,9 @@ class Filler:
         pose followed by the step to this one) is kept, or the previous pose again when the step cannot be
         measured (no colour came with the frame before, or too few matches agree). The frame is warped by
         the chain unless the matches to the last real frame show no motion: then a still camera's frame is
-        the real one, not the chain's drift through noise (docs/research/decisions.md, 2026-11-27)."""
+        the real one, not the chain's drift through noise. Once a frame shows motion the test stops until
+        the next real frame: the camera is away, and its matches to the real frame only thin out
+        (docs/research/decisions.md, 2026-11-27)."""
         grey = _grey(colour)
         motion = self._motion_for(grey.shape)
         self._found = motion.features(grey)
@@ -115,13 +118,13 @@ class Filler:
         if fit is None:
             return self._moved, False
         self._moved = self._moved.then(fit[0])
+        if self._went or self._real_key is None:
+            return self._moved, True
         # the first frame after the real one has its step from it: the same fit
         same = self._key is self._real_key
-        still = (
-            self._real_key is not None
-            and motion.moved(self._real_key, self._found, fit if same else None) is False
-        )
-        return (Pose.identity() if still else self._moved), True
+        went = motion.moved(self._real_key, self._found, fit if same else None)
+        self._went = went is True
+        return (Pose.identity() if went is False else self._moved), True
 
     def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
         if colour is None:
