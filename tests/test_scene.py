@@ -209,3 +209,21 @@ def test_bisect_finds_the_target_and_stops_at_the_nearer_end_outside_the_range()
     assert _bisect(lambda x: 2 * x, 0.0, 1.0, 1.0, 12, log=False) == pytest.approx(0.5, abs=1e-3)
     assert _bisect(lambda x: 2 * x, 0.0, 1.0, 5.0, 12, log=False) == 1.0
     assert _bisect(lambda x: -x, 0.0, 1.0, 0.5, 12, log=False) == 0.0  # decreasing, target above f(lo)
+
+
+def test_colour_is_fixed_to_the_world():
+    """The colour camera's texture stays on the surface as the camera moves, so motion can be read from it."""
+    from d2sr.sim.colour import grey
+
+    room = Room((6.0, 4.0, 3.0), (0.5, 0.6, 0.7, 0.8, 0.3, 0.7))
+    a = Renderer(room, SMALL, Pose(1.0, 2.0, 1.5, 0.0))
+    b = Renderer(room, SMALL, Pose(1.0, 2.1, 1.5, 0.0))  # 10 cm to the left (+y): the wall moves right
+    ga, gb = grey(a, a.render()), grey(b, b.render())
+    assert ga.std() > 10 and np.array_equal(ga, grey(a, a.render()))  # textured, and deterministic
+    # the far wall (5 m) shifts by fx * 0.1 / 5 = 2.3 px: matching the shifted image, not the same pixels
+    wall = (slice(40, 80), slice(40, 120))
+    shifted = np.abs(gb[wall].astype(int) - np.roll(ga, 2, axis=1)[wall]).mean()
+    unshifted = np.abs(gb[wall].astype(int) - ga[wall]).mean()
+    assert shifted < 0.5 * unshifted
+    noisy = grey(a, a.render(), 2.0, np.random.default_rng(0))
+    assert 0 < np.abs(noisy.astype(int) - ga).mean() < 3

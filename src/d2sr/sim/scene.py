@@ -248,6 +248,11 @@ class Renderer:
             v = c[..., 1] / z * self.intr.fy + self.intr.py
         return u, v, z
 
+    def points(self, depth: np.ndarray) -> np.ndarray:
+        """World points (H, W, 3) of a z-depth image rendered from this pose."""
+        assert self.pose is not None
+        return self.pose.position.astype(np.float32) + depth[..., None] * self._dirs
+
     def _window(self, corners: np.ndarray) -> tuple[slice, slice] | None:
         """Image rectangle that holds the projection of these corners (None: not in view)."""
         u, v, z = self.project(corners)
