@@ -1,18 +1,17 @@
 """Frames the laser skipped, synthesized: the last real depth moved to where the camera is now. Where the
-camera went comes from the caller's odometry, or from the colour stream (each skipped frame's pose chained
-from the previous one's, so baselines stay short), or is unknown: then the last real frame is held."""
+camera went comes from the caller's odometry, or from the colour stream (the real frame's corners tracked
+through the colour frames, ``synth.motion``), or is unknown: then the last real frame is held."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import cv2
 import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Intrinsics
-from d2sr.synth.motion import ColourMotion, Keyframe
+from d2sr.synth.motion import ColourTrack
 from d2sr.synth.warp import (
     Cloud,
     Pose,
@@ -53,14 +52,10 @@ class Filler:
     def __init__(self, intrinsics: Intrinsics | None = None, radius: int | None = None) -> None:
         self.intrinsics = intrinsics
         self.radius = radius
-        self._motion: ColourMotion | None = None
+        self._track: ColourTrack | None = None
         self._source: np.ndarray | None = None  # the last real frame, metres
         self._cloud: Cloud | None = None  # its points, made on its first warp
         self._source_pose: Pose | None = None  # its world pose (odometry)
-        self._key: Keyframe | None = None  # the previous frame's features with depth
-        self._real_key: Keyframe | None = None  # the last real frame's
-        self._went = False  # a frame since the last real one showed the camera moved from it
-        self._found: tuple[Any, np.ndarray | None] | None = None  # this frame's features (colour path)
         self._moved = Pose.identity()  # last real camera -> previous frame's camera
         self._since = 0
 
@@ -71,8 +66,12 @@ class Filler:
         as it went in, confidence 1 where it has a value)."""
         metres = self._checked(metres, colour)
         self._source, self._source_pose, self._cloud = metres, pose, None
-        self._moved, self._since, self._went = Pose.identity(), 0, False
-        self._key = self._real_key = self._keyframe(colour, metres)
+        self._moved, self._since = Pose.identity(), 0
+        track = self._track_for(metres.shape)
+        if colour is None:
+            track.clear()
+        else:
+            track.seed(_grey(colour), metres)
         return Synthesized(metres, (metres > 0).astype(np.float32), "real", 0)
 
     def synthesize(self, colour: np.ndarray | None = None, pose: Pose | None = None) -> Synthesized:
@@ -81,7 +80,6 @@ class Filler:
         if self._source is None:
             raise InputError("no real frame yet: the filler has nothing to synthesize from")
         source = self._source
-        self._found = None
         measured = True
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
@@ -95,8 +93,9 @@ class Filler:
         if self._cloud is None:  # every frame synthesized from this real one warps the same points
             self._cloud = cloud(source, k)
         warped = warp_depth(self._cloud, moved, k)
-        if self._found is not None:
-            self._key = self._motion_for(warped.shape).keyframe(self._found, warped)
+        if colour is not None and not self._track_for(warped.shape).seeded:
+            # the real frame came without colour: track from this frame, where the warp put the depth
+            self._track_for(warped.shape).seed(_grey(colour), warped, moved)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
         if not measured:  # the camera's step was not seen: where it went is a guess, said as a held frame's
@@ -104,39 +103,19 @@ class Filler:
         return Synthesized(depth, conf, method, self._since)
 
     def _colour_pose(self, colour: np.ndarray) -> tuple[Pose, bool]:
-        """Last real camera -> this camera, and whether it was measured. The chain (the previous frame's
-        pose followed by the step to this one) is kept, or the previous pose again when the step cannot be
-        measured (no colour came with the frame before, or too few matches agree). The frame is warped by
-        the chain unless the matches to the last real frame show no motion: then a still camera's frame is
-        the real one, not the chain's drift through noise. Once a frame shows motion the test stops until
-        the next real frame: the camera is away, and its matches to the real frame only thin out
-        (docs/research/decisions.md, 2026-11-27)."""
-        grey = _grey(colour)
-        motion = self._motion_for(grey.shape)
-        self._found = motion.features(grey)
-        fit = motion.fit(self._key, self._found) if self._key is not None else None
-        if fit is None:
+        """Last real camera -> this camera, and whether it was measured: the previous pose again when it
+        was not (no colour came with the real frame, or the tracks cannot be trusted). A still camera's
+        frame is the real one where it was, not PnP's reading of the colour's noise."""
+        step = self._track_for(colour.shape).step(_grey(colour))
+        if step is None:
             return self._moved, False
-        self._moved = self._moved.then(fit[0])
-        if self._went or self._real_key is None:
-            return self._moved, True
-        # the first frame after the real one has its step from it: the same fit
-        same = self._key is self._real_key
-        went = motion.moved(self._real_key, self._found, fit if same else None)
-        self._went = went is True
-        return (Pose.identity() if went is False else self._moved), True
+        self._moved = step.pose
+        return (Pose.identity() if step.still else step.pose), True
 
-    def _keyframe(self, colour: np.ndarray | None, metres: np.ndarray) -> Keyframe | None:
-        if colour is None:
-            return None
-        grey = _grey(colour)
-        motion = self._motion_for(grey.shape)
-        return motion.keyframe(motion.features(grey), metres)
-
-    def _motion_for(self, shape: tuple[int, ...]) -> ColourMotion:
-        if self._motion is None:
-            self._motion = ColourMotion(self._k(shape))
-        return self._motion
+    def _track_for(self, shape: tuple[int, ...]) -> ColourTrack:
+        if self._track is None:
+            self._track = ColourTrack(self._k(shape))
+        return self._track
 
     def _k(self, shape: tuple[int, ...]) -> Intrinsics:
         h, w = shape[:2]

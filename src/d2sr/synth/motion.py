@@ -1,11 +1,13 @@
-"""Camera motion from the colour stream: ORB features of a frame whose depth is known, matched in the next
-colour frame, and OpenCV's RANSAC PnP. Colour keeps streaming while the laser is off, and laser
+"""Camera motion from the colour stream: the last real frame's corners, which have depth, tracked frame to
+frame through the colour frames (pyramidal Lucas-Kanade), and each frame's pose found by PnP of the real
+frame's own 3-D points on their tracks. No depth is read from a synthesized frame, so errors do not
+compound as they did when each step was matched against the previous synthesized frame (ORB, until
+0.11; docs/research/decisions.md, 2026-11-27). Colour keeps streaming while the laser is off, and laser
 interference does not touch it."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import cv2
 import numpy as np
@@ -13,96 +15,116 @@ import numpy as np
 from d2sr.frames.base import Intrinsics
 from d2sr.synth.warp import Pose
 
-__all__ = ["ColourMotion", "Fit", "Keyframe"]
+__all__ = ["ColourTrack", "Step"]
 
+CORNERS = 600  # tracked from each real frame
+MIN_TRACKS = 30  # fewer tracks left than this and the frame is not measured
 MIN_INLIERS = 12  # fewer RANSAC inliers than this and the pose is not trusted
-RATIO = 0.8  # a match must beat the second best by this ratio
+FB_PX = 0.5  # a track must come back to where it started within this (forward-backward check)
+#: A step between two frames beyond this is a wrong fit, not the camera (4.5 m/s, 300 °/s at 30 fps): a
+#: few tracks left on one small patch fit any pose.
+MAX_STEP_M, MAX_STEP_DEG = 0.15, 10.0
 MOVED_CHI2 = 22.46  # χ² with 6 degrees of freedom, 0.1% point: the motion is seen, not read into noise
+#: ... and it moves the tracked points by at least this much (RMS, px). Neighbouring corners share pixels of
+#: one noisy image, so their errors are not independent and the test alone over-counts its evidence.
+MOVED_PX = 0.05
+LK = {"winSize": (21, 21), "maxLevel": 3}
 EPS = 1e-9
 
 
-@dataclass
-class Keyframe:
-    """A colour frame with depth: its features and their 3-D points (its camera's frame, metres)."""
+@dataclass(frozen=True)
+class Step:
+    """A measured frame: the motion from the last real camera to this one, and whether the tracks show no
+    motion at all (``still``: the likelihood ratio of the motion against none below χ²(6)'s 0.1% point).
+    A test, not a pixel threshold: slow motion seen by many tracks counts, noise does not."""
 
-    points: np.ndarray  # (N, 3)
-    descriptors: np.ndarray  # (N, 32) ORB
-
-
-#: A fitted motion and its RANSAC inliers: the key's points and their pixels in the other frame.
-Fit = tuple[Pose, np.ndarray, np.ndarray]
+    pose: Pose
+    still: bool
 
 
-class ColourMotion:
-    """Pose of the current colour frame relative to a keyframe (a frame with depth)."""
+class ColourTrack:
+    """One real frame's corners followed through the colour frames after it."""
 
-    def __init__(self, k: Intrinsics, features: int = 1000) -> None:
+    def __init__(self, k: Intrinsics) -> None:
         self.k = k
-        self.orb = cv2.ORB.create(features)
-        self.matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
         self.camera = np.array([[k.fx, 0, k.px], [0, k.fy, k.py], [0, 0, 1.0]])
+        self.clear()
 
-    def features(self, grey: np.ndarray) -> tuple[Any, np.ndarray | None]:
-        """ORB keypoints and descriptors of a grey image, computed once and used twice (``fit`` of this
-        frame, then ``keyframe`` for the next)."""
-        kps, desc = self.orb.detectAndCompute(grey, None)
-        return kps, desc
+    def clear(self) -> None:
+        """Nothing to track (a real frame came without colour)."""
+        self._points: np.ndarray | None = None  # (N, 3) in the real camera's frame
+        self._uv = np.zeros((0, 2), np.float32)  # where they are in the previous colour frame
+        self._grey: np.ndarray | None = None
+        self._pose = Pose.identity()  # real camera -> previous colour frame's camera
+        self._pending: tuple[np.ndarray, np.ndarray, Pose] | None = None
 
-    def keyframe(self, found: tuple[Any, np.ndarray | None], metres: np.ndarray) -> Keyframe | None:
-        """The ``features`` of a frame that have depth in ``metres`` (same size), or None with too few."""
-        kps, desc = found
-        if desc is None:
-            return None
-        uv = np.array([kp.pt for kp in kps])
-        ui, vi = np.rint(uv[:, 0]).astype(int), np.rint(uv[:, 1]).astype(int)
-        h, w = metres.shape
-        inside = (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
-        z = np.zeros(len(kps))
-        z[inside] = metres[vi[inside], ui[inside]]
-        ok = z > 0
-        if ok.sum() < MIN_INLIERS:
-            return None
-        k = self.k
-        pts = np.stack([(uv[ok, 0] - k.px) * z[ok] / k.fx, (uv[ok, 1] - k.py) * z[ok] / k.fy, z[ok]], axis=1)
-        return Keyframe(pts, desc[ok])
+    @property
+    def seeded(self) -> bool:
+        return self._points is not None or self._pending is not None
 
-    def moved(
-        self, key: Keyframe, found: tuple[Any, np.ndarray | None], fit: Fit | None = None
-    ) -> bool | None:
-        """Whether the matches of ``key`` in a frame with ``features`` show the camera moved: the
-        likelihood ratio of the fitted motion against none, on its inliers, above χ²(6)'s 0.1% point. A
-        test, not a pixel threshold: small motion seen in many matches counts, noise in few does not. None
-        when the motion cannot be fitted. ``fit``: ``fit(key, found)`` when the caller has it already."""
-        fit = fit if fit is not None else self.fit(key, found)
-        if fit is None:
-            return None
-        pose, obj, img = fit
-        ssr_fit = _ssr(self._project(obj @ pose.R.T + pose.t), img)
-        ssr_none = _ssr(self._project(obj), img)
-        n = len(obj)
-        return bool((2 * n - 6) * np.log(max(ssr_none, EPS) / max(ssr_fit, EPS)) > MOVED_CHI2)
+    def seed(self, grey: np.ndarray, metres: np.ndarray, pose: Pose | None = None) -> None:
+        """Track from this colour frame, whose depth is ``metres`` (same size) and whose camera is ``pose``
+        from the real one (None: it is the real one). The corners are found at the first ``step``: most
+        real frames are followed by another real one, not a synthesized one."""
+        self.clear()
+        self._pending = (grey, metres, pose or Pose.identity())
 
-    def fit(self, key: Keyframe, found: tuple[Any, np.ndarray | None]) -> Fit | None:
-        """The motion from ``key``'s camera to the camera of a frame with ``features`` (RANSAC PnP of the
-        key's points on their matches) and its inliers, or None when it cannot be trusted."""
-        kps, desc = found
-        if desc is None:
+    def step(self, grey: np.ndarray) -> Step | None:
+        """This colour frame's camera from the real one, or None when it cannot be trusted (too few tracks or
+        inliers, or an impossible step); the next frame is then measured from the last trusted pose."""
+        if self._pending is not None:
+            self._corners(*self._pending)
+        if self._points is None or self._grey is None or len(self._uv) < MIN_INLIERS:
+            self._grey = grey
             return None
-        pairs = self.matcher.knnMatch(key.descriptors, desc, k=2)
-        # Lowe's ratio test: one pass instead of a cross-checked two
-        matches = [p[0] for p in pairs if len(p) == 2 and p[0].distance < RATIO * p[1].distance]
-        if len(matches) < MIN_INLIERS:
+        prev = self._grey
+        nxt, ok, _ = cv2.calcOpticalFlowPyrLK(prev, grey, self._uv, None, **LK)  # type: ignore[call-overload]
+        back, ok2, _ = cv2.calcOpticalFlowPyrLK(grey, prev, nxt, None, **LK)  # type: ignore[call-overload]
+        good = (ok.ravel() == 1) & (ok2.ravel() == 1) & (np.linalg.norm(back - self._uv, axis=1) < FB_PX)
+        self._points, self._uv, self._grey = self._points[good], nxt[good], grey
+        if len(self._uv) < MIN_TRACKS:
             return None
-        obj = key.points[[m.queryIdx for m in matches]]
-        img = np.array([kps[m.trainIdx].pt for m in matches], np.float64)
-        ok, rvec, tvec, inliers = cv2.solvePnPRansac(
-            obj, img, self.camera, None, reprojectionError=3.0, iterationsCount=200
-        )
-        if not ok or inliers is None or len(inliers) < MIN_INLIERS:
+        rvec, _ = cv2.Rodrigues(self._pose.R)
+        found, rvec, tvec, inliers = cv2.solvePnPRansac(
+            self._points, self._uv.astype(np.float64), self.camera, None, rvec.copy(),
+            self._pose.t.reshape(3, 1).copy(), useExtrinsicGuess=True, reprojectionError=3.0,
+            iterationsCount=100,
+        )  # fmt: skip
+        if not found or inliers is None or len(inliers) < MIN_INLIERS:
             return None
         rot, _ = cv2.Rodrigues(rvec)
-        keep = inliers.reshape(-1)
-        return Pose(rot, tvec.reshape(3)), obj[keep], img[keep]
+        pose = Pose(rot, tvec.reshape(3))
+        step = self._pose.inverse().then(pose)
+        turn = np.degrees(np.arccos(np.clip((np.trace(step.R) - 1) / 2, -1, 1)))
+        if np.linalg.norm(step.t) > MAX_STEP_M or turn > MAX_STEP_DEG:
+            return None
+        self._pose = pose
+        keep = inliers.ravel()
+        return Step(pose, not self._moved(pose, self._points[keep], self._uv[keep].astype(np.float64)))
+
+    def _corners(self, grey: np.ndarray, metres: np.ndarray, pose: Pose) -> None:
+        self._pending = None
+        self._grey, self._pose = grey, pose
+        found = cv2.goodFeaturesToTrack(grey, CORNERS, 0.01, 7)
+        if found is None:
+            return
+        uv = found.reshape(-1, 2)
+        h, w = metres.shape
+        z = metres[
+            np.clip(np.rint(uv[:, 1]).astype(int), 0, h - 1), np.clip(np.rint(uv[:, 0]).astype(int), 0, w - 1)
+        ]
+        ok = z > 0
+        k = self.k
+        here = np.stack([(uv[ok, 0] - k.px) * z[ok] / k.fx, (uv[ok, 1] - k.py) * z[ok] / k.fy, z[ok]], axis=1)
+        back = pose.inverse()  # this camera -> the real one
+        self._points = here @ back.R.T + back.t
+        self._uv = uv[ok].astype(np.float32)
+
+    def _moved(self, pose: Pose, points: np.ndarray, uv: np.ndarray) -> bool:
+        there, here = self._project(points @ pose.R.T + pose.t), self._project(points)
+        ssr_fit, ssr_none = _ssr(there, uv), _ssr(here, uv)
+        seen = (2 * len(points) - 6) * np.log(max(ssr_none, EPS) / max(ssr_fit, EPS)) > MOVED_CHI2
+        return bool(seen and np.sqrt(_ssr(there, here) / len(points)) >= MOVED_PX)
 
     def _project(self, points: np.ndarray) -> np.ndarray:
         k = self.k
