@@ -83,7 +83,7 @@ class Filler:
         measured = True
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
-            self._moved = moved  # a colour step after it chains from here
+            self._moved = moved  # what a later frame keeps if its colour cannot be measured
         elif colour is not None:
             (moved, measured), method = self._colour_pose(colour), "warp-colour"
         else:
