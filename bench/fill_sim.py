@@ -38,9 +38,8 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     result: dict = {
-        "data": f"{args.rooms} generated rooms (seeds {args.first_seed}..{args.first_seed + args.rooms - 1}), "
-        "the moving robot, "
-        f"{args.seconds:g} s each",
+        "data": f"{args.rooms} generated rooms (seeds {args.first_seed}.."
+        f"{args.first_seed + args.rooms - 1}), the moving robot, {args.seconds:g} s each",
         "runs": [],
     }
     for n in (15, 6):
