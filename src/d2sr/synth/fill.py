@@ -93,9 +93,11 @@ class Filler:
         if self._cloud is None:  # every frame synthesized from this real one warps the same points
             self._cloud = cloud(source, k)
         warped = warp_depth(self._cloud, moved, k)
-        if colour is not None and not self._track_for(warped.shape).seeded:
-            # the real frame came without colour: track from this frame, where the warp put the depth
-            self._track_for(warped.shape).seed(_grey(colour), warped, moved)
+        track = self._track_for(warped.shape)
+        if colour is not None and (not track.seeded or (measured and track.thinned)):
+            # the real frame came without colour, or half its corners are lost: track from this frame,
+            # where the warp put the depth (decisions.md, 2026-11-27)
+            track.seed(_grey(colour), warped, moved)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
         if not measured:  # the camera's step was not seen: where it went is a guess, said as a held frame's

@@ -57,10 +57,16 @@ class ColourTrack:
         self._grey: np.ndarray | None = None
         self._pose = Pose.identity()  # real camera -> previous colour frame's camera
         self._pending: tuple[np.ndarray, np.ndarray, Pose] | None = None
+        self._n0 = 0  # corners found at the last seed
 
     @property
     def seeded(self) -> bool:
         return self._points is not None or self._pending is not None
+
+    @property
+    def thinned(self) -> bool:
+        """Fewer than half of the corners last found are still tracked (or fewer than ``MIN_TRACKS``)."""
+        return self._points is not None and len(self._uv) < max(MIN_TRACKS, self._n0 // 2)
 
     def seed(self, grey: np.ndarray, metres: np.ndarray, pose: Pose | None = None) -> None:
         """Track from this colour frame, whose depth is ``metres`` (same size) and whose camera is ``pose``
@@ -118,6 +124,7 @@ class ColourTrack:
         here = np.stack([(uv[ok, 0] - k.px) * z[ok] / k.fx, (uv[ok, 1] - k.py) * z[ok] / k.fy, z[ok]], axis=1)
         back = pose.inverse()  # this camera -> the real one
         self._points = here @ back.R.T + back.t
+        self._n0 = len(here)
         self._uv = uv[ok].astype(np.float32)
 
     def _moved(self, pose: Pose, points: np.ndarray, uv: np.ndarray) -> bool:
