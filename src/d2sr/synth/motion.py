@@ -35,15 +35,18 @@ EPS = 1e-9
 @dataclass(frozen=True)
 class Step:
     """A measured frame: the motion from the last real camera to this one, and whether the tracks show no
-    motion at all (``still``: the likelihood ratio of the motion against none below χ²(6)'s 0.1% point).
-    A test, not a pixel threshold: slow motion seen by many tracks counts, noise does not."""
+    motion at all (``still``: the likelihood ratio of the motion against none below χ²(6)'s 0.1% point,
+    or the motion moving them by under ``MOVED_PX``). The test's threshold scales with the tracks: slow
+    motion seen by many counts, noise does not."""
 
     pose: Pose
     still: bool
 
 
 class ColourTrack:
-    """One real frame's corners followed through the colour frames after it."""
+    """One real frame's corners followed through the colour frames after it. ``seed`` again (from a
+    synthesized frame, its depth and pose) when the real frame had no colour or the tracks have ``thinned``.
+    """
 
     def __init__(self, k: Intrinsics) -> None:
         self.k = k
