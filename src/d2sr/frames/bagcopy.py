@@ -149,7 +149,7 @@ class BagCopy:
         header = _header(self.ts, msg.header, self.ros1)
         fixed = self._repaired(msg, conn.msgtype, header, depth, mask)
         self.bag.write(self.repaired, stamp, self._serialize(fixed, conn.msgtype))
-        self.bag.write(self.mask, stamp, self._mono8(header, mask.astype(np.uint8) * 255))
+        self.bag.write(self.mask, stamp, self._image(header, mask.astype(np.uint8) * 255))
         if self.colour is not None:
             self._feed(None)  # the frame before, if its colour never came
             self._last_stamp = frame.timestamp_ns
@@ -158,11 +158,15 @@ class BagCopy:
                 self._feed(self._coming)
                 self._coming = None
 
-    def _mono8(self, header: Any, image: np.ndarray) -> Any:
+    def _image(self, header: Any, image: np.ndarray) -> Any:
+        """A serialized ``sensor_msgs/Image``: mono8 for uint8, 16UC1 (little-endian) for uint16."""
         h, w = image.shape
+        encoding = "mono8" if image.dtype == np.uint8 else "16UC1"
+        data = np.frombuffer(image.astype(image.dtype.newbyteorder("<")).tobytes(), np.uint8)
         img = self.ts.types[IMAGE](
-            header=header, height=h, width=w, encoding="mono8", is_bigendian=0, step=w, data=image.ravel()
-        )
+            header=header, height=h, width=w, encoding=encoding, is_bigendian=0, step=w * image.itemsize,
+            data=data,
+        )  # fmt: skip
         return self._serialize(img, IMAGE)
 
     def _colour(self, conn: Any, stamp: int, raw: bytes, coming: int | None) -> None:
@@ -185,15 +189,10 @@ class BagCopy:
             return  # nothing real yet to synthesize from
         depth, confidence = made
         header = _header(self.ts, msg.header, self.ros1)
-        h, w = depth.shape
-        data = np.frombuffer(depth.astype("<u2").tobytes(), np.uint8)
-        out = self.ts.types[IMAGE](
-            header=header, height=h, width=w, encoding="16UC1", is_bigendian=0, step=w * 2, data=data
-        )
-        self.bag.write(self.repaired, stamp, self._serialize(out, IMAGE))
-        self.bag.write(self.mask, stamp, self._mono8(header, np.zeros((h, w), np.uint8)))
+        self.bag.write(self.repaired, stamp, self._image(header, depth.astype(np.uint16)))
+        self.bag.write(self.mask, stamp, self._image(header, np.zeros(depth.shape, np.uint8)))
         assert self.confidence is not None
-        self.bag.write(self.confidence, stamp, self._mono8(header, confidence))
+        self.bag.write(self.confidence, stamp, self._image(header, confidence))
         self.synthesized += 1
 
     def _feed(self, image: np.ndarray | None) -> None:

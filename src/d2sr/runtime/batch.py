@@ -128,6 +128,7 @@ class _BagFiller:
         from d2sr.synth import Filler
 
         self.topic, self.scale, self.filler = topic, scale, Filler(intrinsics)
+        self.started = False  # a real frame came: something to synthesize from
 
     def real(self, depth: np.ndarray, colour: np.ndarray | None) -> None:
         if depth.dtype != np.uint16:
@@ -135,14 +136,14 @@ class _BagFiller:
                 "--colour-topic: frames are synthesized into 16-bit depth topics; this one is 32FC1"
             )
         self.filler.real(to_metres(depth, self.scale), colour)
+        self.started = True
 
     def skipped(self, colour: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         from d2sr.synth.recording import confidence_image
 
-        try:
-            s = self.filler.synthesize(colour)
-        except InputError:  # nothing real yet
+        if not self.started:
             return None
+        s = self.filler.synthesize(colour)
         return to_units(s.depth, self.scale), confidence_image(s.confidence)
 
 

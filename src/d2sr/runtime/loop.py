@@ -233,8 +233,7 @@ class SensorLoop:
     def _against_scene(self, raw: np.ndarray, scale: float, flagged: bool) -> tuple[bool, Evidence]:
         """The detector's verdict weighed against the scene reference, which takes the frame if clean; and
         the frame's evidence."""
-        if raw.dtype != np.uint16:  # metres: judged in millimetres
-            raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
+        raw, scale = _in_units(raw, scale)
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._reference = SceneReference(scale)
@@ -249,8 +248,7 @@ class SensorLoop:
         """A moving sensor's frame against its last clean frame seen from ``pose``: flagged where its depth
         deviates there in patches (``EVIDENT``), whatever the detector says; the reference never clears a
         flag (dropouts depend on the view, so it cannot see interference made of them)."""
-        if raw.dtype != np.uint16:  # metres: judged in millimetres
-            raw, scale = np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0
+        raw, scale = _in_units(raw, scale)
         ref = self._moving
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._moving = MovingReference(scale, self.intrinsics)
@@ -288,3 +286,10 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
+
+
+def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
+    """A frame as the scene references take it: uint16 units; a frame in metres is judged in millimetres."""
+    if raw.dtype == np.uint16:
+        return raw, scale
+    return np.clip(np.rint(np.nan_to_num(raw) * 1000), 0, 65535).astype(np.uint16), 1000.0

@@ -81,11 +81,12 @@ class Filler:
             raise InputError("no real frame yet: the filler has nothing to synthesize from")
         source = self._source
         measured = True
+        grey = None if colour is None else _grey(colour)
         if pose is not None and self._source_pose is not None:
             moved, method = self._source_pose.then(pose.inverse()), "warp-pose"
             self._moved = moved  # what a later frame keeps if its colour cannot be measured
-        elif colour is not None:
-            (moved, measured), method = self._colour_pose(colour), "warp-colour"
+        elif grey is not None:
+            (moved, measured), method = self._colour_pose(grey), "warp-colour"
         else:
             conf = np.where(source > 0, HOLD_CONFIDENCE, 0).astype(np.float32)
             return Synthesized(source, conf, "hold", self._since)
@@ -94,21 +95,21 @@ class Filler:
             self._cloud = cloud(source, k)
         warped = warp_depth(self._cloud, moved, k)
         track = self._track_for(warped.shape)
-        if colour is not None and (not track.seeded or (measured and track.thinned)):
+        if grey is not None and (not track.seeded or (measured and track.thinned)):
             # the real frame came without colour, or half its corners are lost: track from this frame,
             # where the warp put the depth (decisions.md, 2026-11-27)
-            track.seed(_grey(colour), warped, moved)
+            track.seed(grey, warped, moved)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
         if not measured:  # the camera's step was not seen: where it went is a guess, said as a held frame's
             conf = np.minimum(conf, np.float32(HOLD_CONFIDENCE))
         return Synthesized(depth, conf, method, self._since)
 
-    def _colour_pose(self, colour: np.ndarray) -> tuple[Pose, bool]:
+    def _colour_pose(self, grey: np.ndarray) -> tuple[Pose, bool]:
         """Last real camera -> this camera, and whether it was measured: the previous pose again when it
         was not (no colour came with the real frame, or the tracks cannot be trusted). A still camera's
         frame is the real one where it was, not PnP's reading of the colour's noise."""
-        step = self._track_for(colour.shape).step(_grey(colour))
+        step = self._track_for(grey.shape).step(grey)
         if step is None:
             return self._moved, False
         self._moved = step.pose
