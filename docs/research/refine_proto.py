@@ -205,6 +205,8 @@ def main() -> None:
     e.add_argument("--data-dir", type=Path, default=Path("../shared/data"))
     e.add_argument("--logit-min", type=float, default=0.0)
     a = ap.parse_args()
+    if a.cmd in ("gen", "train") and a.out.exists():
+        ap.error(f"{a.out} exists: give a new --out (nothing is overwritten)")
     if a.cmd == "gen":
         gen(a.rooms, a.out, a.first)
     elif a.cmd == "train":
