@@ -247,10 +247,20 @@ def test_the_emitter_follows_the_window_on_a_software_device():
     pipe = d2sr.Pipeline(SCALE, active_frames=6, trigger=act)
     start = pipe.window.offset
     other = {(start + k) % 30 for k in range(3, 11)}
-    log: list[tuple[int, int, bool, bool]] = []  # period, slot, emitter on, flagged
+    log: list[tuple[int, int, bool, bool, int]] = []  # period, slot, emitter on, flagged, window offset
+
+    def steady() -> list[tuple[int, int, bool, bool, int]]:
+        """The last three whole periods' frames, if the window held still and off the interferer then."""
+        last = [r for r in log if log[-1][0] - 4 < r[0] < log[-1][0]]
+        offsets = {r[4] for r in last}
+        if len(offsets) != 1 or {(r[4] + i) % 30 for r in last[:1] for i in range(6)} & other:
+            return []
+        return last
+
     try:
+        # 9 s at least; on a loaded machine (late frames, fewer a period) up to 30 s, for three steady periods
         t0, k = time.monotonic(), 0
-        while time.monotonic() - t0 < 9:
+        while (elapsed := time.monotonic() - t0) < 9 or (not steady() and elapsed < 30):
             period, slot = act.locate(time.monotonic())
             on = sensor.get_option(rs.option.emitter_enabled) == 1.0
             depth = _frame(slot, other, k) if on else CLEAN[k % 3]
@@ -260,23 +270,30 @@ def test_the_emitter_follows_the_window_on_a_software_device():
             sensor.on_video_frame(f)
             got = np.asanyarray(queue.wait_for_frame(1000).as_depth_frame().get_data()).copy()
             r = pipe.process(got, arrival_s=time.monotonic())
-            log.append((period, slot, on, r.interfered))
+            log.append((period, slot, on, r.interfered, pipe.window.offset))
             k += 1
             time.sleep(max(0.0, t0 + k / 30 - time.monotonic()))
     finally:
         pipe.close()
         sensor.stop()
         sensor.close()
-    assert act.switches >= 4  # it was switched on and off, period after period
-    final = pipe.window
-    lit = {s for p, s, on, _ in log if on and p == log[-1][0] - 1}
-    window = {(final.offset + i) % 30 for i in range(6)}
-    assert window <= lit  # the emitter was on through the window (and its lead slots), and
-    assert len(lit) <= 6 + act.lead + 2  # off elsewhere
-    assert not window & other
-    assert any(flag for *_, flag in log[:60])
+    lit = {p: [s for q, s, on, *_ in log if q == p and on] for p, *_ in log}
+    periods = {p: (lit[p], {o for q, *_, o in log if q == p}) for p, *_ in log}
+    story = f"other {sorted(other)}; per period (lit slots, window offsets): {periods}"
+    assert act.switches >= 4, story  # it was switched on and off, period after period
+    assert any(flag for _, _, _, flag, _ in log[:60]), story  # the first windows were interfered, and flagged
+    last = steady()
+    assert last, story  # the window left the interferer and held still for three periods
+    offset = last[0][4]
+    window = {(offset + i) % 30 for i in range(6)}
+    near = {(offset - i) % 30 for i in range(1, act.lead + 1)} | {(offset + 6 + i) % 30 for i in range(2)}
+    inside = [on for _, s, on, _, _ in last if s in window]
+    outside = [on for _, s, on, _, _ in last if s not in window | near]
+    # the emitter was on through the window (a switch late under load may miss a frame) and off elsewhere
+    assert len({s for _, s, *_ in last if s in window}) >= 4 and sum(inside) >= 0.9 * len(inside), story
+    assert sum(outside) <= 0.1 * len(outside), story
     # the window's own frames are clean now (a frame in a lead slot, emitter on early, may still be hit)
-    assert not any(flag for p, s, _, flag in log if p == log[-1][0] - 1 and s in window)
+    assert not any(flag for _, s, _, flag, _ in last if s in window), story
 
 
 def test_orbbec_names_exist_in_the_installed_sdk():
