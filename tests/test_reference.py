@@ -128,6 +128,26 @@ def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_rea
     assert loop.process(missed).flagged and not plain.process(missed).flagged
 
 
+def test_a_frame_the_scene_decides_alone_is_not_scored_and_keeps_its_verdict():
+    """Once the scene is known, a frame that matches it (clean whatever the detector says) or deviates in
+    fresh patches (interfered whatever it says) costs no detector run and reads NaN; with ``exact_scores``
+    every frame is scored; the verdicts are the same either way."""
+    rng = np.random.default_rng(4)
+    nets = FakeNet(), FakeNet()
+    fast, exact = (
+        SensorLoop(n, make_controller("static", 30, 30), repair="none", scene=True, exact_scores=e)
+        for n, e in zip(nets, (False, True), strict=True)
+    )
+    frames = [_scene(rng) for _ in range(10)]
+    frames[6][0, 0] = 1  # a false alarm on a frame that matches its scene
+    patch = frames[8][40:70, 30:80]
+    patch[patch > 0] -= 160  # a patch 4 cm nearer that the detector misses
+    runs = [[loop.process(Capture(Frame("f", f.copy()), SCALE)) for f in frames] for loop in (fast, exact)]
+    assert [r.flagged for r in runs[0]] == [r.flagged for r in runs[1]] == [False] * 8 + [True, False]
+    assert len(nets[1].before) == 10 and len(nets[0].before) == 4  # scored only before the scene was warm
+    assert all(np.isnan(r.score) for r in runs[0][4:]) and not any(np.isnan(r.score) for r in runs[1])
+
+
 def test_something_that_moves_is_not_fresh_evidence_but_a_new_patch_is():
     """A box 40 cm in front of the wall slides 6 px a frame: it deviates, but the frame before's deviations
     explain it (something moved). A patch 3 cm off where nothing deviated a frame before is fresh. The first

@@ -187,13 +187,18 @@ class SensorLoop:
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         cut = None if self.exact_scores else self._cut
-        score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
-        flagged = score >= self._cut  # False for NaN
-        ev = None
+        still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
+        ev = self._scene_evidence(raw, cap.scale) if still else None
+        if ev is not None and _decides(ev) and not self.exact_scores:
+            # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
+            score, flagged = float("nan"), ev.fresh_dense >= EVIDENT
+        else:
+            score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
+            flagged = score >= self._cut  # False for NaN
         if self.scene and self.moving_scene and judge and cap.pose is not None:
             flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
-        elif self.scene and judge:
-            flagged, ev = self._against_scene(raw, cap.scale, flagged)
+        elif ev is not None:
+            flagged = self._weigh(raw, cap.scale, flagged, ev)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
@@ -227,22 +232,26 @@ class SensorLoop:
             raw = cap.frame.depth
             self._remember(raw, padded(to_metres(raw, cap.scale)[None]), not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
-                self._against_scene(raw, cap.scale, flagged)
+                self._weigh(raw, cap.scale, flagged, self._scene_evidence(raw, cap.scale))
         self._buffer(flagged, slot)
 
-    def _against_scene(self, raw: np.ndarray, scale: float, flagged: bool) -> tuple[bool, Evidence]:
-        """The detector's verdict weighed against the scene reference, which takes the frame if clean; and
-        the frame's evidence."""
+    def _scene_evidence(self, raw: np.ndarray, scale: float) -> Evidence:
+        """The frame judged against the still sensor's scene reference (a new one for a new scale or size)."""
         raw, scale = _in_units(raw, scale)
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._reference = SceneReference(scale)
-        ev = ref.evidence(raw)
+        return ref.evidence(raw)
+
+    def _weigh(self, raw: np.ndarray, scale: float, flagged: bool, ev: Evidence) -> bool:
+        """The detector's verdict weighed against the frame's scene evidence; the reference takes the frame
+        if clean."""
         if ev.ready:
             flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
         if not flagged:
-            ref.add(raw)
-        return flagged, ev
+            assert self._reference is not None
+            self._reference.add(_in_units(raw, scale)[0])
+        return flagged
 
     def _against_moving(self, raw: np.ndarray, scale: float, flagged: bool, pose: Pose) -> bool:
         """A moving sensor's frame against its last clean frame seen from ``pose``: flagged where its depth
@@ -286,6 +295,12 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
+
+
+def _decides(ev: Evidence) -> bool:
+    """The scene's evidence settles the verdict alone (``SensorLoop._weigh``): fresh deviations in patches
+    flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says."""
+    return ev.ready and (ev.fresh_dense >= EVIDENT or ev.dense < QUIET)
 
 
 def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:

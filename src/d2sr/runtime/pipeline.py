@@ -55,9 +55,10 @@ class Repaired:
     - ``depth``: the frame, repaired inside ``mask`` and bit for bit the input elsewhere; same dtype and
       units as the input.
     - ``mask``: bool, True where a pixel was repaired.
-    - ``interfered``: the detector flagged the frame (its score reached the threshold).
+    - ``interfered``: the detector flagged the frame (its score reached the threshold), or with ``scene``
+      the frame's scene evidence decided.
     - ``score``: the detector's probability that the frame is interfered, in [0, 1]; NaN where no detector
-      ran.
+      ran (with ``scene``, a frame its scene evidence decides alone is not scored).
     - ``window``: the active window the sensor ran this frame's period with (``Pipeline`` only).
     - ``seconds``: detect + repair time of this frame.
     """
