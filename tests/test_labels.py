@@ -11,7 +11,8 @@ import pytest
 
 from d2sr.errors import ConfigError, InputError
 from d2sr.eval.labels import evaluate, sim_case
-from d2sr.labels import Labeller, clean_stats, f1
+from d2sr.labels import STAT_FIELDS, Labeller, clean_stats, f1, stack_stats
+from d2sr.reference import READ
 from helpers import d2sr as _cli
 
 
@@ -185,3 +186,13 @@ def test_label_cli_bad_scale(tmp_path):
     assert r.returncode == 2 and "positive" in r.stderr
     r = _cli("label", "--clean", str(clean), "--interfered", str(clean), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "depth scale" in r.stderr
+
+
+def test_stack_stats_computes_only_the_fields_asked_for_and_the_same_values():
+    """A scene reference refreshes only the statistics it reads; they equal the full computation's."""
+    rng = np.random.default_rng(0)
+    stack = rng.integers(0, 9000, (16, 12, 20)).astype(np.uint16)
+    stack[rng.random(stack.shape) < 0.3] = 0
+    full, part = stack_stats(stack), stack_stats(stack, READ)
+    assert tuple(full) == STAT_FIELDS and tuple(part) == READ
+    assert all(np.array_equal(full[k], part[k]) for k in READ)

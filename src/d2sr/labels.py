@@ -103,18 +103,27 @@ def clean_stats(
     return CleanStats(frames=n, **scaled)
 
 
-def stack_stats(stack: np.ndarray) -> dict[str, np.ndarray]:
+#: ``CleanStats``' per-pixel fields, as ``stack_stats`` computes them.
+STAT_FIELDS = ("median", "rate", "nz_median", "lo", "hi", "mean_err")
+
+
+def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dict[str, np.ndarray]:
     """``CleanStats``' fields (in the frames' units, ``rate`` a share) of a stack of uint16 frames or of
-    rows of them, ``(n, rows, width)``."""
+    rows of them, ``(n, rows, width)``; only ``fields`` (a scene reference refreshes the four it reads)."""
     n = stack.shape[0]
     srt = np.sort(stack, axis=0)
     k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
-    med = _at(srt, np.full(k.shape, (n - 1) / 2))
-    out = {"median": med, "rate": (k / n).astype(np.float32)}
+    out: dict[str, np.ndarray] = {}
+    if "median" in fields or "mean_err" in fields:
+        out["median"] = _at(srt, np.full(k.shape, (n - 1) / 2))
+    if "rate" in fields:
+        out["rate"] = (k / n).astype(np.float32)
     for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
-        out[name] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0).astype(np.float32)
-    out["mean_err"] = np.abs(stack.astype(np.float32) - med[None]).mean(axis=0)
-    return out
+        if name in fields:
+            out[name] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0).astype(np.float32)
+    if "mean_err" in fields:
+        out["mean_err"] = np.abs(stack.astype(np.float32) - out["median"][None]).mean(axis=0)
+    return {name: out[name] for name in fields}
 
 
 def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:

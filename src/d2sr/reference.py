@@ -70,6 +70,9 @@ AROUND = 81  # pixels in a 9x9 neighbourhood (_neighbours)
 HALF, QUARTER = math.ceil(AROUND / 2), math.ceil(AROUND / 4)  # counts at or above half, a quarter of it
 #: How near (m, and share of the range) a deviation must read to one of the frame before to be explained.
 MOTION_ABS, MOTION_REL = 0.05, 0.05
+#: The statistics the evidence and the repair read, refreshed stripe by stripe (``median`` and ``mean_err``
+#: are ``d2sr label``'s, for the paper's method only).
+READ = ("rate", "nz_median", "lo", "hi")
 
 
 @dataclass
@@ -160,7 +163,8 @@ class SceneReference:
         rows = -(-h // self.stripes)
         r0 = self._stripe * rows
         r1 = min(h, r0 + rows)
-        for name, v in _metres(stack_stats(self._ring[: self.count, r0:r1]), self.scale).items():
+        fresh = stack_stats(self._ring[: self.count, r0:r1], READ)
+        for name, v in _metres(fresh, self.scale).items():
             getattr(self._stats, name)[r0:r1] = v
         self._stripe = (self._stripe + 1) % self.stripes
 
@@ -195,7 +199,7 @@ class SceneReference:
             fresh, fresh_dense = mask, dense
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
         patches = mask & ((_neighbours(mask) if shift.any() else near) >= QUARTER)
-        self._before = np.where(patches, np.where(metres > 0, metres, -1.0), 0.0).astype(np.float32)
+        self._before = np.where(patches, np.where(metres > 0, metres, np.float32(-1)), np.float32(0))
         self._streak = np.where(mask, self._streak + 1, 0).astype(np.uint16)
         lasting = self._streak >= self.persist
         if lasting.any():
@@ -271,13 +275,23 @@ def _dense(mask: np.ndarray, known: int) -> float:
 def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:
     """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
     within ``MOTION_PX`` read at about the same depth: a moved object's surface."""
+    out = np.zeros(mask.shape, bool)
+    rows, cols = np.flatnonzero(before.any(1)), np.flatnonzero(before.any(0))
+    if rows.size == 0:
+        return out
+    # Nothing further than MOTION_PX from the frame before's deviations can be explained: the cost follows
+    # them (erode and dilate ignore what lies beyond a crop's edge).
+    rs = slice(max(rows[0] - MOTION_PX, 0), rows[-1] + MOTION_PX + 1)
+    cs = slice(max(cols[0] - MOTION_PX, 0), cols[-1] + MOTION_PX + 1)
+    b, m = before[rs, cs], metres[rs, cs]
     k = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * MOTION_PX + 1, 2 * MOTION_PX + 1))
-    lo = cv2.erode(np.where(before > 0, before, np.float32(np.inf)), k)
-    hi = cv2.dilate(before, k)
-    tol = MOTION_ABS + MOTION_REL * metres
-    near = (metres > 0) & (metres >= lo - tol) & (metres <= hi + tol)
-    dropped = (metres == 0) & (cv2.erode(np.where(before < 0, 0, 1).astype(np.uint8), k) == 0)
-    return mask & (near | dropped)
+    lo = cv2.erode(np.where(b > 0, b, np.float32(np.inf)), k)
+    hi = cv2.dilate(b, k)
+    tol = MOTION_ABS + MOTION_REL * m
+    near = (m > 0) & (m >= lo - tol) & (m <= hi + tol)
+    dropped = (m == 0) & (cv2.erode(np.where(b < 0, 0, 1).astype(np.uint8), k) == 0)
+    out[rs, cs] = mask[rs, cs] & (near | dropped)
+    return out
 
 
 def _metres(part: dict[str, np.ndarray], scale: float) -> dict[str, np.ndarray]:
