@@ -8,9 +8,12 @@
 
 It finds the sessions on the backend itself, so it profiles an earlier commit's runtime too: ``--ref REV``
 profiles that commit (a temporary git worktree, in a subprocess) in the same run, before and after.
+``--scene``: ``Pipeline(scene=True)``, a still sensor's frames also judged against its scene.
 
 Run:  .venv/bin/python bench/profile_typical.py --ref ccfb1d1 --data ../shared/data \
           --json docs/results/profile_typical.json
+      .venv/bin/python bench/profile_typical.py --scene --ref f309c3e --view dev1 --data ../shared/data \
+          --json docs/results/profile_scene.json
 """
 
 from __future__ import annotations
@@ -91,9 +94,9 @@ def _nodes(path: str, feeds: list[dict], repeats: int) -> dict:
     }
 
 
-def profile(frames: list, repeats: int) -> dict:
-    """The Python and onnxruntime profiles of ``Pipeline(repair="none")`` on ``frames``."""
-    pipe = Pipeline(4000.0, repair="none")
+def profile(frames: list, repeats: int, scene: bool = False) -> dict:
+    """The Python and onnxruntime profiles of ``Pipeline(repair="none", scene=scene)`` on ``frames``."""
+    pipe = Pipeline(4000.0, repair="none", scene=scene)
     for f in frames[:5]:
         pipe.process(f)
     prof, cpu = cProfile.Profile(), time.process_time()
@@ -109,7 +112,7 @@ def profile(frames: list, repeats: int) -> dict:
         tt for (_, _, fn), (_, _, tt, _, _) in stats.items() if "onnxruntime_pybind11_state.run" in fn
     )
     total = sum(tt for (_, _, tt, _, _) in stats.values())
-    feeds = _record(Pipeline(4000.0, repair="none"), frames)
+    feeds = _record(Pipeline(4000.0, repair="none", scene=scene), frames)
     sessions = {Path(p).name: _nodes(p, f, repeats) for p, f in feeds.items()}
     for v in sessions.values():
         v["runs_per_frame"] = round(v["runs_per_frame"] / len(frames), 3)
@@ -151,22 +154,25 @@ def main() -> None:
     ap.add_argument("--view", default="dev0", choices=("dev0", "dev1"))
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--ref", help="also profile this commit (git rev), first, in the same run")
+    ap.add_argument("--scene", action="store_true", help="Pipeline(scene=True): judged against the scene too")
     ap.add_argument("--inner", action="store_true", help=argparse.SUPPRESS)
     output_args(ap)
     args = ap.parse_args()
     frames = [f for f, cam in zip(outside_set(args.data), OUTSIDE_CAMERAS, strict=True) if cam == args.view]
     if args.inner:  # the --ref run: the profile alone, on stdout
-        print(json.dumps(profile(frames, args.repeats)))
+        print(json.dumps(profile(frames, args.repeats, args.scene)))
         return
     check_output(ap, args)
     result: dict = {
-        "benchmark": "issue 44: where a clean frame's time goes, d2sr.Pipeline(repair='none'), in process",
+        "benchmark": "issue 44: where a clean frame's time goes, "
+        f"d2sr.Pipeline(repair='none'{', scene=True' if args.scene else ''}), in process",
         "frames": f"{len(frames)} clean L515 {args.view} frames in order, {args.repeats} passes",
     }
     if args.ref:
         argv = ["--data", str(args.data), "--view", args.view, "--repeats", str(args.repeats)]
+        argv += ["--scene"] if args.scene else []
         result["before"] = {"commit": args.ref} | _at(args.ref, argv)
-    result["this commit"] = profile(frames, args.repeats)
+    result["this commit"] = profile(frames, args.repeats, args.scene)
     data = f"{args.data}/l515 (real L515 frames, {args.view})"
     print(write_result(result, args.json, models=used_models(None), data=data))
 
