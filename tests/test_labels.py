@@ -11,7 +11,7 @@ import pytest
 
 from d2sr.errors import ConfigError, InputError
 from d2sr.eval.labels import evaluate, sim_case
-from d2sr.labels import STAT_FIELDS, Labeller, clean_stats, f1, stack_stats
+from d2sr.labels import STAT_FIELDS, Labeller, clean_stats, f1, sort_frames, stack_stats
 from d2sr.reference import READ
 from helpers import d2sr as _cli
 
@@ -196,3 +196,13 @@ def test_stack_stats_computes_only_the_fields_asked_for_and_the_same_values():
     full, part = stack_stats(stack), stack_stats(stack, READ)
     assert tuple(full) == STAT_FIELDS and tuple(part) == READ
     assert all(np.array_equal(full[k], part[k]) for k in READ)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 16, 17, 31, 32, 33])
+def test_sort_frames_sorts_each_pixel_as_numpy_does(n):
+    """The scene reference's frames sorted through a compare-and-swap network: numpy's sort, for any count."""
+    rng = np.random.default_rng(n)
+    stack = rng.integers(0, 65535, (n, 5, 7)).astype(np.uint16)
+    stack[rng.random(stack.shape) < 0.4] = 0
+    stack[:, 0, 0] = 7  # ties
+    assert np.array_equal(sort_frames(stack), np.sort(stack, axis=0))

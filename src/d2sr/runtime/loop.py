@@ -188,7 +188,8 @@ class SensorLoop:
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         cut = None if self.exact_scores else self._cut
         still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
-        ev = self._scene_evidence(raw, cap.scale) if still else None
+        units = _in_units(raw, cap.scale) if still else None  # the frame as the scene reference takes it
+        ev = self._scene_evidence(*units) if units is not None else None
         if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.fresh_dense >= EVIDENT
@@ -197,8 +198,8 @@ class SensorLoop:
             flagged = score >= self._cut  # False for NaN
         if self.scene and self.moving_scene and judge and cap.pose is not None:
             flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
-        elif ev is not None:
-            flagged = self._weigh(raw, cap.scale, flagged, ev)
+        elif ev is not None and units is not None:
+            flagged = self._weigh(units[0], flagged, ev)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
@@ -232,25 +233,26 @@ class SensorLoop:
             raw = cap.frame.depth
             self._remember(raw, padded(to_metres(raw, cap.scale)[None]), not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
-                self._weigh(raw, cap.scale, flagged, self._scene_evidence(raw, cap.scale))
+                frame, scale = _in_units(raw, cap.scale)
+                self._weigh(frame, flagged, self._scene_evidence(frame, scale))
         self._buffer(flagged, slot)
 
     def _scene_evidence(self, raw: np.ndarray, scale: float) -> Evidence:
-        """The frame judged against the still sensor's scene reference (a new one for a new scale or size)."""
-        raw, scale = _in_units(raw, scale)
+        """The frame (``_in_units``) judged against the still sensor's scene reference (a new one for a new
+        scale or size)."""
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._reference = SceneReference(scale)
         return ref.evidence(raw)
 
-    def _weigh(self, raw: np.ndarray, scale: float, flagged: bool, ev: Evidence) -> bool:
-        """The detector's verdict weighed against the frame's scene evidence; the reference takes the frame
-        if clean."""
+    def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
+        """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
+        takes the frame if clean."""
         if ev.ready:
             flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
         if not flagged:
             assert self._reference is not None
-            self._reference.add(_in_units(raw, scale)[0])
+            self._reference.add(raw)
         return flagged
 
     def _against_moving(self, raw: np.ndarray, scale: float, flagged: bool, pose: Pose) -> bool:
