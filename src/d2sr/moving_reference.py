@@ -101,4 +101,4 @@ class MovingReference:
         known = max(int(np.count_nonzero(both)), 1)
         share = float(np.count_nonzero(mask)) / known
         dense = float(np.count_nonzero(_neighbours(mask) >= HALF)) / known
-        return Evidence(mask, share, dense, True, mask, dense, metres)
+        return Evidence(mask, share, dense, True, metres, lambda: (mask, dense))

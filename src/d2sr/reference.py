@@ -26,7 +26,8 @@ in clusters) and what share of the scene they cover.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -77,15 +78,36 @@ READ = ("rate", "nz_median", "lo", "hi")
 
 @dataclass
 class Evidence:
-    """A frame judged against the scene reference."""
+    """A frame judged against the scene reference. ``fresh`` (bool: ``mask`` less what the frame before's
+    deviations explain, something that moved) and ``fresh_dense`` (``dense`` of ``fresh``) are worked out
+    when first read (``explain``): on most frames ``evident`` needs neither."""
 
     mask: np.ndarray  # bool: pixels that deviate as interference would (all False when not ready)
     share: float  # of the pixels the reference has seen return
     dense: float  # the same share counting only pixels amid others (half of their 9x9 neighbourhood)
     ready: bool  # the reference had its ``warm`` frames (else the evidence is empty)
-    fresh: np.ndarray  # bool: ``mask`` less what the frame before's deviations explain (something moved)
-    fresh_dense: float  # ``dense`` of ``fresh``
     metres: np.ndarray  # the frame judged (float32 metres)
+    explain: Callable[[], tuple[np.ndarray, float]] = field(repr=False)  # -> (fresh, fresh_dense)
+    _fresh: tuple[np.ndarray, float] | None = field(default=None, init=False, repr=False)
+
+    @property
+    def fresh(self) -> np.ndarray:
+        return self._explained()[0]
+
+    @property
+    def fresh_dense(self) -> float:
+        return self._explained()[1]
+
+    @property
+    def evident(self) -> bool:
+        """``fresh_dense`` reaches ``EVIDENT``: interfered, whatever a detector says. ``fresh_dense`` is at
+        most ``dense``, so a frame whose ``dense`` is below it is not worked out."""
+        return self.ready and self.dense >= EVIDENT and self.fresh_dense >= EVIDENT
+
+    def _explained(self) -> tuple[np.ndarray, float]:
+        if self._fresh is None:
+            self._fresh = self.explain()
+        return self._fresh
 
 
 class SceneReference:
@@ -190,21 +212,28 @@ class SceneReference:
         near = _neighbours(deviates)
         dense = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference in patches
         before = self._before
-        if before is None:  # the first frame judged against a new reference: no motion to tell by, none fresh
-            fresh, fresh_dense = np.zeros_like(mask), 0.0
-        elif mask.any() and before.any():
-            fresh = mask & ~_explained(metres, mask, before)
-            fresh_dense = _dense(fresh & deviates, known)
-        else:  # nothing deviated a frame before: nothing is explained (and the cost is skipped)
-            fresh, fresh_dense = mask, dense
-        # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker.
-        patches = mask & ((_neighbours(mask) if shift.any() else near) >= QUARTER)
-        self._before = np.where(patches, np.where(metres > 0, metres, np.float32(-1)), np.float32(0))
-        self._streak = np.where(mask, self._streak + 1, 0).astype(np.uint16)
+
+        def explain() -> tuple[np.ndarray, float]:
+            if before is None:  # the first frame judged against a new reference: no motion to tell by
+                return np.zeros_like(mask), 0.0
+            if mask.any() and before.any():
+                fresh = mask & ~_explained(metres, mask, before)
+                return fresh, _dense(fresh & deviates, known)
+            return mask, dense  # nothing deviated a frame before: nothing is explained
+
+        # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker;
+        # their depths, -1 a dropout, written where they are (patches are few).
+        at = np.flatnonzero(mask & ((_neighbours(mask) if shift.any() else near) >= QUARTER))
+        explains = np.zeros_like(metres)
+        depth = metres.ravel()[at]
+        explains.ravel()[at] = np.where(depth > 0, depth, np.float32(-1))
+        self._before = explains
+        self._streak += 1  # in place: at most ``persist`` (``_take`` clears it there)
+        self._streak *= mask
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, fresh, fresh_dense, metres)
+        return Evidence(mask, share, dense, True, metres, explain)
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
@@ -257,7 +286,7 @@ class SceneReference:
 
 def _none(shape: tuple[int, ...]) -> Evidence:
     empty = np.zeros(shape, bool)
-    return Evidence(empty, 0.0, 0.0, False, empty, 0.0, np.zeros(shape, np.float32))
+    return Evidence(empty, 0.0, 0.0, False, np.zeros(shape, np.float32), lambda: (empty, 0.0))
 
 
 def _neighbours(mask: np.ndarray) -> np.ndarray:

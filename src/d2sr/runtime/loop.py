@@ -192,7 +192,7 @@ class SensorLoop:
         ev = self._scene_evidence(*units) if units is not None else None
         if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
-            score, flagged = float("nan"), ev.fresh_dense >= EVIDENT
+            score, flagged = float("nan"), ev.evident
         else:
             score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
             flagged = score >= self._cut  # False for NaN
@@ -249,7 +249,7 @@ class SensorLoop:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
         takes the frame if clean."""
         if ev.ready:
-            flagged = (flagged and ev.dense >= QUIET) or ev.fresh_dense >= EVIDENT
+            flagged = (flagged and ev.dense >= QUIET) or ev.evident
         if not flagged:
             assert self._reference is not None
             self._reference.add(raw)
@@ -302,7 +302,7 @@ class SensorLoop:
 def _decides(ev: Evidence) -> bool:
     """The scene's evidence settles the verdict alone (``SensorLoop._weigh``): fresh deviations in patches
     flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says."""
-    return ev.ready and (ev.fresh_dense >= EVIDENT or ev.dense < QUIET)
+    return ev.ready and (ev.dense < QUIET or ev.evident)
 
 
 def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
