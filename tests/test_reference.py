@@ -8,7 +8,7 @@ import pytest
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
-from d2sr.reference import QUIET, SHIFT_PX, SceneReference
+from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, SceneReference
 from d2sr.runtime.loop import Capture, SensorLoop
 from test_runtime import FakeNet
 
@@ -146,6 +146,24 @@ def test_a_frame_the_scene_decides_alone_is_not_scored_and_keeps_its_verdict():
     assert [r.flagged for r in runs[0]] == [r.flagged for r in runs[1]] == [False] * 8 + [True, False]
     assert len(nets[1].before) == 10 and len(nets[0].before) == 4  # scored only before the scene was warm
     assert all(np.isnan(r.score) for r in runs[0][4:]) and not any(np.isnan(r.score) for r in runs[1])
+
+
+def test_fresh_evidence_is_worked_out_only_where_it_can_flag():
+    """``Evidence.evident`` is ``fresh_dense >= EVIDENT``; on a frame that matches its scene (``dense``, the
+    bound, below it) the fresh deviations are not worked out unless read."""
+    rng = np.random.default_rng(5)
+    ref = SceneReference(SCALE)
+    _warm(ref, rng)
+    for hit in (False, True):
+        f = _scene(rng)
+        if hit:
+            patch = f[40:70, 30:80]
+            patch[patch > 0] -= 160
+        ev = ref.evidence(f)
+        calls, explain = [], ev.explain
+        ev.explain = lambda calls=calls, explain=explain: calls.append(1) or explain()
+        assert ev.evident == hit and len(calls) == hit
+        assert (ev.fresh_dense >= EVIDENT) == hit and len(calls) == 1  # read: worked out, once
 
 
 def test_something_that_moves_is_not_fresh_evidence_but_a_new_patch_is():
