@@ -401,6 +401,8 @@ def bench_typical(
         "repeats": repeats,
         "threads": threads or "default (the detector on one core, the repair on all)",
     }
+    if options:
+        out["options"] = options
     modes = {"as shipped": "flagged", "detector only": "none"}
     runs: dict[str, dict] = {n: {"cpu": [], "wall": [], "flagged": 0} for n in modes}
 

@@ -36,6 +36,10 @@ def bench(
     depth_scale: Annotated[
         float | None, typer.Option(help="Units per metre of --frames [what the recording says].")
     ] = None,
+    scene: Annotated[
+        bool,
+        typer.Option(help="typical: frames judged against a still sensor's scene too (scene=True)."),
+    ] = False,
     overwrite: Overwrite = False,
 ) -> None:
     """Benchmarks: detector and recovery speed (torch, onnxruntime, from outside the process); the whole
@@ -61,6 +65,8 @@ def bench(
     on_frames = [n for n in names if n in ("typical", "worst")]
     if on_frames and frames is None:
         raise ConfigError(f"--what {on_frames[0]} runs on a recording: pass --frames")
+    if scene and "typical" not in names:
+        raise ConfigError("--scene is for --what typical")
     if json_out is not None:
         check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
     depth: list = []
@@ -97,7 +103,8 @@ def bench(
             bar.update(task, total=1, completed=1)
         if "typical" in names:
             task = bar.add_task("typical case: clean frames through d2sr.Pipeline", total=None)
-            results["typical"] = bench_typical(depth, scale, repeats)
+            options = {"scene": True} if scene else {}
+            results["typical"] = bench_typical(depth, scale, repeats, **options)
             bar.update(task, total=1, completed=1)
         if "worst" in names:
             task = bar.add_task("worst case and the PNG floor, from outside", total=None)
