@@ -206,3 +206,28 @@ def test_sort_frames_sorts_each_pixel_as_numpy_does(n):
     stack[rng.random(stack.shape) < 0.4] = 0
     stack[:, 0, 0] = 7  # ties
     assert np.array_equal(sort_frames(stack), np.sort(stack, axis=0))
+
+
+@pytest.mark.parametrize("share", [0.15, 0.3, 8 / 49, 15 / 49, 0.01, 1.0, 1.5])
+def test_window_counts_decide_as_the_blurred_share_would(share):
+    """``Labeller.mask`` counts a 7x7 window's raw pixels in integers; from ``_count_from(share)`` on, the
+    count reaches ``share`` exactly where ``cv2.blur``'s float share does (borders included)."""
+    from d2sr.labels import _count_from
+
+    rng = np.random.default_rng(7)
+    raw = rng.random((60, 80)) < rng.random((60, 80))  # densities from empty to full
+    count = cv2.boxFilter(raw.view(np.uint8), -1, (7, 7), normalize=False)
+    share_blurred = cv2.blur(raw.astype(np.float32), (7, 7))
+    assert np.array_equal(count >= _count_from(share), share_blurred >= share)
+
+
+def test_blur_shares_are_what_cv2_blur_gives_for_each_count():
+    """A window's integer count looked up in ``blur_shares`` is cv2.blur's float share, bit for bit (the
+    scene reference's shifted windows divide by it)."""
+    from d2sr.labels import blur_shares
+
+    rng = np.random.default_rng(8)
+    for side in (7, 15):
+        ones = rng.random((50, 70)) < rng.random((50, 70))
+        count = cv2.boxFilter(ones.view(np.uint8), -1, (side, side), normalize=False)
+        assert np.array_equal(blur_shares(side)[count], cv2.blur(ones.astype(np.float32), (side, side)))

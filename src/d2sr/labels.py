@@ -34,6 +34,7 @@ __all__ = [
     "THRESHOLDS",
     "CleanStats",
     "Labeller",
+    "blur_shares",
     "clean_stats",
     "f1",
     "label_frames",
@@ -185,6 +186,25 @@ def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:
     return a + f * (b - a)
 
 
+@lru_cache
+def blur_shares(side: int) -> np.ndarray:
+    """What ``cv2.blur`` gives a pixel of a 0/1 float32 image whose ``side`` x ``side`` window holds each
+    count of ones (index 0 to side squared): an integer count then stands for the float share exactly."""
+    out = np.zeros(side * side + 1, np.float32)
+    for c in range(side * side + 1):
+        window = np.zeros((side, side), np.float32)
+        window.flat[:c] = 1
+        out[c] = cv2.blur(window, (side, side))[side // 2, side // 2]
+    return out
+
+
+def _count_from(share: float, side: int = 7) -> int:
+    """The least count of ones in a ``side`` x ``side`` window whose ``cv2.blur`` share reaches ``share``
+    (side squared + 1: none does)."""
+    reach = np.flatnonzero(blur_shares(side) >= share)
+    return int(reach[0]) if reach.size else side * side + 1
+
+
 class Labeller:
     """Labels interfered frames of the same static view against the clean sequence's statistics."""
 
@@ -216,6 +236,30 @@ class Labeller:
         mu, sd = float(e.mean()), float(e.std())
         self.thr = {"mu": mu, "mu+sigma": mu + sd, "mu+2sigma": mu + 2 * sd}[threshold]
         self.random_error = e > self.thr
+        # A 7x7 window's share of raw pixels, as cv2.blur gives it, reaches min_density (or twice it) from
+        # these counts on: the integer count then decides as the float share would.
+        self._dense_from, self._likely_from = (_count_from(t) for t in (min_density, 2 * min_density))
+        self._limits: dict[str, np.ndarray] = {}
+        self.refresh()
+
+    def refresh(self, rows: slice = slice(None)) -> None:
+        """Work the per-pixel limits ``mask`` compares a frame with out of the statistics again: all of them,
+        or those of ``rows`` after their statistics changed in place (a scene reference's upkeep)."""
+        s, lim = self.s, self._limits
+        if not lim:
+            lim.update({k: np.zeros(s.shape, np.float32) for k in ("tol", "below", "above")})
+            flags = ("reliable", "rare", "never", "common", "likely")
+            lim.update({k: np.zeros(s.shape, bool) for k in flags})
+        rate = s.rate[rows]
+        tol = self.tol_abs + self.tol_rel * s.nz_median[rows]
+        lim["tol"][rows] = tol
+        lim["below"][rows] = s.lo[rows] - tol
+        lim["above"][rows] = s.hi[rows] + tol
+        lim["reliable"][rows] = rate >= self.reliable
+        lim["rare"][rows] = rate <= self.rare
+        lim["never"][rows] = rate == 0
+        lim["common"][rows] = rate > self.rare
+        lim["likely"][rows] = rate >= self.likely
 
     def mask(self, frame_m: np.ndarray) -> np.ndarray:
         """Boolean interference mask of one frame (metres, 0 = no return)."""
@@ -227,19 +271,19 @@ class Labeller:
         s = self.s
         if self.method == "paper":
             return (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
+        lim = self._limits
         has = frame_m > 0
-        tol = self.tol_abs + self.tol_rel * s.nz_median
-        dropout = ~has & (s.rate >= self.reliable)
-        spurious = has & (s.rate <= self.rare) & ((s.rate == 0) | (np.abs(frame_m - s.nz_median) > tol))
-        wrong = has & (s.rate > self.rare) & ((frame_m < s.lo - tol) | (frame_m > s.hi + tol))
+        dropout = ~has & lim["reliable"]
+        spurious = has & lim["rare"] & (lim["never"] | (np.abs(frame_m - s.nz_median) > lim["tol"]))
+        wrong = has & lim["common"] & ((frame_m < lim["below"]) | (frame_m > lim["above"]))
         raw = dropout | spurious | wrong
         if self.min_density <= 0:
             return raw
-        density = cv2.blur(raw.astype(np.float32), (7, 7))
+        count = cv2.boxFilter(raw.view(np.uint8), -1, (7, 7), normalize=False)  # raw pixels around, <= 49
         # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
         # the interference than the pixel's own flicker.
-        likely = ~has & (s.rate >= self.likely) & (density >= 2 * self.min_density)
-        return (raw & (density >= self.min_density)) | likely
+        likely = ~has & lim["likely"] & (count >= self._likely_from)
+        return (raw & (count >= self._dense_from)) | likely
 
     def depth(
         self, frame_m: np.ndarray, mask: np.ndarray, reference_m: np.ndarray | None = None

@@ -34,7 +34,7 @@ import numpy as np
 
 from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
-from d2sr.labels import CleanStats, Labeller, stack_stats
+from d2sr.labels import CleanStats, Labeller, blur_shares, stack_stats
 
 __all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
 
@@ -117,6 +117,7 @@ class SceneReference:
     _stats: CleanStats | None  # None until warm
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
+    _steady: np.ndarray  # bool: pixels the scene is sure of (``TRUST_RATE``), once warm (``_limits``)
 
     def __init__(
         self,
@@ -180,6 +181,8 @@ class SceneReference:
         if self._stats is None:  # just warm: every stripe at once
             self._stats = _stats(self._ring[: self.count], self.scale)
             self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
+            self._steady = np.zeros(frame.shape, bool)
+            self._limits()
             self._streak = np.zeros(frame.shape, np.uint16)
             return
         rows = -(-h // self.stripes)
@@ -188,7 +191,16 @@ class SceneReference:
         fresh = stack_stats(self._ring[: self.count, r0:r1], READ)
         for name, v in _metres(fresh, self.scale).items():
             getattr(self._stats, name)[r0:r1] = v
+        self._limits(slice(r0, r1))
         self._stripe = (self._stripe + 1) % self.stripes
+
+    def _limits(self, rows: slice = slice(None)) -> None:
+        """The per-pixel limits the evidence compares a frame with, worked out again where the statistics
+        changed: the labeller's, and the steady pixels of ``_shifted``."""
+        s, labeller = self._stats, self._labeller
+        assert s is not None and labeller is not None
+        labeller.refresh(rows)
+        self._steady[rows] = (s.rate[rows] >= TRUST_RATE) & (s.nz_median[rows] > 0)
 
     def evidence(self, frame: np.ndarray) -> Evidence:
         """The frame judged against the reference; also what keeps the reference current (lasting change
@@ -241,10 +253,12 @@ class SceneReference:
         read a few centimetres off, within each pixel's tolerance but not the window's."""
         s = self._stats
         assert s is not None
-        steady = (metres > 0) & (s.rate >= TRUST_RATE) & (s.nz_median > 0)
+        steady = (metres > 0) & self._steady
         diff = np.where(steady, metres - s.nz_median, 0).astype(np.float32)
         clipped = np.clip(diff, -3 * SHIFT_M, 3 * SHIFT_M)  # one far-off pixel cannot shift a window
-        n = cv2.blur(steady.astype(np.float32), (SHIFT_PX, SHIFT_PX))
+        # The share of steady pixels in the window, as cv2.blur gives it, from their integer count.
+        count = cv2.boxFilter(steady.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
+        n = blur_shares(SHIFT_PX)[count]
         mean = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX)) / np.maximum(n, np.float32(1e-6))
         # The window reads off, and so does the pixel itself, as far and the same way (not merely next to it).
         own = np.abs(diff) > SHIFT_M
@@ -282,6 +296,7 @@ class SceneReference:
         s.rate[where] = (v > 0).astype(np.float32)
         s.mean_err[where] = 0
         self._streak[where] = 0
+        self._limits()
 
 
 def _none(shape: tuple[int, ...]) -> Evidence:
