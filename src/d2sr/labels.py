@@ -36,6 +36,7 @@ __all__ = [
     "Labeller",
     "blur_shares",
     "clean_stats",
+    "count_from",
     "f1",
     "label_frames",
     "sort_frames",
@@ -198,7 +199,7 @@ def blur_shares(side: int) -> np.ndarray:
     return out
 
 
-def _count_from(share: float, side: int = 7) -> int:
+def count_from(share: float, side: int = 7) -> int:
     """The least count of ones in a ``side`` x ``side`` window whose ``cv2.blur`` share reaches ``share``
     (side squared + 1: none does)."""
     reach = np.flatnonzero(blur_shares(side) >= share)
@@ -238,7 +239,7 @@ class Labeller:
         self.random_error = e > self.thr
         # A 7x7 window's share of raw pixels, as cv2.blur gives it, reaches min_density (or twice it) from
         # these counts on: the integer count then decides as the float share would.
-        self._dense_from, self._likely_from = (_count_from(t) for t in (min_density, 2 * min_density))
+        self._dense_from, self._likely_from = (count_from(t) for t in (min_density, 2 * min_density))
         self._limits: dict[str, np.ndarray] = {}
         self.refresh()
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
-from d2sr.labels import CleanStats, Labeller, blur_shares, stack_stats
+from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
 
 __all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
 
@@ -256,13 +256,18 @@ class SceneReference:
         steady = (metres > 0) & self._steady
         diff = np.where(steady, metres - s.nz_median, 0).astype(np.float32)
         clipped = np.clip(diff, -3 * SHIFT_M, 3 * SHIFT_M)  # one far-off pixel cannot shift a window
-        # The share of steady pixels in the window, as cv2.blur gives it, from their integer count.
         count = cv2.boxFilter(steady.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
-        n = blur_shares(SHIFT_PX)[count]
-        mean = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX)) / np.maximum(n, np.float32(1e-6))
-        # The window reads off, and so does the pixel itself, as far and the same way (not merely next to it).
-        own = np.abs(diff) > SHIFT_M
-        return steady & (n >= 0.5) & (np.abs(mean) > SHIFT_M) & own & (diff * mean > 0)
+        total = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX))
+        # Only a steady pixel that reads that far off itself, amid at least half steady ones, can be shifted:
+        # the window's mean is worked out there alone (its share as cv2.blur gives it, from the count).
+        own = steady & (np.abs(diff) > SHIFT_M) & (count >= count_from(0.5, SHIFT_PX))
+        at = np.flatnonzero(own)
+        n = blur_shares(SHIFT_PX)[count.ravel()[at]]
+        mean = total.ravel()[at] / np.maximum(n, np.float32(1e-6))
+        out = np.zeros(metres.shape, bool)
+        # The window reads off, and the pixel itself as far and the same way (not merely next to it).
+        out.ravel()[at] = (np.abs(mean) > SHIFT_M) & (diff.ravel()[at] * mean > 0)
+        return out
 
     def repair(self, ev: Evidence) -> SceneRepair:
         """What the scene knows of ``ev``'s frame. Where the reference is trusted (``TRUST_RATE``,
