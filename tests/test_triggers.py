@@ -196,9 +196,16 @@ def test_the_loop_closed_through_the_serial_trigger_leaves_an_interferer():
     start = pipe.window.offset
     other = {(start + k) % 30 for k in range(3, 11)}
     seen: list[tuple[int, int, bool, tuple[int, int]]] = []
+
+    def clear() -> bool:
+        """The last two periods' frames lie off the interferer and are clean."""
+        last = [(s, flag) for p, s, flag, _ in seen if p >= seen[-1][0] - 1] if seen else []
+        return bool(last) and not any(s in other or flag for s, flag in last)
+
     try:
-        end = time.monotonic() + 9
-        while time.monotonic() < end:
+        # 9 s at least; on a loaded machine (late frames, a slower controller) up to 30 s for a clear window
+        t0 = time.monotonic()
+        while (elapsed := time.monotonic() - t0) < 9 or (not clear() and elapsed < 30):
             with cv:
                 cv.wait_for(lambda: frames, timeout=0.5)
                 batch, frames[:] = frames[:], []
@@ -211,9 +218,8 @@ def test_the_loop_closed_through_the_serial_trigger_leaves_an_interferer():
         board.close()
     assert all(loc == (p, s) for p, s, _, loc in seen)  # every frame got the slot it was captured in
     assert any(flag for *_, flag, _ in seen[:6])  # the first window was interfered, and flagged
-    last = [(s, flag) for p, s, flag, _ in seen if p >= seen[-1][0] - 1]
-    assert last and not any(s in other for s, _ in last)  # the window left the interferer
-    assert not any(flag for _, flag in last)
+    story = f"other {sorted(other)}; (period, slot, flagged): {[(p, s, f) for p, s, f, _ in seen]}"
+    assert clear(), story  # the window left the interferer, and its frames are clean
 
 
 @pytest.mark.slow
