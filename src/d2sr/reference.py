@@ -34,6 +34,7 @@ import numpy as np
 
 from d2sr.contract import SceneRepair
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import to_metres
 from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
 
 __all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
@@ -118,6 +119,8 @@ class SceneReference:
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
     _steady: np.ndarray  # bool: pixels the scene is sure of (``TRUST_RATE``), once warm (``_limits``)
+    _returned: np.ndarray  # per row, pixels it has seen return, once warm
+    _known: int  # their sum (at least 1)
 
     def __init__(
         self,
@@ -182,6 +185,7 @@ class SceneReference:
             self._stats = _stats(self._ring[: self.count], self.scale)
             self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
             self._steady = np.zeros(frame.shape, bool)
+            self._returned = np.zeros(frame.shape[0], np.int64)
             self._limits()
             self._streak = np.zeros(frame.shape, np.uint16)
             return
@@ -201,6 +205,8 @@ class SceneReference:
         assert s is not None and labeller is not None
         labeller.refresh(rows)
         self._steady[rows] = (s.rate[rows] >= TRUST_RATE) & (s.nz_median[rows] > 0)
+        self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
+        self._known = max(int(self._returned.sum()), 1)
 
     def evidence(self, frame: np.ndarray) -> Evidence:
         """The frame judged against the reference; also what keeps the reference current (lasting change
@@ -208,9 +214,9 @@ class SceneReference:
         self._check(frame)
         if self._labeller is None or self._stats is None or self._streak is None:
             return _none(frame.shape)
-        metres = frame.astype(np.float32) / np.float32(self.scale)
+        metres = to_metres(frame, self.scale)
         deviates = self._labeller.mask(metres)
-        known = max(int(np.count_nonzero(self._stats.rate > 0)), 1)
+        known = self._known
         share = float(np.count_nonzero(deviates)) / known
         # Another view (beyond ELSEWHERE) counts toward a restart too, and gets no evidence.
         self._moving = self._moving + 1 if share > min(self.moved, ELSEWHERE) else 0
