@@ -1,0 +1,35 @@
+"""The scene reference's outputs hashed over 1071 frames (L515 dev0, dev1, the D435, sets A, D, G, H in
+order): every evidence, statistic and repair array. Run it at two commits from the repository root; the same
+hash means the same outputs bit for bit. python docs/research/scene_identity.py"""
+import sys, hashlib, time
+sys.path.insert(0, "bench")
+import numpy as np
+from pathlib import Path
+from d2sr.frames import open_frames
+from d2sr.reference import SceneReference, QUIET
+from held_out import every_other, outside_set, SETS
+data = Path("../shared/data")
+seqs = {n: ([f.depth for f in open_frames(data / p)], s) for n, p, s in (("dev0", "l515/dev0", 4000.0), ("dev1", "l515/dev1", 4000.0), ("d435", "d435", 1000.0))}
+clean = outside_set(data)
+for which in ("a", "d", "g", "h"):
+    bad = every_other(clean, 4000.0, which)
+    seqs[which] = (bad, 4000.0)
+h = hashlib.sha256(); t = 0.0
+for name, (frames, scale) in seqs.items():
+    ref = SceneReference(scale)
+    for f in frames:
+        c = time.process_time()
+        ev = ref.evidence(f)
+        if ev.ready and ev.dense >= QUIET or not ev.ready: pass
+        flagged = ev.evident
+        assert flagged == (ev.ready and ev.fresh_dense >= 0.003)
+        if not flagged: ref.add(f)
+        t += time.process_time() - c
+        for a in (ev.mask, ev.fresh, ev.metres): h.update(np.ascontiguousarray(a).tobytes())
+        h.update(repr((ev.share, ev.dense, ev.fresh_dense, ev.ready)).encode())
+        if ref._stats is not None:
+            for k in ("rate", "nz_median", "lo", "hi"): h.update(getattr(ref._stats, k).tobytes())
+        rep = ref.repair(ev)
+        for a in rep: h.update(np.ascontiguousarray(a).tobytes())
+n = sum(len(f) for f, _ in seqs.values())
+print(h.hexdigest()[:16], "ms/frame", round(1000 * t / n, 2), n)
