@@ -210,7 +210,7 @@ def test_sort_frames_sorts_each_pixel_as_numpy_does(n):
 
 @pytest.mark.parametrize("share", [0.15, 0.3, 8 / 49, 15 / 49, 0.01, 1.0, 1.5])
 def test_window_counts_decide_as_the_blurred_share_would(share):
-    """``Labeller.mask`` counts a 7x7 window's raw pixels in integers; from ``count_from(share)`` on, the
+    """``Labeller.mask`` counts a 7x7 window's raw pixels in integers; from ``count_from(share, 7)`` on, the
     count reaches ``share`` exactly where ``cv2.blur``'s float share does (borders included)."""
     from d2sr.labels import count_from
 
@@ -218,7 +218,7 @@ def test_window_counts_decide_as_the_blurred_share_would(share):
     raw = rng.random((60, 80)) < rng.random((60, 80))  # densities from empty to full
     count = cv2.boxFilter(raw.view(np.uint8), -1, (7, 7), normalize=False)
     share_blurred = cv2.blur(raw.astype(np.float32), (7, 7))
-    assert np.array_equal(count >= count_from(share), share_blurred >= share)
+    assert np.array_equal(count >= count_from(share, 7), share_blurred >= share)
 
 
 def test_blur_shares_are_what_cv2_blur_gives_for_each_count():

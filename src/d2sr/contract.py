@@ -53,6 +53,7 @@ __all__ = [
     "check_probability",
     "check_size",
     "code_path",
+    "crop_around",
     "detector_input",
     "gate",
     "guard",
@@ -244,6 +245,18 @@ def scale_at(scale: float | np.ndarray, i: int) -> float:
     return float(scale) if isinstance(scale, (int, float)) else float(np.asarray(scale)[i])
 
 
+def crop_around(where: np.ndarray, margin: int) -> tuple[slice, slice] | None:
+    """The rows and columns of a 2-D bool array's True pixels, widened by ``margin`` (cut at the image's
+    top and left; slicing cuts the rest): the crop a filter of that reach needs. None when none is True."""
+    rows, cols = np.flatnonzero(where.any(1)), np.flatnonzero(where.any(0))
+    if rows.size == 0:
+        return None
+    return (
+        slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+        slice(max(cols[0] - margin, 0), cols[-1] + margin + 1),
+    )
+
+
 def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Do no harm: (pred, mask) limited to changes that matter and agree with the frame's trusted pixels.
 
@@ -261,13 +274,12 @@ def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.nd
         return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs])
     p = np.array(pred, np.float32)  # a contiguous copy, written below
     keep = np.zeros(mask.shape, bool)
-    rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
-    if rows.size == 0:
-        return p, keep
     # The neighbours' range is needed only within GUARD_PX of a masked pixel (erode and dilate ignore
     # what lies beyond a crop's edge), and the rest only at the masked pixels: the cost follows the mask.
-    rs = slice(max(rows[0] - GUARD_PX, 0), rows[-1] + GUARD_PX + 1)
-    cs = slice(max(cols[0] - GUARD_PX, 0), cols[-1] + GUARD_PX + 1)
+    crop = crop_around(mask, GUARD_PX)
+    if crop is None:
+        return p, keep
+    rs, cs = crop
     x = np.ascontiguousarray(metres[rs, cs], np.float32)
     m = mask[rs, cs]
     returns = x > 0

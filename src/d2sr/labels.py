@@ -107,6 +107,8 @@ def clean_stats(
     return CleanStats(frames=n, **scaled)
 
 
+#: The window (px) ``Labeller.mask`` weighs a raw pixel's neighbours in (``min_density``).
+DENSITY_PX = 7
 #: ``CleanStats``' per-pixel fields, as ``stack_stats`` computes them.
 STAT_FIELDS = ("median", "rate", "nz_median", "lo", "hi", "mean_err")
 
@@ -199,7 +201,8 @@ def blur_shares(side: int) -> np.ndarray:
     return out
 
 
-def count_from(share: float, side: int = 7) -> int:
+@lru_cache
+def count_from(share: float, side: int) -> int:
     """The least count of ones in a ``side`` x ``side`` window whose ``cv2.blur`` share reaches ``share``
     (side squared + 1: none does)."""
     reach = np.flatnonzero(blur_shares(side) >= share)
@@ -237,9 +240,11 @@ class Labeller:
         mu, sd = float(e.mean()), float(e.std())
         self.thr = {"mu": mu, "mu+sigma": mu + sd, "mu+2sigma": mu + 2 * sd}[threshold]
         self.random_error = e > self.thr
-        # A 7x7 window's share of raw pixels, as cv2.blur gives it, reaches min_density (or twice it) from
-        # these counts on: the integer count then decides as the float share would.
-        self._dense_from, self._likely_from = (count_from(t) for t in (min_density, 2 * min_density))
+        # A DENSITY_PX window's share of raw pixels, as cv2.blur gives it, reaches min_density (or twice
+        # it) from these counts on: the integer count then decides as the float share would.
+        self._dense_from, self._likely_from = (
+            count_from(t, DENSITY_PX) for t in (min_density, 2 * min_density)
+        )
         self._limits: dict[str, np.ndarray] = {}
         self.refresh()
 
@@ -280,7 +285,7 @@ class Labeller:
         raw = dropout | spurious | wrong
         if self.min_density <= 0:
             return raw
-        count = cv2.boxFilter(raw.view(np.uint8), -1, (7, 7), normalize=False)  # raw pixels around, <= 49
+        count = cv2.boxFilter(raw.view(np.uint8), -1, (DENSITY_PX, DENSITY_PX), normalize=False)
         # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
         # the interference than the pixel's own flicker.
         likely = ~has & lim["likely"] & (count >= self._likely_from)

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from d2sr.contract import SceneRepair
+from d2sr.contract import SceneRepair, crop_around
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import to_metres
 from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
@@ -331,13 +331,12 @@ def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.n
     """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
     within ``MOTION_PX`` read at about the same depth: a moved object's surface."""
     out = np.zeros(mask.shape, bool)
-    rows, cols = np.flatnonzero(before.any(1)), np.flatnonzero(before.any(0))
-    if rows.size == 0:
-        return out
     # Nothing further than MOTION_PX from the frame before's deviations can be explained: the cost follows
     # them (erode and dilate ignore what lies beyond a crop's edge).
-    rs = slice(max(rows[0] - MOTION_PX, 0), rows[-1] + MOTION_PX + 1)
-    cs = slice(max(cols[0] - MOTION_PX, 0), cols[-1] + MOTION_PX + 1)
+    crop = crop_around(before != 0, MOTION_PX)
+    if crop is None:
+        return out
+    rs, cs = crop
     b, m = before[rs, cs], metres[rs, cs]
     k = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * MOTION_PX + 1, 2 * MOTION_PX + 1))
     lo = cv2.erode(np.where(b > 0, b, np.float32(np.inf)), k)
