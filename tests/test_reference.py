@@ -8,7 +8,7 @@ import pytest
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
-from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, SceneReference
+from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, STILL_SHARE, SceneReference
 from d2sr.runtime.loop import Capture, SensorLoop
 from test_runtime import FakeNet
 
@@ -144,8 +144,9 @@ def test_a_frame_the_scene_decides_alone_is_not_scored_and_keeps_its_verdict():
     patch[patch > 0] -= 160  # a patch 4 cm nearer that the detector misses
     runs = [[loop.process(Capture(Frame("f", f.copy()), SCALE)) for f in frames] for loop in (fast, exact)]
     assert [r.flagged for r in runs[0]] == [r.flagged for r in runs[1]] == [False] * 8 + [True, False]
-    assert len(nets[1].before) == 10 and len(nets[0].before) == 4  # scored only before the scene was warm
-    assert all(np.isnan(r.score) for r in runs[0][4:]) and not any(np.isnan(r.score) for r in runs[1])
+    # Scored until the scene is warm (4 frames) and one frame has shown it still (the stillness gate).
+    assert len(nets[1].before) == 10 and len(nets[0].before) == 5
+    assert all(np.isnan(r.score) for r in runs[0][5:]) and not any(np.isnan(r.score) for r in runs[1])
 
 
 def test_fresh_evidence_is_worked_out_only_where_it_can_flag():
@@ -317,3 +318,58 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     ok = truth[40:70, 30:80] > 0
     err_m = np.abs(out[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
     assert np.median(err_m) < 0.01  # put back within the scene's noise (it was 4 cm off)
+
+
+def _panned(rng: np.random.Generator, k: int, patch: bool) -> np.ndarray:
+    """A hand-held sensor panning 3 px a frame across bars 0.5 m apart (a fifth to a third of its view
+    deviates from any scene it built), with a box 30 cm nearer somewhere on every ``patch`` frame."""
+    h, w = 96, 128
+    z = 2.5 + 0.5 * (((np.arange(w) + 3 * k) // 32) % 2)[None].repeat(h, 0).astype(np.float32)
+    z = z + rng.normal(0, 0.005, (h, w)).astype(np.float32)
+    if patch:
+        r, c = rng.integers(10, 60), rng.integers(0, 90)
+        z[r : r + 30, c : c + 30] -= 0.3
+    z[rng.random((h, w)) < 0.03] = 0
+    return np.rint(z * SCALE).astype(np.uint16)
+
+
+def test_a_moving_sensor_s_scene_decides_nothing():
+    """The stillness gate: on a panning sensor no frame the scene took as clean matched it within
+    ``STILL_SHARE``, so its evidence is never usable and the loop's verdicts are the detector's alone.
+    Ungated (``still_share=None``) the same scene calls frames interfered."""
+    evident = {}
+    for gate in (None, STILL_SHARE):
+        rng = np.random.default_rng(7)
+        ref = SceneReference(SCALE, still_share=gate)
+        seen = []
+        for k in range(60):
+            ev = ref.evidence(f := _panned(rng, k, k % 3 == 2))
+            seen.append(ev)
+            if not ev.evident:
+                ref.add(f)
+        evident[gate] = sum(ev.evident for ev in seen)
+        if gate is not None:
+            assert any(ev.ready for ev in seen) and not any(ev.usable for ev in seen) and not ref.still
+    assert evident[None] >= 3 and evident[STILL_SHARE] == 0
+    rng = np.random.default_rng(7)
+    frames = [_panned(rng, k, k % 3 == 2) for k in range(60)]
+    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    assert not any(loop.process(Capture(Frame(f"{i}", f), SCALE)).flagged for i, f in enumerate(frames))
+
+
+def test_a_still_sensor_s_scene_is_used_once_a_frame_has_matched_it():
+    """Warm (``warm`` frames) is not enough: the first frame judged against the scene and taken as clean
+    shows the sensor still; a scene that starts again starts the gate again."""
+    rng = np.random.default_rng(8)
+    ref = SceneReference(SCALE)
+    for _ in range(4):
+        ref.evidence(f := _scene(rng))
+        ref.add(f)
+    first = ref.evidence(f := _scene(rng))
+    assert first.ready and not first.usable and not ref.still
+    ref.add(f)
+    assert ref.still and ref.evidence(_scene(rng)).usable
+    ref.reset()
+    assert not ref.still
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, still_share=0)

@@ -26,6 +26,7 @@ in clusters) and what share of the scene they cover.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -37,7 +38,7 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import to_metres
 from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
 
-__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "Evidence", "SceneReference"]
+__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "STILL_SHARE", "Evidence", "SceneReference"]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
@@ -66,6 +67,13 @@ ELSEWHERE = 0.7
 #: clean frames; a return where it seldom returns is kept as it is (a model moved such clean returns by
 #: metres on development set D).
 RANGE_RATE = 0.5
+#: The sensor counts as still, and its scene's evidence is used, once the ``STILL_Q`` quantile of the shares
+#: of the known scene that the last ``STILL_FRAMES`` frames the scene took as clean deviated by is at most
+#: ``STILL_SHARE`` (at least ``STILL_MIN`` such frames since the scene last started). Still L515s deviate by
+#: a median 0.011 / 0.012 a frame, the hand-held D435 by 0.36; one frame's share cannot tell, since
+#: interference lifts it to 0.58, and a median shuts the gate where interfered frames pass as clean (set D
+#: lost 0.27 of recall at 0.05). Chosen on development sequences (docs/research/scene_gate.py).
+STILL_SHARE, STILL_Q, STILL_FRAMES, STILL_MIN = 0.1, 0.25, 16, 1
 #: How far (px) a moving object's surface can travel between two frames and still explain a deviation.
 MOTION_PX = 15
 AROUND = 81  # pixels in a 9x9 neighbourhood (_neighbours)
@@ -89,6 +97,7 @@ class Evidence:
     ready: bool  # the reference had its ``warm`` frames (else the evidence is empty)
     metres: np.ndarray  # the frame judged (float32 metres)
     explain: Callable[[], tuple[np.ndarray, float]] = field(repr=False)  # -> (fresh, fresh_dense)
+    still: bool = True  # the sensor held still (``STILL_SHARE``): else the evidence is not to be used
     _fresh: tuple[np.ndarray, float] | None = field(default=None, init=False, repr=False)
 
     @property
@@ -100,10 +109,15 @@ class Evidence:
         return self._explained()[1]
 
     @property
+    def usable(self) -> bool:
+        """Evidence a verdict may rest on: the reference is warm and the sensor held still."""
+        return self.ready and self.still
+
+    @property
     def evident(self) -> bool:
-        """``fresh_dense`` reaches ``EVIDENT``: interfered, whatever a detector says. ``fresh_dense`` is at
-        most ``dense``, so a frame whose ``dense`` is below it is not worked out."""
-        return self.ready and self.dense >= EVIDENT and self.fresh_dense >= EVIDENT
+        """``fresh_dense`` reaches ``EVIDENT``: interfered, whatever a detector says (only when ``usable``).
+        ``fresh_dense`` is at most ``dense``, so a frame whose ``dense`` is below it is not worked out."""
+        return self.usable and self.dense >= EVIDENT and self.fresh_dense >= EVIDENT
 
     def _explained(self) -> tuple[np.ndarray, float]:
         if self._fresh is None:
@@ -133,13 +147,18 @@ class SceneReference:
         moved_frames: int = 3,
         tol_abs: float = TOL_ABS,
         tol_rel: float = TOL_REL,
+        still_share: float | None = STILL_SHARE,
     ) -> None:
+        """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
             raise ConfigError(f"need 3 <= warm <= frames, got warm={warm}, frames={frames}")
         if stripes < 1 or persist < 1 or moved_frames < 1 or not 0 < moved <= 1:
             raise ConfigError("stripes, persist and moved_frames must be >= 1 and moved in (0, 1]")
+        if still_share is not None and not 0 < still_share <= 1:
+            raise ConfigError(f"still_share must be in (0, 1], got {still_share}")
+        self.still_share = still_share
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
         self.persist, self.moved, self.moved_frames = persist, moved, moved_frames
@@ -154,6 +173,17 @@ class SceneReference:
         self._stripe = 0  # stripe of rows the next ``add`` re-summarizes
         self._stats, self._labeller, self._streak, self._moving = None, None, None, 0
         self._before: np.ndarray | None = None  # the frame before's deviating depths (m; -1: a dropout)
+        self._judged: float | None = None  # the share the last frame judged deviated by (None: not judged)
+        self._clean: deque[float] = deque(maxlen=STILL_FRAMES)  # those of the frames then taken as clean
+
+    @property
+    def still(self) -> bool:
+        """The sensor held still, as its scene sees it (``STILL_SHARE``): its evidence may be used."""
+        if self.still_share is None:
+            return True
+        n = len(self._clean)
+        recent = np.fromiter(self._clean, float, n)
+        return n >= STILL_MIN and float(np.quantile(recent, STILL_Q)) <= self.still_share
 
     @property
     def shape(self) -> tuple[int, ...] | None:
@@ -173,6 +203,9 @@ class SceneReference:
     def add(self, frame: np.ndarray) -> None:
         """A frame judged clean: into the ring, and one stripe of the statistics refreshed."""
         self._check(frame)
+        if self._judged is not None:
+            self._clean.append(self._judged)
+            self._judged = None
         if self._ring is None:
             self._ring = np.zeros((self.size, *frame.shape), np.uint16)
         self._ring[self._next] = frame
@@ -212,6 +245,7 @@ class SceneReference:
         """The frame judged against the reference; also what keeps the reference current (lasting change
         taken in, a moved camera noticed), so call it once per frame, in order."""
         self._check(frame)
+        self._judged = None
         if self._labeller is None or self._stats is None or self._streak is None:
             return _none(frame.shape)
         metres = to_metres(frame, self.scale)
@@ -225,6 +259,8 @@ class SceneReference:
             return _none(frame.shape)
         if share > ELSEWHERE:
             return _none(frame.shape)
+        still = self.still  # as the frames before this one showed
+        self._judged = share
         shift = self._shifted(metres)
         mask = deviates | shift
         near = _neighbours(deviates)
@@ -251,7 +287,7 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, metres, explain)
+        return Evidence(mask, share, dense, True, metres, explain, still)
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
@@ -281,10 +317,10 @@ class SceneReference:
         the deviations in patches, which are the model's to repair, a returning pixel that reads within the
         range the scene has seen it at, or where the scene seldom returns (``RANGE_RATE``), is left as it is
         (``keep``): the scene finds no interference there, and a model's guess could only do harm. Nothing
-        when not ready."""
+        when not usable."""
         s = self._stats
         shape = ev.mask.shape
-        if s is None or not ev.ready:
+        if s is None or not ev.usable:
             none = np.zeros(shape, bool)
             return SceneRepair(none, np.zeros(shape, np.float32), none)
         trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)

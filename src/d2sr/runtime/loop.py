@@ -248,7 +248,7 @@ class SensorLoop:
     def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
         takes the frame if clean."""
-        if ev.ready:
+        if ev.usable:
             flagged = (flagged and ev.dense >= QUIET) or ev.evident
         if not flagged:
             assert self._reference is not None
@@ -302,7 +302,7 @@ class SensorLoop:
 def _decides(ev: Evidence) -> bool:
     """The scene's evidence settles the verdict alone (``SensorLoop._weigh``): fresh deviations in patches
     flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says."""
-    return ev.ready and (ev.dense < QUIET or ev.evident)
+    return ev.usable and (ev.dense < QUIET or ev.evident)
 
 
 def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
