@@ -20,6 +20,8 @@ on it; opened the same day to judge the scene's shifted windows): CW-ToF multipa
 surfaces read 1.5-4 cm off (``tof_bias_interference``). ``--set i`` (written and sealed 2026-11-26, before
 the guard's lone-return rule ran on it; opened the same day to judge it): lone wrong returns among dropouts,
 a blinded region's survivors read too near or another scanner's direct beam (``sparse_interference``).
+``--set k`` (written and sealed 2026-11-27, to judge the scene's stillness gate; ``bench/scene_gate.py``
+opens it, on the moving D435 as well): flood noise and diagonal scanner combs (``flood_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -67,6 +69,7 @@ SALTS = {
     "g": 0x70F,
     "h": 0x4A4,
     "i": 0x1D5,
+    "k": 0xF10,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -79,6 +82,7 @@ KINDS = {
     "g": ("tof lit patch", "tof lit surface"),
     "h": ("multipath", "phase crosstalk"),
     "i": ("blackout sparkle", "scan ghost"),
+    "k": ("flood noise", "diagonal comb"),
 }
 
 
@@ -489,6 +493,54 @@ def sparse_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarra
     return _written(frame, new, where, scale)
 
 
+def flood_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set K (written and sealed 2026-11-27, before the scene's stillness gate ran on it; it judges that
+    gate, on a moving D435 as well as the still L515s). One of two models, chosen by the seed, neither in
+    ``d2sr.sim`` nor in sets A-I:
+
+    * flood noise: another camera's flood illuminator lights a soft ellipse (15-45% of the view) and raises
+      this sensor's shot noise there: each return gets Gaussian noise of 2-6% of its depth times the light's
+      weight (1 at the centre, falling to 0 at the edge), and drops out with a chance of 5-25% times it;
+    * diagonal comb: a polygon-mirror scanner's lines cross a rotated strip (80-300 px wide): thin lines
+      (1-2 px) every 5-16 px at a random angle, on which this sensor reads 40-90% of the depth (each line
+      its own share, +-2%), and 10-30% of the line pixels drop out.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.5% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "k")
+    flood = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    for _ in range(20):
+        if flood:
+            area = rng.uniform(0.15, 0.45) * h * w
+            ry = np.sqrt(area / np.pi / rng.uniform(0.6, 1.6))
+            rx = area / np.pi / ry
+            ey, ex = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
+            weight = np.clip(1 - np.sqrt(((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2), 0, 1)
+            noisy = d * (1 + weight * rng.uniform(0.02, 0.06) * rng.standard_normal((h, w)))
+            drop = rng.random((h, w)) < weight * rng.uniform(0.05, 0.25)
+            new = np.where(drop, 0.0, np.maximum(noisy, 0.0))
+        else:
+            across = rng.uniform(0, np.pi)
+            strip = np.abs(
+                (x - rng.uniform(0, w)) * np.cos(across) + (y - rng.uniform(0, h)) * np.sin(across)
+            )
+            inside = strip < rng.uniform(40, 150)
+            ang = rng.uniform(0, np.pi)
+            s = x * np.cos(ang) + y * np.sin(ang)
+            spacing = rng.uniform(5, 16)
+            line = np.floor(s / spacing)
+            on = inside & ((s % spacing) < rng.uniform(1, 2))
+            shares = rng.uniform(0.4, 0.9, int(line.max() - line.min()) + 1)
+            share = shares[(line - line.min()).astype(int)] + rng.uniform(-0.02, 0.02, (h, w))
+            drop = on & (rng.random((h, w)) < rng.uniform(0.1, 0.3))
+            new = np.where(drop, 0.0, np.where(on, d * share, d))
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (where & (d > 0)).sum() >= 0.005 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -499,10 +551,11 @@ SETS = {
     "g": tof_interference,
     "h": tof_bias_interference,
     "i": sparse_interference,
+    "k": flood_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"k"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -519,6 +572,7 @@ STATUS = {
     "decisions.md); open since",
     "i": "development: sealed until 2026-11-26, when it judged the guard's lone-return rule (it held; "
     "decisions.md); open since",
+    "k": "sealed 2026-11-27, to judge the scene's stillness gate once (decisions.md)",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
