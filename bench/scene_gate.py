@@ -4,9 +4,9 @@
 (``SceneReference(still_share=None)``, ``--scene`` before the gate) and with the scene as shipped (gated).
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
-sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. ``--set k`` opens
-sealed set K, written for this measurement; the rule it judges is in docs/research/decisions.md
-(2026-11-27), and the result says whether it held.
+sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. ``--set k``: set K,
+written and sealed for this measurement and opened by it on 2026-11-27; the rule it judged is in
+docs/research/decisions.md, and the result says whether it held (it did).
 
 Run:  .venv/bin/python bench/scene_gate.py --set k --data ../shared/data --json docs/results/scene_gate_k.json
 """
