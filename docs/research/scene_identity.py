@@ -1,6 +1,7 @@
 """The scene reference's outputs hashed over 1071 frames (L515 dev0, dev1, the D435, sets A, D, G, H in
 order): every evidence, statistic and repair array. Run it at two commits from the repository root; the same
-hash means the same outputs bit for bit. python docs/research/scene_identity.py"""
+hash means the same outputs bit for bit. The reference runs ungated (``still_share=None``, where the commit has
+the stillness gate), as every commit before the gate did. python docs/research/scene_identity.py"""
 import sys, hashlib, time
 sys.path.insert(0, "bench")
 import numpy as np
@@ -16,7 +17,10 @@ for which in ("a", "d", "g", "h"):
     seqs[which] = (bad, 4000.0)
 h = hashlib.sha256(); t = 0.0
 for name, (frames, scale) in seqs.items():
-    ref = SceneReference(scale)
+    try:
+        ref = SceneReference(scale, still_share=None)
+    except TypeError:  # before the stillness gate (2330224)
+        ref = SceneReference(scale)
     for f in frames:
         c = time.process_time()
         ev = ref.evidence(f)

