@@ -22,7 +22,9 @@ the guard's lone-return rule ran on it; opened the same day to judge it): lone w
 a blinded region's survivors read too near or another scanner's direct beam (``sparse_interference``).
 ``--set k`` (written and sealed 2026-11-27, to judge the scene's stillness gate; ``bench/scene_gate.py``
 opened it the same day, on the moving D435 as well): flood noise and diagonal scanner combs
-(``flood_interference``).
+(``flood_interference``). ``--set l`` (written and sealed 2026-11-27, to judge the scene's 16-stripe upkeep;
+``bench/scene_gate.py --what stripes`` opens it): rows read skewed sideways and a mirror ghost
+(``skew_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
@@ -71,6 +73,7 @@ SALTS = {
     "h": 0x4A4,
     "i": 0x1D5,
     "k": 0xF10,
+    "l": 0x5E3,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -84,6 +87,7 @@ KINDS = {
     "h": ("multipath", "phase crosstalk"),
     "i": ("blackout sparkle", "scan ghost"),
     "k": ("flood noise", "diagonal comb"),
+    "l": ("row skew", "mirror ghost"),
 }
 
 
@@ -542,6 +546,49 @@ def flood_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
     return _written(frame, new, where, scale)
 
 
+def skew_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set L (written and sealed 2026-11-27, before the scene's 16-stripe upkeep ran on it, to judge it). One
+    of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-K, each reading as a plausible
+    surface in the wrong place:
+
+    * row skew: another sensor's pulses shift this one's scan timing in a band of rows (20-120 px tall): each
+      row there is read from 4-30 px to one side (the shift growing or shrinking across the band), and 5-15%
+      of the band's pixels drop out;
+    * mirror ghost: a rectangle (10-30% of the view) where this sensor reads the scene's mirror image (left to
+      right, or top to bottom) wherever that is nearer, at 60-100% of its pixels.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.5% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "l")
+    skew = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    for _ in range(20):
+        new = d.copy()
+        if skew:
+            tall = int(rng.integers(20, 121))
+            r0 = int(rng.integers(0, h - tall))
+            ends = rng.uniform(4, 30, 2) * rng.choice([-1, 1])
+            for j, r in enumerate(range(r0, r0 + tall)):
+                new[r] = np.roll(d[r], round(ends[0] + (ends[1] - ends[0]) * j / tall))
+            band = np.zeros((h, w), bool)
+            band[r0 : r0 + tall] = True
+            new[band & (rng.random((h, w)) < rng.uniform(0.05, 0.15))] = 0.0
+        else:
+            area = rng.uniform(0.10, 0.30) * h * w
+            rh = int(min(h, np.sqrt(area / rng.uniform(0.6, 1.6))))
+            rw = int(min(w, area / rh))
+            y0, x0 = int(rng.integers(0, h - rh + 1)), int(rng.integers(0, w - rw + 1))
+            mirror = d[:, ::-1] if rng.random() < 0.5 else d[::-1, :]
+            box = np.zeros((h, w), bool)
+            box[y0 : y0 + rh, x0 : x0 + rw] = True
+            nearer = (mirror > 0) & ((d == 0) | (mirror < d))
+            take = box & nearer & (rng.random((h, w)) < rng.uniform(0.6, 1.0))
+            new[take] = mirror[take]
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (where & (d > 0)).sum() >= 0.005 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -553,13 +600,14 @@ SETS = {
     "h": tof_bias_interference,
     "i": sparse_interference,
     "k": flood_interference,
+    "l": skew_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"l"}
 # Sets written for one measurement of their own (K: the scene's stillness gate, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k"}
+OWN: set[str] = {"k", "l"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -578,6 +626,7 @@ STATUS = {
     "decisions.md); open since",
     "k": "development: sealed until 2026-11-27, when it judged the scene's stillness gate (it held; "
     "decisions.md); open since",
+    "l": "sealed 2026-11-27, to judge the scene's 16-stripe upkeep once (decisions.md)",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (

@@ -1,21 +1,32 @@
-"""Benchmark (issue 42): the scene's stillness gate (``d2sr.reference.STILL_SHARE``) on a set of
-``held_out.py``, every other frame corrupted: per part, the flags of ``SensorLoop`` (``repair="none"``, as
-``bench/scene_reference.py`` runs it) with the detector alone, with the scene ungated
-(``SceneReference(still_share=None)``, ``--scene`` before the gate) and with the scene as shipped (gated).
+"""Benchmark (issue 42): a setting of the scene reference judged on a set of ``held_out.py``, every other
+frame corrupted: per part, the flags of ``SensorLoop`` (``repair="none"``, as ``bench/scene_reference.py``
+runs it) under each mode, and whether the rule written for the set (docs/research/decisions.md,
+2026-11-27) held.
+
+* ``--what gate`` (set K): the detector alone, the scene ungated (``SceneReference(still_share=None)``,
+  ``--scene`` before the stillness gate) and the scene gated (``d2sr.reference.STILL_SHARE``).
+* ``--what stripes`` (set L): the scene as shipped with its statistics refreshed one stripe of 8 or of 16
+  per clean frame (``SceneReference(stripes=...)``); beside the set, the clean sequences (L515 dev0 and dev1,
+  the D435, whole) and the reference's cost a still L515 frame (median of 3 passes, in one run).
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
-sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. ``--set k``: set K,
-written and sealed for this measurement and opened by it on 2026-11-27; the rule it judged is in
-docs/research/decisions.md, and the result says whether it held (it did).
+sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
+and sealed for the gate and opened by it on 2026-11-27 (it held); set L for the stripes.
 
-Run:  .venv/bin/python bench/scene_gate.py --set k --data ../shared/data --json docs/results/scene_gate_k.json
+Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/data \\
+          --json docs/results/scene_gate_k.json
+      .venv/bin/python bench/scene_gate.py --what stripes --set l --data ../shared/data \\
+          --json docs/results/scene_stripes_l.json
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
+import time
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,15 +41,22 @@ from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from held_out import KINDS, SETS, every_other, outside_set, set_data
 
-MODES = ("detector", "scene ungated", "scene gated (shipped)")
+# Per --what: each mode's name, whether the loop judges the scene, and the SceneReference settings.
+MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
+    "gate": {
+        "detector": (False, {}),
+        "scene ungated": (True, {"still_share": None}),
+        "scene gated (shipped)": (True, {}),
+    },
+    "stripes": {"stripes 8": (True, {"stripes": 8}), "stripes 16": (True, {"stripes": 16})},
+}
 
 
-def flags(net: Backend, frames: list[np.ndarray], scale: float, mode: str) -> np.ndarray:
+def flags(net: Backend, frames: list[np.ndarray], scale: float, scene: bool, settings: dict) -> np.ndarray:
     """The loop's flag on each frame, in order, from a cold start."""
-    gate = None if mode == "scene ungated" else STILL_SHARE
-    loop_module.SceneReference = partial(SceneReference, still_share=gate)  # type: ignore[misc]
+    loop_module.SceneReference = partial(SceneReference, **settings)  # type: ignore[misc]
     try:
-        lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=mode != "detector")
+        lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=scene)
         return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
     finally:
         loop_module.SceneReference = SceneReference  # type: ignore[misc]
@@ -54,41 +72,21 @@ def rates(f: np.ndarray, hit: np.ndarray) -> dict:
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
-    ap.add_argument("--set", dest="which", default="k", choices=sorted(SETS))
-    output_args(ap)
-    args = ap.parse_args()
-    check_output(ap, args)
-    try:
-        net = open_backend(None, "onnx")
-        d435 = [f.depth for f in open_frames(args.data / "d435")]
-    except D2SRError as exc:
-        ap.error(str(exc))
-    l515 = outside_set(args.data)
-    parts = {
-        "d435": ([every_other(d435, 1000.0, args.which)], [d435], 1000.0),
-        "l515": (
-            [every_other(l515[a : a + 60], 4000.0, args.which) for a in (0, 60)],
-            [l515[:60], l515[60:]],
-            4000.0,
-        ),
-    }
-    result: dict = {"benchmark": "issue 42: the scene's stillness gate", "parts": {}}
-    for part, (seqs, cleans, scale) in parts.items():
-        hit = np.concatenate(
-            [
-                [bool((b != c).any()) for b, c in zip(s, k, strict=True)]
-                for s, k in zip(seqs, cleans, strict=True)
-            ]
-        )
-        result["parts"][part] = {
-            mode: rates(np.concatenate([flags(net, s, scale, mode) for s in seqs]), hit) for mode in MODES
-        }
-    moving, still = result["parts"]["d435"], result["parts"]["l515"]
-    det, ungated, gated = MODES
-    result["rule"] = {
+def cost(frames: list[np.ndarray], settings: dict) -> float:
+    """The reference's median ms a frame (evidence, and the upkeep of a clean frame) over a sequence."""
+    ref, ms = SceneReference(4000.0, **settings), []
+    for f in frames:
+        t = time.perf_counter()
+        if not ref.evidence(f).evident:
+            ref.add(f)
+        ms.append(1000 * (time.perf_counter() - t))
+    return statistics.median(ms)
+
+
+def gate_rule(parts: dict) -> dict[str, bool]:
+    moving, still = parts["d435"], parts["l515"]
+    det, ungated, gated = MODES["gate"]
+    return {
         "1 d435: clean flags at most detector + 1, recall at least detector - 0.02": bool(
             moving[gated]["clean_flagged"] <= moving[det]["clean_flagged"] + 1
             and moving[gated]["recall"] >= moving[det]["recall"] - 0.02
@@ -98,12 +96,92 @@ def main() -> None:
             and still[gated]["clean_flagged"] <= still[ungated]["clean_flagged"] + 1
         ),
     }
-    result["gate"] = {
-        "still_share": STILL_SHARE,
-        "still_q": STILL_Q,
-        "still_frames": STILL_FRAMES,
-        "still_min": STILL_MIN,
+
+
+def stripes_rule(parts: dict, clean: dict, ms: dict) -> dict[str, bool]:
+    moving, still = parts["d435"], parts["l515"]
+    old, new = MODES["stripes"]
+    return {
+        "1 l515: recall and precision at least 8's - 0.02, clean flags at most 8's + 1": bool(
+            still[new]["recall"] >= still[old]["recall"] - 0.02
+            and still[new]["precision"] >= still[old]["precision"] - 0.02
+            and still[new]["clean_flagged"] <= still[old]["clean_flagged"] + 1
+        ),
+        "2 d435: clean flags at most 8's + 1": bool(
+            moving[new]["clean_flagged"] <= moving[old]["clean_flagged"] + 1
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[new] <= c[old] for c in clean.values()),
+        "4 cost a still L515 frame falls": all(m[new] < m[old] for m in ms.values()),
     }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--what", default="gate", choices=sorted(MODES))
+    ap.add_argument("--set", dest="which", default="k", choices=sorted(SETS))
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    try:
+        net = open_backend(None, "onnx")
+        seqs = {
+            n: [f.depth for f in open_frames(args.data / p)]
+            for n, p in (("dev0", "l515/dev0"), ("dev1", "l515/dev1"))
+        }
+        d435 = [f.depth for f in open_frames(args.data / "d435")]
+    except D2SRError as exc:
+        ap.error(str(exc))
+    l515 = outside_set(args.data)
+    parts_in = {
+        "d435": ([every_other(d435, 1000.0, args.which)], [d435], 1000.0),
+        "l515": (
+            [every_other(l515[a : a + 60], 4000.0, args.which) for a in (0, 60)],
+            [l515[:60], l515[60:]],
+            4000.0,
+        ),
+    }
+    modes = MODES[args.what]
+    result: dict = {
+        "benchmark": f"issue 42: the scene's {args.what} on set {args.which.upper()}",
+        "parts": {},
+    }
+    for part, (bad, cleans, scale) in parts_in.items():
+        hit = np.concatenate(
+            [
+                [bool((b != c).any()) for b, c in zip(s, k, strict=True)]
+                for s, k in zip(bad, cleans, strict=True)
+            ]
+        )
+        result["parts"][part] = {
+            mode: rates(np.concatenate([flags(net, s, scale, scene, st) for s in bad]), hit)
+            for mode, (scene, st) in modes.items()
+        }
+    if args.what == "gate":
+        result["rule"] = gate_rule(result["parts"])
+        result["gate"] = {"still_share": STILL_SHARE, "still_q": STILL_Q, "still_frames": STILL_FRAMES}
+        result["gate"]["still_min"] = STILL_MIN
+    else:
+        whole = {**seqs, "d435": d435}
+        clean = {
+            n: {
+                mode: int(flags(net, fr, 1000.0 if n == "d435" else 4000.0, scene, st).sum())
+                for mode, (scene, st) in modes.items()
+            }
+            for n, fr in whole.items()
+        }
+        ms: dict[str, dict[str, float]] = {n: {} for n in seqs}
+        for n, fr in seqs.items():
+            runs: dict[str, list[float]] = {mode: [] for mode in modes}
+            for _ in range(3):  # alternating, so that a shared machine slows both alike
+                for mode, (_, st) in modes.items():
+                    runs[mode].append(cost(fr, st))
+            ms[n] = {mode: round(statistics.median(v), 2) for mode, v in runs.items()}
+        result["clean_flagged"] = {
+            n: {m: f"{v} of {len(whole[n])}" for m, v in c.items()} for n, c in clean.items()
+        }
+        result["ms_per_frame"] = ms
+        result["rule"] = stripes_rule(result["parts"], clean, ms)
     data = {
         "set": f"set {args.which.upper()} ({', '.join(KINDS[args.which])}), bench/held_out.py, "
         "every other frame",
