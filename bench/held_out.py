@@ -23,7 +23,7 @@ a blinded region's survivors read too near or another scanner's direct beam (``s
 ``--set k`` (written and sealed 2026-11-27, to judge the scene's stillness gate; ``bench/scene_gate.py``
 opened it the same day, on the moving D435 as well): flood noise and diagonal scanner combs
 (``flood_interference``). ``--set l`` (written and sealed 2026-11-27, to judge the scene's 16-stripe upkeep;
-``bench/scene_gate.py --what stripes`` opens it): rows read skewed sideways and a mirror ghost
+``bench/scene_gate.py --what stripes`` opened it the same day): rows read skewed sideways and a mirror ghost
 (``skew_interference``).
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
@@ -547,9 +547,9 @@ def flood_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
 
 
 def skew_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
-    """Set L (written and sealed 2026-11-27, before the scene's 16-stripe upkeep ran on it, to judge it). One
-    of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-K, each reading as a plausible
-    surface in the wrong place:
+    """Set L (written and sealed 2026-11-27, before the scene's 16-stripe upkeep ran on it; opened the same
+    day to judge it). One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-K, each
+    reading as a plausible surface in the wrong place:
 
     * row skew: another sensor's pulses shift this one's scan timing in a band of rows (20-120 px tall): each
       row there is read from 4-30 px to one side (the shift growing or shrinking across the band), and 5-15%
@@ -604,7 +604,7 @@ SETS = {
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = {"l"}
+SEALED: set[str] = set()
 # Sets written for one measurement of their own (K: the scene's stillness gate, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l"}
@@ -626,7 +626,8 @@ STATUS = {
     "decisions.md); open since",
     "k": "development: sealed until 2026-11-27, when it judged the scene's stillness gate (it held; "
     "decisions.md); open since",
-    "l": "sealed 2026-11-27, to judge the scene's 16-stripe upkeep once (decisions.md)",
+    "l": "development: sealed until 2026-11-27, when it judged the scene's 16-stripe upkeep (it held; "
+    "decisions.md); open since",
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
