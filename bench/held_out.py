@@ -753,7 +753,8 @@ def scored(
         counted = {"corrupted": int(meant.sum()), "left_unchanged": int((meant & ~truth).sum())}
     _write(tmp / name, bad)
     s = ["--depth-scale", f"{scale:g}", *models]
-    d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s)
+    # The models alone (--no-scene): the sensor's scene is judged on these sets by bench/scene_reference.py.
+    d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s, "--no-scene")
     pred = _flags(tmp / f"{name}.csv")
     d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
@@ -824,8 +825,8 @@ def scored(
 def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: Sequence[str] = ()) -> dict:
     frames = sorted(folder.glob("*.png"))
     s = ["--depth-scale", f"{scale:g}", *models]
-    d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s)
-    d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery)
+    d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s, "--no-scene")
+    d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery, "--no-scene")
     share, _, _ = moved_5cm(folder, tmp / "d435-fixed", scale)
     return {"frames": len(frames), "flagged": round(float(_flags(tmp / "d435.csv").mean()), 4),
             "moved_5cm": round(share, 5)}  # fmt: skip

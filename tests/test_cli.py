@@ -155,7 +155,7 @@ def test_bench_typical_and_worst_on_a_recording(tmp_path):
     data = json.loads(out.read_text())["benchmarks"]
     typical, worst = data["typical"], data["worst"]
     assert typical["frames"] == 40 and typical["size"] == "320x240"
-    shipped, alone = typical["as shipped"], typical["detector only"]
+    shipped, alone = typical["as shipped"], typical["no repair"]
     assert shipped["cpu_ms_per_frame"] > 0 and alone["cpu_ms_per_frame"] > 0
     assert alone["flagged"] == shipped["flagged"]  # the same detector decides; only the repair differs
     assert worst["frames"] == 40 and len(worst["seconds"]["recover 40"]) == 1
@@ -163,15 +163,15 @@ def test_bench_typical_and_worst_on_a_recording(tmp_path):
     # the reported ratio is the two timings' (which is faster is the benchmark's to say, not a test's: with
     # one repeat on a loaded machine the floor's run was once the slower, 0.80)
     assert ratio > 0 and worst["ratio_to_floor"] == pytest.approx(ratio, rel=0.02)
-    # --scene: the same frames through Pipeline(scene=True); only the typical case takes it
-    res = d2sr("bench", "--what", "typical", "--frames", str(rec), "--repeats", "1", "--scene", "--json",
+    # --no-scene: the same frames through Pipeline(scene=False); only the typical case takes it
+    res = d2sr("bench", "--what", "typical", "--frames", str(rec), "--repeats", "1", "--no-scene", "--json",
                str(tmp_path / "s.json"))  # fmt: skip
     assert res.returncode == 0, res.stderr
-    scene = json.loads((tmp_path / "s.json").read_text())
-    assert scene["options"] == {"scene": True} and scene["as shipped"]["cpu_ms_per_frame"] > 0
+    alone = json.loads((tmp_path / "s.json").read_text())
+    assert alone["options"] == {"scene": False} and alone["as shipped"]["cpu_ms_per_frame"] > 0
     assert "options" not in typical
-    res = d2sr("bench", "--what", "worst", "--frames", str(rec), "--scene")
-    assert res.returncode == 2 and res.stderr.strip() == "d2sr: error: --scene is for --what typical"
+    res = d2sr("bench", "--what", "worst", "--frames", str(rec), "--no-scene")
+    assert res.returncode == 2 and res.stderr.strip() == "d2sr: error: --no-scene is for --what typical"
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

@@ -42,7 +42,7 @@ def test_help_texts_name_only_flags_the_command_has():
     # label's help says on purpose that --threshold means a detector score on every other command
     allowed = {"label": {"--threshold"}}
     for name, cmd in walk(get_command(app), []):
-        have = {o for p in cmd.params for o in getattr(p, "opts", [])}
+        have = {o for p in cmd.params for o in [*getattr(p, "opts", []), *getattr(p, "secondary_opts", [])]}
         text = " ".join([cmd.help or "", *(getattr(p, "help", "") or "" for p in cmd.params)])
         named = set(re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", text))
         assert named - have <= allowed.get(name, set()), (name, named - have)

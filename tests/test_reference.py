@@ -295,7 +295,7 @@ def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
 
 def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     """``d2sr recover --all --scene --scene-repair`` puts a 4 cm patch back on real weights; without
-    ``--scene`` it is a one-line error and nothing is written."""
+    the scene (``--no-scene``) it is a one-line error and nothing is written."""
     import cv2
 
     from helpers import d2sr_inprocess
@@ -309,7 +309,7 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     for i, f in enumerate(frames):
         cv2.imwrite(str(rec / f"{i:03d}.png"), f)
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "a"), "--depth-scale", "4000",
-                                  "--all", "--scene-repair")  # fmt: skip
+                                  "--all", "--no-scene", "--scene-repair")  # fmt: skip
     assert code == 2 and "--scene-repair needs --scene" in err and not (tmp_path / "a").exists()
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "b"), "--depth-scale", "4000",
                                   "--all", "--scene", "--scene-repair")  # fmt: skip

@@ -386,10 +386,11 @@ def bench_typical(
     **options: Any,
 ) -> dict:
     """The typical case (issue 44): CPU time a frame through ``d2sr.Pipeline`` in process, on a sensor's
-    clean frames in time order, as shipped (every frame scored, the flagged ones repaired); and with
-    ``repair="none"``, the detector and the loop alone. CPU time is the process's, over all its threads
-    (``time.process_time``): what the robot's other work loses. Medians of ``repeats`` passes over the
-    frames, each with a fresh Pipeline warmed up on ``warmup`` frames, after one untimed pass of each mode."""
+    clean frames in time order, as shipped (every frame judged, the flagged ones repaired); and with
+    ``repair="none"`` (``no repair``), the judging alone: the detector, the scene and the loop. CPU time is
+    the process's, over all its threads (``time.process_time``): what the robot's other work loses. Medians
+    of ``repeats`` passes over the frames, each with a fresh Pipeline warmed up on ``warmup`` frames, after
+    one untimed pass of each mode."""
     from d2sr.runtime.pipeline import Pipeline
 
     if not frames:
@@ -403,7 +404,7 @@ def bench_typical(
     }
     if options:
         out["options"] = options
-    modes = {"as shipped": "flagged", "detector only": "none"}
+    modes = {"as shipped": "flagged", "no repair": "none"}
     runs: dict[str, dict] = {n: {"cpu": [], "wall": [], "flagged": 0} for n in modes}
 
     def once(name: str, timed: bool) -> None:

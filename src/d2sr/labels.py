@@ -164,9 +164,9 @@ def _network(n: int) -> tuple[tuple[int, int], ...]:
 
 
 def _at_returns(srt: np.ndarray, k: np.ndarray, q: float) -> np.ndarray:
-    """``_at`` the ``q`` quantile of each pixel's ``k`` returns (the last ``k`` of its sorted values), float32;
-    0 where none. The index and weight depend on ``k`` alone: looked up per count, then one gather each from
-    the flat stack (``take``, in place: a third less time than fancy indexing)."""
+    """``_at`` the ``q`` quantile of each pixel's ``k`` returns (the last ``k`` of its sorted values),
+    float32; 0 where none. The index and weight depend on ``k`` alone: looked up per count, then one gather
+    each from the flat stack (``take``, in place: a third less time than fancy indexing)."""
     n, size = srt.shape[0], k.size
     counts = np.arange(n + 1)
     pos = (n - counts) + q * np.maximum(counts - 1, 0)

@@ -172,13 +172,13 @@ README_ROWS = (
         "`bench/speed.py`",
     ),
     Row(
-        "CPU per clean real L515 frame, in process, 2 views; with `scene=True`",
+        "CPU per clean real L515 frame, in process, 2 views; with `scene=False`",
         "—",
         "docs/results/bench_speed.json",
         lambda d: "; ".join(
             " / ".join(f"{d[part][v]['as shipped']['cpu_ms_per_frame']:.2f}" for v in ("dev0", "dev1"))
             + " ms"
-            for part in ("typical", "typical_with_scene")
+            for part in ("typical", "typical_without_scene")
         ),
         "`bench/speed.py`",
     ),

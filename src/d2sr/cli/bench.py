@@ -36,9 +36,11 @@ def bench(
     depth_scale: Annotated[
         float | None, typer.Option(help="Units per metre of --frames [what the recording says].")
     ] = None,
-    scene: Annotated[
+    no_scene: Annotated[
         bool,
-        typer.Option(help="typical: frames judged against a still sensor's scene too (scene=True)."),
+        typer.Option(
+            "--no-scene", help="typical: the detector alone, without the sensor's scene (scene=False)."
+        ),
     ] = False,
     overwrite: Overwrite = False,
 ) -> None:
@@ -65,8 +67,8 @@ def bench(
     on_frames = [n for n in names if n in ("typical", "worst")]
     if on_frames and frames is None:
         raise ConfigError(f"--what {on_frames[0]} runs on a recording: pass --frames")
-    if scene and "typical" not in names:
-        raise ConfigError("--scene is for --what typical")
+    if no_scene and "typical" not in names:
+        raise ConfigError("--no-scene is for --what typical")
     if json_out is not None:
         check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
     depth: list = []
@@ -103,7 +105,7 @@ def bench(
             bar.update(task, total=1, completed=1)
         if "typical" in names:
             task = bar.add_task("typical case: clean frames through d2sr.Pipeline", total=None)
-            options = {"scene": True} if scene else {}
+            options = {"scene": False} if no_scene else {}
             results["typical"] = bench_typical(depth, scale, repeats, **options)
             bar.update(task, total=1, completed=1)
         if "worst" in names:

@@ -92,9 +92,10 @@ RerunOpt = Annotated[
 SceneOpt = Annotated[
     bool,
     typer.Option(
-        "--scene",
-        help="A still sensor: also judge each frame against the scene its clean frames have shown, and "
-        "pass a flagged frame in which nothing deviates from it (false alarms).",
+        "--scene/--no-scene",
+        help="Also judge each frame against the scene the sensor's clean frames have shown, while it holds "
+        "still: a flagged frame in which nothing deviates from it passes (a false alarm), one with fresh "
+        "patches off it is flagged. --no-scene: the detector alone.",
     ),
 ]
 ActiveFrames = Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")]

@@ -53,7 +53,7 @@ def ros2(
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
-    scene: SceneOpt = False,
+    scene: SceneOpt = True,
 ) -> None:
     """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
     255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours

@@ -22,7 +22,6 @@ from d2sr.cli.common import (
     RepairOpt,
     RerunOpt,
     Scale,
-    SceneOpt,
     Threshold,
     Topic,
     TriggerOpt,
@@ -74,7 +73,15 @@ def run(
             help="onnxruntime threads per model (default: the detector on one core, the repair on all)."
         ),
     ] = None,
-    scene: SceneOpt = False,
+    scene: Annotated[
+        bool | None,
+        typer.Option(
+            "--scene/--no-scene",
+            help="A recording's or a camera's frames are also judged against the scene the sensor's clean "
+            "frames have shown, while it holds still (on by default; not for 'sim'). --no-scene: the "
+            "detector alone.",
+        ),
+    ] = None,
     fill: Annotated[
         bool,
         typer.Option(
@@ -132,6 +139,7 @@ def run(
         )
     if scene and source == "sim":
         raise ConfigError("--scene judges a recording's or a camera's frames against its scene; not 'sim'")
+    scene = source != "sim" if scene is None else scene
     if trigger is not None and not is_live:
         raise ConfigError("--trigger needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL])")
     if is_live:

@@ -50,7 +50,7 @@ def detect(
     backend: BackendOpt = "auto",
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
-    scene: SceneOpt = False,
+    scene: SceneOpt = True,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered).
@@ -97,7 +97,7 @@ def recover(
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
-    scene: SceneOpt = False,
+    scene: SceneOpt = True,
     scene_repair: Annotated[
         bool,
         typer.Option(

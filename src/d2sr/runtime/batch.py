@@ -181,7 +181,7 @@ def detect_recording(
     models: Path = WEIGHTS,
     backend: str = "auto",
     max_range: float = PLAUSIBLE_M[1],
-    scene: bool = False,
+    scene: bool = True,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
@@ -235,7 +235,7 @@ def recover_recording(
     format: str = "auto",
     max_range: float = PLAUSIBLE_M[1],
     rerun: str | None = None,
-    scene: bool = False,
+    scene: bool = True,
     scene_repair: bool = False,
     colour_topic: str | None = None,
     overwrite: bool = False,
@@ -266,6 +266,8 @@ def recover_recording(
     # needs to know which frames were clean.
     if scene_repair and not scene:
         raise ConfigError("--scene-repair needs --scene")
+    # Repairing every frame, the scene's verdicts would go unused too: it is judged only for its repair.
+    scene = scene and (not every or scene_repair)
     # The scene is judged on every frame (its upkeep needs them all), so it needs the detector's verdicts.
     judged = not every or bool(rerun) or scene
     net = open_models(model, Path(models), backend, mask_logit, passes, threads, detector=judged)

@@ -130,7 +130,7 @@ def run_live(
     threshold: float | None,
     seed: int,
     on_result: Callable[[int, Result], None] | None = None,
-    scene: bool = False,
+    scene: bool = True,
     fill: bool = False,
 ) -> dict[str, Any]:
     """A live camera (``realsense[:SERIAL]`` or ``orbbec[:SERIAL]``) through one loop for ``seconds``;

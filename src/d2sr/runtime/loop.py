@@ -113,7 +113,8 @@ class SensorLoop:
     judge_every: bool = True
     # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
-    # deviations in patches (not something that moved) is interfered, flagged or not.
+    # deviations in patches (not something that moved) is interfered, flagged or not. On in d2sr.Pipeline and
+    # the commands; off here, where the paper's evaluations measure the detector alone.
     scene: bool = False
     # True (with ``scene``, experimental, off): a frame that comes with a pose (``Capture.pose``) is judged
     # against the last clean frames warped into its view instead (``d2sr.moving_reference``): that evidence

@@ -209,8 +209,10 @@ class Pipeline:
     - ``threads``: onnxruntime's threads per model [the recovery model on all cores, the detector on one];
       ``int8``: the int8 models (``d2sr export --int8``).
     - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
-    - ``scene``: a still sensor; its frames are also judged against the scene its clean frames have shown
-      (``d2sr.reference``), and a flagged frame in which nothing deviates from it is passed.
+    - ``scene`` [True]: frames are also judged against the scene the sensor's clean frames have shown
+      (``d2sr.reference``), once it has held still: a flagged frame in which nothing deviates from it is
+      passed, one with fresh patches off it is flagged. While the sensor moves the detector decides alone.
+      False: the detector alone, always.
     - the repair's ``options``: ``Options``.
     """
 
@@ -225,7 +227,7 @@ class Pipeline:
         threads: int | None = None,
         int8: bool = False,
         intrinsics: Intrinsics | None = None,
-        scene: bool = False,
+        scene: bool = True,
         **options: Unpack[Options],
     ) -> None:
         if controller not in CONTROLLERS or controller == "oracle":

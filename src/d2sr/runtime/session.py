@@ -199,7 +199,7 @@ def run_recording(
     seed: int = 0,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
-    scene: bool = False,
+    scene: bool = True,
     colours: Iterable[tuple[int, np.ndarray]] | None = None,
     intrinsics: Intrinsics | None = None,
 ) -> dict[str, Any]:
