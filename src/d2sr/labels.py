@@ -287,7 +287,11 @@ class Labeller:
         lim = self._limits
         has = frame_m > 0
         dropout = ~has & lim["reliable"]
-        spurious = has & lim["rare"] & (lim["never"] | (np.abs(frame_m - s.nz_median) > lim["tol"]))
+        # A spurious return is one where the scene seldom returns (few pixels): worked out only there.
+        spurious = has & lim["rare"]
+        at = np.flatnonzero(spurious)
+        far = np.abs(frame_m.ravel()[at] - s.nz_median.ravel()[at]) > lim["tol"].ravel()[at]
+        spurious.ravel()[at] = lim["never"].ravel()[at] | far
         wrong = has & lim["common"] & ((frame_m < lim["below"]) | (frame_m > lim["above"]))
         raw = dropout | spurious | wrong
         if self.min_density <= 0:

@@ -190,7 +190,8 @@ class SensorLoop:
         cut = None if self.exact_scores else self._cut
         still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
         units = _in_units(raw, cap.scale) if still else None  # the frame as the scene reference takes it
-        ev = self._scene_evidence(*units) if units is not None else None
+        own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None  # its metres
+        ev = self._scene_evidence(*units, own) if units is not None else None
         if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.evident
@@ -238,13 +239,13 @@ class SensorLoop:
                 self._weigh(frame, flagged, self._scene_evidence(frame, scale))
         self._buffer(flagged, slot)
 
-    def _scene_evidence(self, raw: np.ndarray, scale: float) -> Evidence:
-        """The frame (``_in_units``) judged against the still sensor's scene reference (a new one for a new
-        scale or size)."""
+    def _scene_evidence(self, raw: np.ndarray, scale: float, metres: np.ndarray | None = None) -> Evidence:
+        """The frame (``_in_units``; ``metres``: as ``to_metres`` gives it, where known) judged against the
+        still sensor's scene reference (a new one for a new scale or size)."""
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
             ref = self._reference = SceneReference(scale)
-        return ref.evidence(raw)
+        return ref.evidence(raw, metres)
 
     def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
