@@ -8,7 +8,8 @@
 
 It finds the sessions on the backend itself, so it profiles an earlier commit's runtime too: ``--ref REV``
 profiles that commit (a temporary git worktree, in a subprocess) in the same run, before and after.
-``--scene``: ``Pipeline(scene=True)``, a still sensor's frames also judged against its scene.
+``--scene``: ``Pipeline(scene=True)``, a still sensor's frames also judged against its scene (the Pipeline's
+default since 2026-11-27); without it ``scene=False``, the detector alone.
 
 Run:  .venv/bin/python bench/profile_typical.py --ref ccfb1d1 --data ../shared/data \
           --json docs/results/profile_typical.json
