@@ -184,3 +184,15 @@ def test_bench_json(tmp_path):
     data = json.loads(out.read_text())
     assert data["sensors"] == 60 and data["run_s_median"] > 0 and 0 <= data["interference_ratio"] <= 1
     assert data["cpu"].startswith(f"{len(os.sched_getaffinity(0))} cores, ")  # which machine measured it
+
+
+def test_bench_typical_times_only_the_frames_after_settle():
+    """``settle``: a sensor that has run a while; its first frames are run untimed and the rest timed."""
+    from d2sr.bench import bench_typical, frame_4000
+
+    frames = [frame_4000(7 + i, interfered=i == 2)[::4, ::4].copy() for i in range(8)]
+    out = bench_typical(frames, 4000.0, repeats=1, warmup=0, settle=5, scene=False)
+    assert out["settle_frames"] == 5 and out["as shipped"]["flagged"].endswith("of 3")
+    assert out["as shipped"]["cpu_ms_per_frame"] > 0
+    with pytest.raises(ValueError, match="frames to time"):
+        bench_typical(frames, 4000.0, repeats=1, settle=8)
