@@ -218,6 +218,8 @@ def test_run_on_a_recording_takes_the_scene(tmp_path):
         summary = run_recording(FakeNet(), open_frames(rec), SCALE, out, "robust", "rec", repair="none",
                                 scene=scene)  # fmt: skip
         assert summary["settings"]["scene"] is scene
+        # the share of frames the scene weighed: not the first 5 (4 build it, the 5th shows it still)
+        assert summary["all"].get("scene_used") == (0.5 if scene else None)
         rows = list(csv.DictReader((out / "log.csv").open()))
         flags[scene] = [int(r["flagged"]) for r in rows]
     assert flags[False] == [0] * 10 and flags[True] == [0] * 9 + [1]
@@ -400,7 +402,7 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
         assert code == 0, err
         flags[name] = [int(r["interfered"]) for r in csv.DictReader(out.open())]
     assert flags["default"] == [0] * 9 + [1] and flags["alone"] == [0] * 10
-    assert (
-        d2sr.Pipeline(depth_scale=4000).loop.scene
-        and not d2sr.Pipeline(depth_scale=4000, scene=False).loop.scene
-    )
+    # Each result says whether the scene weighed it: from the 6th frame (4 build it, the 5th shows it still)
+    judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]
+    said = [[p.process(f).scene for f in frames] for p in judged]
+    assert said[0] == [False] * 5 + [True] * 5 and said[1] == [None] * 10

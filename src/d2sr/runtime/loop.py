@@ -65,6 +65,9 @@ class Result:
     period: int
     offset: int  # the window offset the sensor ran this frame's period with
     seconds: float = 0.0  # processing time of detect + repair
+    # The sensor's scene weighed the verdict (True), or was judged but still being built or the sensor
+    # moved (False: the detector decided alone); None: no scene was judged.
+    scene: bool | None = None
 
 
 @dataclass
@@ -82,6 +85,7 @@ class Decision:
     started: float  # perf_counter at decide
     # What the scene knows of the frame (``SensorLoop.scene_repair``).
     scene: SceneRepair | None = None
+    scene_used: bool | None = None  # ``Result.scene``
 
 
 class Trigger(Protocol):
@@ -206,8 +210,9 @@ class SensorLoop:
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
             known = self._reference.repair(ev)
+        used = ev.usable if ev is not None else None
         d = Decision(
-            cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known
+            cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known, used
         )
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
@@ -223,7 +228,7 @@ class SensorLoop:
             pred, m = self.backend.recover(d.metres, d.previous)
             depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene)
         seconds = time.perf_counter() - d.started
-        res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds)
+        res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds, d.scene_used)
         if self.sink is not None:
             self.sink.write(res)
         return res

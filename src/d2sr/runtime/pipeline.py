@@ -61,6 +61,8 @@ class Repaired:
       ran (with ``scene``, a frame its scene evidence decides alone is not scored).
     - ``window``: the active window the sensor ran this frame's period with (``Pipeline`` only).
     - ``seconds``: detect + repair time of this frame.
+    - ``scene``: the sensor's scene weighed the verdict (True), or it was still being built or the sensor
+      moved, and the detector decided alone (False); None with ``scene=False``.
     """
 
     depth: np.ndarray
@@ -69,6 +71,7 @@ class Repaired:
     score: float
     window: Window | None = None
     seconds: float = 0.0
+    scene: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -352,7 +355,9 @@ class Pipeline:
         """The second half of ``process``: the repair of a decided frame."""
         res = self.loop.finish(decided.decision)
         window = Window(res.period, res.offset, self.loop.controller.active_frames, TOTAL_FRAMES)
-        return Repaired(_back(decided.depth, res), res.mask, res.flagged, res.score, window, res.seconds)
+        return Repaired(
+            _back(decided.depth, res), res.mask, res.flagged, res.score, window, res.seconds, res.scene
+        )
 
     def end_period(self) -> Window:
         """Close the observation period now (a triggered sensor whose last slots delivered no frame) and
@@ -381,7 +386,7 @@ def repair(depth: np.ndarray, depth_scale: float | None = None, **options: Unpac
         net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), None, None, options.get("threshold"), mode
     )
     res = loop.process(Capture(Frame("frame", frame), scale))
-    return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds)
+    return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds, res.scene)
 
 
 _PROBED: set[tuple[str, float]] = set()  # (dtype, depth scale) whose first frame passed the check

@@ -28,6 +28,8 @@ class RunStats:
     se_before: float = 0.0  # squared error (m^2) over valid clean pixels of interfered frames
     se_after: float = 0.0
     n_valid: int = 0
+    scene_judged: int = 0  # frames the sensor's scene was judged on (``Result.scene`` not None)
+    scene_used: int = 0  # of them, those whose verdict it weighed
     # processing time as a histogram of 0.1 ms bins: constant memory however long the run
     ms_hist: np.ndarray = field(default_factory=lambda: np.zeros(BINS, np.int64))
 
@@ -36,6 +38,9 @@ class RunStats:
         self.frames += 1
         self.flagged += res.flagged
         self.ms_hist[min(int(res.seconds * 1e4), BINS - 1)] += 1
+        if res.scene is not None:
+            self.scene_judged += 1
+            self.scene_used += res.scene
         if cap.interfered is None:
             return
         self.truth_known += 1
@@ -51,7 +56,16 @@ class RunStats:
 
     def merge(self, other: RunStats) -> RunStats:
         out = RunStats()
-        for k in ("frames", "flagged", "interfered", "true_flags", "truth_known", "n_valid"):
+        for k in (
+            "frames",
+            "flagged",
+            "interfered",
+            "true_flags",
+            "truth_known",
+            "n_valid",
+            "scene_judged",
+            "scene_used",
+        ):
             setattr(out, k, getattr(self, k) + getattr(other, k))
         out.se_before, out.se_after = self.se_before + other.se_before, self.se_after + other.se_after
         out.ms_hist = self.ms_hist + other.ms_hist
@@ -64,6 +78,8 @@ class RunStats:
             ms = (half + 0.5) / 10
             out["ms_median"] = round(float(ms), 2)
             out["fps"] = round(1000 / ms, 1)
+        if self.scene_judged:  # the share of frames the sensor's scene weighed (it held still)
+            out["scene_used"] = round(self.scene_used / self.frames, 4)
         if self.truth_known:
             out["interfered"] = self.interfered
             out["interfered_ratio"] = round(self.interfered / self.truth_known, 4)
@@ -83,6 +99,7 @@ COLUMNS = {
     "recall": "R",
     "rmse_before_cm": "RMSE in (cm)",
     "rmse_after_cm": "RMSE out (cm)",
+    "scene_used": "scene",
     "ms_median": "ms/frame",
 }
 
