@@ -395,13 +395,18 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
     frames[9][40:70, 30:80] = np.where(frames[9][40:70, 30:80] > 0, frames[9][40:70, 30:80] - 160, 0)
     for i, f in enumerate(frames):
         cv2.imwrite(str(rec / f"{i:03d}.png"), f)
-    flags = {}
+    flags, said = {}, {}
     for name, extra in (("default", ()), ("alone", ("--no-scene",))):
         out = tmp_path / f"{name}.csv"
-        code, _, err = d2sr_inprocess("detect", str(rec), "--depth-scale", "4000", "--out", str(out), *extra)
+        code, said[name], err = d2sr_inprocess(
+            "detect", str(rec), "--depth-scale", "4000", "--out", str(out), *extra
+        )
         assert code == 0, err
         flags[name] = [int(r["interfered"]) for r in csv.DictReader(out.open())]
     assert flags["default"] == [0] * 9 + [1] and flags["alone"] == [0] * 10
+    # the summary line says how many verdicts the scene weighed (not the first 5: it was being built)
+    assert "1 of 10 frames interfered, the sensor's scene weighed 5 ->" in said["default"]
+    assert "0 of 10 frames interfered ->" in said["alone"]
     # Each result says whether the scene weighed it: from the 6th frame (4 build it, the 5th shows it still)
     judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]
     said = [[p.process(f).scene for f in frames] for p in judged]

@@ -65,7 +65,7 @@ def detect(
             backend=backend, max_range=max_range, scene=scene, overwrite=overwrite, progress=progress,
             say=print_line,
         )  # fmt: skip
-    typer.echo(f"{s.flagged} of {s.frames} frames interfered -> {out}")
+    typer.echo(f"{s.flagged} of {s.frames} frames interfered{s.scene_note()} -> {out}")
 
 
 def recover(
@@ -127,4 +127,4 @@ def recover(
             colour_topic=colour_topic, overwrite=overwrite, progress=progress, say=print_line,
         )  # fmt: skip
     made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""
-    typer.echo(f"repaired {s.repaired} of {s.frames} frames{made} -> {out}")
+    typer.echo(f"repaired {s.repaired} of {s.frames} frames{made}{s.scene_note()} -> {out}")

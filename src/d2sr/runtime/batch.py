@@ -66,6 +66,11 @@ class Summary:
     backend: str
     depth_scale: float
     synthesized: int = 0  # frames made for colour frames no depth frame joined (a bag's colour topic)
+    scene_used: int | None = None  # frames whose verdict the sensor's scene weighed (None: not judged)
+
+    def scene_note(self) -> str:
+        """', the sensor's scene weighed N' for a command's summary line ('' where no scene was judged)."""
+        return "" if self.scene_used is None else f", the sensor's scene weighed {self.scene_used}"
 
 
 def _quiet(line: str) -> None:
@@ -208,15 +213,16 @@ def detect_recording(
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_HEADER)
-    flagged = done = 0
+    flagged = done = used = 0
     for res in map(loop.process, (Capture(f, scale) for f in prefetch(checked(reader, scale)))):
         flagged += res.flagged
+        used += bool(res.scene)
         w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged)])
         done += 1
         if progress is not None:
             progress(done, len(reader))
     atomic_write(out, buf.getvalue())
-    return Summary(done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale)
+    return Summary(done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale, 0, used if scene else None)
 
 
 def recover_recording(
@@ -295,7 +301,7 @@ def recover_recording(
         scene_repair=scene_repair,
     )
     log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
-    flagged = repaired = done = 0
+    flagged = repaired = done = used = 0
     with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
         for res in in_order(loop, (Capture(f, scale) for f in frames), workers):
@@ -305,12 +311,15 @@ def recover_recording(
             sink.write(res.capture.frame, res.depth, res.mask, fix)
             flagged += res.flagged
             repaired += fix
+            used += bool(res.scene)
             done += 1
             if progress is not None:
                 progress(done, len(reader))
         sink.finish(scale, reader.intrinsics)
     made = getattr(sink, "synthesized", 0)
-    return Summary(done, flagged, repaired, Path(out), kind, model, net.name, scale, made)
+    return Summary(
+        done, flagged, repaired, Path(out), kind, model, net.name, scale, made, used if scene else None
+    )
 
 
 def _inputs(input: Path) -> list[Path]:
