@@ -342,7 +342,7 @@ def test_a_moving_sensor_s_scene_decides_nothing():
     evident = {}
     for gate in (None, STILL_SHARE):
         rng = np.random.default_rng(7)
-        ref = SceneReference(SCALE, still_share=gate)
+        ref = SceneReference(SCALE, still_share=gate, rest=0)  # the gate alone, without the rests
         seen = []
         for k in range(60):
             ev = ref.evidence(f := _panned(rng, k, k % 3 == 2))
@@ -411,3 +411,32 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
     judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]
     said = [[p.process(f).scene for f in frames] for p in judged]
     assert said[0] == [False] * 5 + [True] * 5 and said[1] == [None] * 10
+
+
+def test_a_scene_that_keeps_moving_rests_longer_each_time_until_its_gate_opens():
+    """After a restart because the view changed, the scene judges and keeps nothing for ``REST`` frames,
+    twice as long after the next such restart; a still view that opens the gate resets the count."""
+    rng = np.random.default_rng(9)
+    ref = SceneReference(SCALE, rest=3)
+    for _ in range(6):
+        ref.evidence(f := _scene(rng))
+        ref.add(f)
+    assert ref.still
+
+    def moved(k: int) -> np.ndarray:  # another view: the wall 40 cm nearer
+        return (_scene(rng).astype(np.int64) - (k + 1) * 1600).clip(0).astype(np.uint16)
+
+    rests = []
+    for nap in range(2):
+        for k in range(3):  # three frames of another view: the scene starts again
+            ref.evidence(moved(k))
+        n = 0
+        while not ref.evidence(f := _scene(rng)).ready and n < 40:
+            ref.add(f)  # resting: kept nothing
+            n += 1
+        rests.append(n)
+    # resting 3, then 6 frames; then 4 frames build it (the 4th evidence is the first ready one)
+    assert rests == [3 + 4, 6 + 4], rests
+    assert SceneReference(SCALE, rest=0).rest == 0
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, rest=-1)

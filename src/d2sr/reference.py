@@ -76,6 +76,10 @@ RANGE_RATE = 0.5
 #: interference lifts it to 0.58, and a median shuts the gate where interfered frames pass as clean (set D
 #: lost 0.27 of recall at 0.05). Chosen on development sequences (docs/research/scene_gate.py).
 STILL_SHARE, STILL_Q, STILL_FRAMES, STILL_MIN = 0.1, 0.25, 16, 1
+#: After a restart because the view changed, the scene rests (judges and keeps nothing) for ``REST`` frames,
+#: twice as long after each further such restart before its gate opens, up to ``REST_MAX`` (4 s at 30 fps):
+#: a sensor that keeps moving pays for no scene it cannot use (docs/research/decisions.md, 2026-11-27).
+REST, REST_MAX = 15, 120
 #: How far (px) a moving object's surface can travel between two frames and still explain a deviation.
 MOTION_PX = 15
 AROUND = 81  # pixels in a 9x9 neighbourhood (_neighbours)
@@ -150,8 +154,10 @@ class SceneReference:
         tol_abs: float = TOL_ABS,
         tol_rel: float = TOL_REL,
         still_share: float | None = STILL_SHARE,
+        rest: int = REST,
     ) -> None:
-        """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still."""
+        """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
+        ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none)."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
@@ -160,7 +166,10 @@ class SceneReference:
             raise ConfigError("stripes, persist and moved_frames must be >= 1 and moved in (0, 1]")
         if still_share is not None and not 0 < still_share <= 1:
             raise ConfigError(f"still_share must be in (0, 1], got {still_share}")
-        self.still_share = still_share
+        if rest < 0:
+            raise ConfigError(f"rest must be >= 0, got {rest}")
+        self.still_share, self.rest = still_share, rest
+        self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
         self.persist, self.moved, self.moved_frames = persist, moved, moved_frames
@@ -176,6 +185,8 @@ class SceneReference:
         self._stats, self._labeller, self._streak, self._moving = None, None, None, 0
         self._before: np.ndarray | None = None  # the frame before's deviating depths (m; -1: a dropout)
         self._judged: float | None = None  # the share the last frame judged deviated by (None: not judged)
+        self._resting = 0  # frames the scene still rests (``REST``)
+        self._skip = False  # the last frame judged came while resting: ``add`` keeps nothing
         self._clean: deque[float] = deque(maxlen=STILL_FRAMES)  # those of the frames then taken as clean
 
     @property
@@ -201,8 +212,11 @@ class SceneReference:
             raise InputError(f"frame is {frame.shape}, the reference's frames are {self._ring.shape[1:]}")
 
     def add(self, frame: np.ndarray) -> None:
-        """A frame judged clean: into the ring, and one stripe of the statistics refreshed."""
+        """A frame judged clean: into the ring, and one stripe of the statistics refreshed (not while the
+        scene rests)."""
         self._check(frame)
+        if self._skip:
+            return
         if self._judged is not None:
             self._clean.append(self._judged)
             self._judged = None
@@ -247,6 +261,10 @@ class SceneReference:
         ``to_metres(frame, scale)`` gives it, where the caller has it already."""
         self._check(frame)
         self._judged = None
+        self._skip = self._resting > 0  # resting: this frame is judged and kept by nothing
+        if self._skip:
+            self._resting -= 1
+            return _none(frame.shape)
         if self._labeller is None or self._stats is None or self._streak is None:
             return _none(frame.shape)
         metres = to_metres(frame, self.scale) if metres is None else metres
@@ -257,10 +275,16 @@ class SceneReference:
         self._moving = self._moving + 1 if share > min(self.moved, ELSEWHERE) else 0
         if self._moving >= self.moved_frames:
             self.reset()
+            if self.rest:  # the view changed: rest, longer each time until the gate opens again
+                self._resting = min(self.rest << min(self._naps, 16), max(REST_MAX, self.rest))
+                self._naps += 1
+                self._skip = True  # this frame, of the view that moved, is not kept either
             return _none(frame.shape)
         if share > ELSEWHERE:
             return _none(frame.shape)
         still = self.still  # as the frames before this one showed
+        if still:
+            self._naps = 0
         self._judged = share
         shift = self._shifted(metres)
         mask = deviates | shift
