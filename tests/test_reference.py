@@ -427,7 +427,7 @@ def test_a_scene_that_keeps_moving_rests_longer_each_time_until_its_gate_opens()
         return (_scene(rng).astype(np.int64) - (k + 1) * 1600).clip(0).astype(np.uint16)
 
     rests = []
-    for nap in range(2):
+    for _ in range(2):
         for k in range(3):  # three frames of another view: the scene starts again
             ref.evidence(moved(k))
         n = 0
