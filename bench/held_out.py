@@ -125,6 +125,18 @@ def outside_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarr
     return out.astype(np.uint16)
 
 
+def _ellipse(rng: np.random.Generator, y: np.ndarray, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Sets I and K: an ellipse covering ``lo``-``hi`` of the view, of random aspect, centred in its middle
+    three fifths: each pixel's squared distance from its centre in units of its radii (< 1 inside)."""
+    h, w = y.shape
+    area = rng.uniform(lo, hi) * h * w
+    ry = np.sqrt(area / np.pi / rng.uniform(0.6, 1.6))
+    rx = area / np.pi / ry
+    ey, ex = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
+    out: np.ndarray = ((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2
+    return out
+
+
 def _written(frame: np.ndarray, new: np.ndarray, where: np.ndarray, scale: float) -> np.ndarray:
     """Sets B-F: the uint16 frame with ``new`` (metres; 0: no return) written at the pixels ``where``."""
     out = np.where(where, np.where(new > 0, np.clip(np.rint(new * scale), 1, 65535), 0), frame)
@@ -477,11 +489,7 @@ def sparse_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarra
     y, x = np.mgrid[0:h, 0:w]
     for _ in range(20):
         if blackout:
-            area = rng.uniform(0.10, 0.40) * h * w
-            ry = np.sqrt(area / np.pi / rng.uniform(0.6, 1.6))
-            rx = area / np.pi / ry
-            ey, ex = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
-            region = ((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2 < 1
+            region = _ellipse(rng, y, x, 0.10, 0.40) < 1
             drop = region & (rng.random((h, w)) < rng.uniform(0.85, 0.98))
             near = region & ~drop & (rng.random((h, w)) < rng.uniform(0.3, 0.7))
             new = np.where(drop, 0.0, np.where(near, d * rng.uniform(0.3, 0.85, (h, w)), d))
@@ -517,11 +525,7 @@ def flood_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     for _ in range(20):
         if flood:
-            area = rng.uniform(0.15, 0.45) * h * w
-            ry = np.sqrt(area / np.pi / rng.uniform(0.6, 1.6))
-            rx = area / np.pi / ry
-            ey, ex = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
-            weight = np.clip(1 - np.sqrt(((y - ey) / ry) ** 2 + ((x - ex) / rx) ** 2), 0, 1)
+            weight = np.clip(1 - np.sqrt(_ellipse(rng, y, x, 0.15, 0.45)), 0, 1)
             noisy = d * (1 + weight * rng.uniform(0.02, 0.06) * rng.standard_normal((h, w)))
             drop = rng.random((h, w)) < weight * rng.uniform(0.05, 0.25)
             new = np.where(drop, 0.0, np.maximum(noisy, 0.0))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -24,6 +26,21 @@ def _scene(rng: np.random.Generator, shape: tuple[int, int] = (96, 128)) -> np.n
     z[rng.random(shape) < 0.03] = 0
     z[:8] = 0
     return np.rint(z * SCALE).astype(np.uint16)
+
+
+def _patched_recording(tmp_path: Path) -> Path:
+    """A PNG folder of 10 frames of a still scene whose last has a patch read 4 cm near (the detector
+    misses it; the scene does not)."""
+    import cv2
+
+    rng = np.random.default_rng(4)
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    frames = [_scene(rng) for _ in range(10)]
+    frames[9][40:70, 30:80] = np.where(frames[9][40:70, 30:80] > 0, frames[9][40:70, 30:80] - 160, 0)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(rec / f"{i:03d}.png"), f)
+    return rec
 
 
 def _warm(ref: SceneReference, rng: np.random.Generator, n: int = 16) -> None:
@@ -200,18 +217,10 @@ def test_run_on_a_recording_takes_the_scene(tmp_path):
     flagged, and the run's settings say the scene was used; without it, the frame passes."""
     import csv
 
-    import cv2
-
     from d2sr.frames import open_frames
     from d2sr.runtime.session import run_recording
 
-    rng = np.random.default_rng(4)
-    rec = tmp_path / "rec"
-    rec.mkdir()
-    frames = [_scene(rng) for _ in range(10)]
-    frames[9][40:70, 30:80] = np.where(frames[9][40:70, 30:80] > 0, frames[9][40:70, 30:80] - 160, 0)
-    for i, f in enumerate(frames):
-        cv2.imwrite(str(rec / f"{i:03d}.png"), f)
+    rec = _patched_recording(tmp_path)
     flags = {}
     for scene in (False, True):
         out = tmp_path / f"out{scene}"
@@ -383,18 +392,11 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
     ``d2sr.Pipeline`` judges the scene unless ``scene=False``."""
     import csv
 
-    import cv2
-
     import d2sr
+    from d2sr.frames import open_frames
     from helpers import d2sr_inprocess
 
-    rng = np.random.default_rng(4)
-    rec = tmp_path / "rec"
-    rec.mkdir()
-    frames = [_scene(rng) for _ in range(10)]
-    frames[9][40:70, 30:80] = np.where(frames[9][40:70, 30:80] > 0, frames[9][40:70, 30:80] - 160, 0)
-    for i, f in enumerate(frames):
-        cv2.imwrite(str(rec / f"{i:03d}.png"), f)
+    rec = _patched_recording(tmp_path)
     flags, said = {}, {}
     for name, extra in (("default", ()), ("alone", ("--no-scene",))):
         out = tmp_path / f"{name}.csv"
@@ -408,9 +410,10 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
     assert "1 of 10 frames interfered, the sensor's scene weighed 5 ->" in said["default"]
     assert "0 of 10 frames interfered ->" in said["alone"]
     # Each result says whether the scene weighed it: from the 6th frame (4 build it, the 5th shows it still)
+    frames = [f.depth for f in open_frames(rec)]
     judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]
-    said = [[p.process(f).scene for f in frames] for p in judged]
-    assert said[0] == [False] * 5 + [True] * 5 and said[1] == [None] * 10
+    weighed = [[p.process(f).scene for f in frames] for p in judged]
+    assert weighed[0] == [False] * 5 + [True] * 5 and weighed[1] == [None] * 10
 
 
 def test_a_scene_that_keeps_moving_rests_longer_each_time_until_its_gate_opens():
