@@ -679,6 +679,18 @@ def every_other(clean: list[np.ndarray], scale: float, which: str = "a") -> list
 OUTSIDE_CAMERAS = ["dev0"] * 60 + ["dev1"] * 60
 
 
+#: The clean real sequences, whole: name, folder under the data, units per metre.
+CLEAN_SEQUENCES = (("dev0", "l515/dev0", 4000.0), ("dev1", "l515/dev1", 4000.0), ("d435", "d435", 1000.0))
+
+
+def clean_sequences(data: Path) -> dict[str, tuple[list[np.ndarray], float]]:
+    """``CLEAN_SEQUENCES``' frames in order, each with its scale: L515 dev0 (a person walks through its first
+    frames) and dev1, and the hand-held D435."""
+    from d2sr.frames import open_frames
+
+    return {n: ([f.depth for f in open_frames(data / p)], s) for n, p, s in CLEAN_SEQUENCES}
+
+
 def outside_set(data: Path) -> list[np.ndarray]:
     """The 120 clean L515 frames of the outside set: dev0 after the person has left, and dev1
     (``OUTSIDE_CAMERAS``)."""

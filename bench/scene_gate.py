@@ -24,22 +24,20 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-import d2sr.runtime.loop as loop_module
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
-from d2sr.frames import Frame, open_frames
+from d2sr.frames import Frame
 from d2sr.reference import STILL_FRAMES, STILL_MIN, STILL_Q, STILL_SHARE, SceneReference
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
-from held_out import KINDS, SETS, every_other, outside_set, set_data
+from held_out import KINDS, SETS, clean_sequences, every_other, outside_set, set_data
 
 # Per --what: each mode's name, whether the loop judges the scene, and the SceneReference settings.
 MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
@@ -53,13 +51,11 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
 
 
 def flags(net: Backend, frames: list[np.ndarray], scale: float, scene: bool, settings: dict) -> np.ndarray:
-    """The loop's flag on each frame, in order, from a cold start."""
-    loop_module.SceneReference = partial(SceneReference, **settings)  # type: ignore[misc]
-    try:
-        lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=scene)
-        return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
-    finally:
-        loop_module.SceneReference = SceneReference  # type: ignore[misc]
+    """The loop's flag on each frame, in order, from a cold start (``settings``: the scene reference's)."""
+    lp = SensorLoop(
+        net, make_controller("static", 30, 30), repair="none", scene=scene, scene_options=settings
+    )
+    return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
 
 
 def rates(f: np.ndarray, hit: np.ndarray) -> dict:
@@ -125,14 +121,10 @@ def main() -> None:
     check_output(ap, args)
     try:
         net = open_backend(None, "onnx")
-        seqs = {
-            n: [f.depth for f in open_frames(args.data / p)]
-            for n, p in (("dev0", "l515/dev0"), ("dev1", "l515/dev1"))
-        }
-        d435 = [f.depth for f in open_frames(args.data / "d435")]
+        whole = clean_sequences(args.data)
     except D2SRError as exc:
         ap.error(str(exc))
-    l515 = outside_set(args.data)
+    d435, l515 = whole["d435"][0], outside_set(args.data)
     parts_in = {
         "d435": ([every_other(d435, 1000.0, args.which)], [d435], 1000.0),
         "l515": (
@@ -162,23 +154,20 @@ def main() -> None:
         result["gate"] = {"still_share": STILL_SHARE, "still_q": STILL_Q, "still_frames": STILL_FRAMES}
         result["gate"]["still_min"] = STILL_MIN
     else:
-        whole = {**seqs, "d435": d435}
         clean = {
-            n: {
-                mode: int(flags(net, fr, 1000.0 if n == "d435" else 4000.0, scene, st).sum())
-                for mode, (scene, st) in modes.items()
-            }
-            for n, fr in whole.items()
+            n: {mode: int(flags(net, fr, scale, scene, st).sum()) for mode, (scene, st) in modes.items()}
+            for n, (fr, scale) in whole.items()
         }
-        ms: dict[str, dict[str, float]] = {n: {} for n in seqs}
-        for n, fr in seqs.items():
+        still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
+        ms: dict[str, dict[str, float]] = {n: {} for n in still}
+        for n, fr in still.items():
             runs: dict[str, list[float]] = {mode: [] for mode in modes}
             for _ in range(3):  # alternating, so that a shared machine slows both alike
                 for mode, (_, st) in modes.items():
                     runs[mode].append(cost(fr, st))
             ms[n] = {mode: round(statistics.median(v), 2) for mode, v in runs.items()}
         result["clean_flagged"] = {
-            n: {m: f"{v} of {len(whole[n])}" for m, v in c.items()} for n, c in clean.items()
+            n: {m: f"{v} of {len(whole[n][0])}" for m, v in c.items()} for n, c in clean.items()
         }
         result["ms_per_frame"] = ms
         result["rule"] = stripes_rule(result["parts"], clean, ms)

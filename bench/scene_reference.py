@@ -28,11 +28,11 @@ from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
-from d2sr.frames import Frame, open_frames
+from d2sr.frames import Frame
 from d2sr.reference import EVIDENT, QUIET, SceneReference
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
-from held_out import every_other, open_sets, outside_set, set_data
+from held_out import clean_sequences, every_other, open_sets, outside_set, set_data
 
 
 def run(net: Backend, frames: list[np.ndarray], scale: float) -> dict[str, np.ndarray]:
@@ -82,14 +82,7 @@ def main() -> None:
     check_output(ap, args)
     try:
         net = open_backend(None, "onnx")
-        seqs = {
-            n: ([f.depth for f in open_frames(args.data / p)], s)
-            for n, p, s in (
-                ("dev0", "l515/dev0", 4000.0),
-                ("dev1", "l515/dev1", 4000.0),
-                ("d435", "d435", 1000.0),
-            )
-        }
+        seqs = clean_sequences(args.data)
     except D2SRError as exc:
         ap.error(str(exc))
     result: dict = {"clean": {}, "outside": {}, "ms_per_frame": {}}

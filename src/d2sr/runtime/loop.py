@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -120,6 +120,8 @@ class SensorLoop:
     # deviations in patches (not something that moved) is interfered, flagged or not. On in d2sr.Pipeline and
     # the commands; off here, where the paper's evaluations measure the detector alone.
     scene: bool = False
+    # The scene reference's settings (``SceneReference``'s keywords; {}: as shipped), for measuring others.
+    scene_options: dict[str, Any] = field(default_factory=dict)
     # True (with ``scene``, experimental, off): a frame that comes with a pose (``Capture.pose``) is judged
     # against the last clean frames warped into its view instead (``d2sr.moving_reference``): that evidence
     # only adds flags. It failed sealed set J (docs/research/decisions.md, 2026-11-27).
@@ -193,9 +195,7 @@ class SensorLoop:
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         cut = None if self.exact_scores else self._cut
         still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
-        units = _in_units(raw, cap.scale) if still else None  # the frame as the scene reference takes it
-        own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None  # its metres
-        ev = self._scene_evidence(*units, own) if units is not None else None
+        units, ev = self._scene_evidence(raw, cap.scale, metres) if still else (None, None)
         if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.evident
@@ -205,7 +205,7 @@ class SensorLoop:
         if self.scene and self.moving_scene and judge and cap.pose is not None:
             flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
         elif ev is not None and units is not None:
-            flagged = self._weigh(units[0], flagged, ev)
+            flagged = self._weigh(units, flagged, ev)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
@@ -238,19 +238,25 @@ class SensorLoop:
         the models' memory of earlier frames is restored too, so a resumed run decides as the first did."""
         if cap is not None:
             raw = cap.frame.depth
-            self._remember(raw, padded(to_metres(raw, cap.scale)[None]), not flagged)
+            metres = padded(to_metres(raw, cap.scale)[None])
+            self._remember(raw, metres, not flagged)
             if self.scene:  # the reference learns as it did the first time (the flag is the same)
-                frame, scale = _in_units(raw, cap.scale)
-                self._weigh(frame, flagged, self._scene_evidence(frame, scale))
+                units, ev = self._scene_evidence(raw, cap.scale, metres)
+                self._weigh(units, flagged, ev)
         self._buffer(flagged, slot)
 
-    def _scene_evidence(self, raw: np.ndarray, scale: float, metres: np.ndarray | None = None) -> Evidence:
-        """The frame (``_in_units``; ``metres``: as ``to_metres`` gives it, where known) judged against the
-        still sensor's scene reference (a new one for a new scale or size)."""
+    def _scene_evidence(
+        self, raw: np.ndarray, scale: float, metres: np.ndarray
+    ) -> tuple[np.ndarray, Evidence]:
+        """(the frame as the scene reference takes it, ``_in_units``; its evidence against the still sensor's
+        scene, a new reference for a new scale or size). ``metres``: the frame as the models take it
+        (padded); a uint16 frame's are the reference's too, so it does not convert the frame again."""
+        units, scale = _in_units(raw, scale)
         ref = self._reference
-        if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
-            ref = self._reference = SceneReference(scale)
-        return ref.evidence(raw, metres)
+        if ref is None or ref.scale != scale or ref.shape not in (None, units.shape):
+            ref = self._reference = SceneReference(scale, **self.scene_options)
+        own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None
+        return units, ref.evidence(units, own)
 
     def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
