@@ -107,7 +107,34 @@ def test_lasting_change_becomes_the_scene_and_a_moved_camera_starts_it_again():
     assert not ref.ready
 
 
+def test_fresh_shifted_windows_flag_a_frame_only_with_shift_area():
+    """A patch 2 cm nearer deviates in windows, not pixel by pixel: with ``shift_area`` its fresh shifted
+    windows flag the frame, without it they only mark pixels; clean frames stay unflagged either way, and
+    the same patch again in the next frame reads as something that moved (not fresh)."""
+    patch = np.s_[40:70, 30:80]
+    for area in (None, 0.01):
+        rng = np.random.default_rng(3)
+        ref = SceneReference(SCALE, shift_area=area)
+        _warm(ref, rng)
+        for _ in range(20):
+            ev = ref.evidence(f := _scene(rng))
+            assert not ev.evident and ev.fresh_shifted < 0.003
+            ref.add(f)
+        hit = _scene(rng)
+        hit[patch] = np.where(hit[patch] > 0, hit[patch] - int(0.02 * SCALE), 0)
+        ev = ref.evidence(hit)
+        assert ev.usable and ev.dense < EVIDENT  # each pixel within its own tolerance
+        assert ev.evident == (area is not None)
+        if area is not None:
+            assert ev.fresh_shifted > 0.05
+            again = _scene(rng)
+            again[patch] = np.where(again[patch] > 0, again[patch] - int(0.02 * SCALE), 0)
+            assert not ref.evidence(again).evident  # in place a frame later: something that moved
+
+
 def test_bad_settings_and_frames_are_refused():
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, shift_area=0)
     with pytest.raises(ConfigError):
         SceneReference(SCALE, frames=4, warm=8)
     with pytest.raises(ConfigError):

@@ -104,7 +104,11 @@ class Evidence:
     metres: np.ndarray  # the frame judged (float32 metres)
     explain: Callable[[], tuple[np.ndarray, float]] = field(repr=False)  # -> (fresh, fresh_dense)
     still: bool = True  # the sensor held still (``STILL_SHARE``): else the evidence is not to be used
+    shifted: float = 0.0  # share of the known scene in shifted windows (``SceneReference._shifted``)
+    shift_area: float | None = None  # fresh shifted windows this share of the scene flag it (None: never)
     _fresh: tuple[np.ndarray, float] | None = field(default=None, init=False, repr=False)
+    _shift: np.ndarray | None = field(default=None, repr=False)  # bool: the shifted windows' pixels
+    _known: int = field(default=1, repr=False)  # pixels the reference has seen return (the shares' base)
 
     @property
     def fresh(self) -> np.ndarray:
@@ -120,10 +124,23 @@ class Evidence:
         return self.ready and self.still
 
     @property
+    def fresh_shifted(self) -> float:
+        """The share of the known scene in shifted windows that nothing moving explains."""
+        if self._shift is None or not self.shifted:
+            return 0.0
+        return float(np.count_nonzero(self.fresh & self._shift)) / self._known
+
+    @property
     def evident(self) -> bool:
-        """``fresh_dense`` reaches ``EVIDENT``: interfered, whatever a detector says (only when ``usable``).
-        ``fresh_dense`` is at most ``dense``, so a frame whose ``dense`` is below it is not worked out."""
-        return self.usable and self.dense >= EVIDENT and self.fresh_dense >= EVIDENT
+        """``fresh_dense`` reaches ``EVIDENT``, or fresh shifted windows cover ``shift_area``: interfered,
+        whatever a detector says (only when ``usable``). Each fresh share is at most its whole one, so a
+        frame whose whole shares are below the marks is not worked out."""
+        if not self.usable:
+            return False
+        if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
+            return True
+        area = self.shift_area
+        return area is not None and self.shifted >= area and self.fresh_shifted >= area
 
     def _explained(self) -> tuple[np.ndarray, float]:
         if self._fresh is None:
@@ -155,9 +172,12 @@ class SceneReference:
         tol_rel: float = TOL_REL,
         still_share: float | None = STILL_SHARE,
         rest: int = REST,
+        shift_area: float | None = None,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
-        ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none)."""
+        ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
+        ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (None: they
+        only mark pixels)."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
@@ -168,7 +188,9 @@ class SceneReference:
             raise ConfigError(f"still_share must be in (0, 1], got {still_share}")
         if rest < 0:
             raise ConfigError(f"rest must be >= 0, got {rest}")
-        self.still_share, self.rest = still_share, rest
+        if shift_area is not None and not 0 < shift_area <= 1:
+            raise ConfigError(f"shift_area must be in (0, 1], got {shift_area}")
+        self.still_share, self.rest, self.shift_area = still_share, rest, shift_area
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -312,7 +334,20 @@ class SceneReference:
         lasting = self._streak >= self.persist
         if lasting.any():
             self._take(frame, lasting)
-        return Evidence(mask, share, dense, True, metres, explain, still)
+        shifted = float(np.count_nonzero(shift)) / known if self.shift_area is not None else 0.0
+        return Evidence(
+            mask,
+            share,
+            dense,
+            True,
+            metres,
+            explain,
+            still,
+            shifted=shifted,
+            shift_area=self.shift_area,
+            _shift=shift,
+            _known=known,
+        )
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
