@@ -8,6 +8,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what stripes`` (set L): the scene as shipped with its statistics refreshed one stripe of 8 or of 16
   per clean frame (``SceneReference(stripes=...)``); beside the set, the clean sequences (L515 dev0 and dev1,
   the D435, whole) and the reference's cost a still L515 frame (median of 3 passes, in one run).
+* ``--what shift`` (set M): shifted windows flagging frames off (``SceneReference(shift_area=None)``) and on
+  (``shift_area=0.01``); beside the set, the clean sequences. Its L515 views are corrupted as one sequence
+  of 120 frames (seeds 0-119, as ``bench/scene_reference.py`` does), so no draw repeats across them.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -17,6 +20,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_gate_k.json
       .venv/bin/python bench/scene_gate.py --what stripes --set l --data ../shared/data \\
           --json docs/results/scene_stripes_l.json
+      .venv/bin/python bench/scene_gate.py --what shift --set m --data ../shared/data \\
+          --json docs/results/scene_shift_m.json
 """
 
 from __future__ import annotations
@@ -47,6 +52,10 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "scene gated (shipped)": (True, {}),
     },
     "stripes": {"stripes 8": (True, {"stripes": 8}), "stripes 16": (True, {"stripes": 16})},
+    "shift": {
+        "shift flags off": (True, {"shift_area": None}),
+        "shift flags 0.01": (True, {"shift_area": 0.01}),
+    },
 }
 
 
@@ -111,6 +120,22 @@ def stripes_rule(parts: dict, clean: dict, ms: dict) -> dict[str, bool]:
     }
 
 
+def shift_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    moving, still = parts["d435"], parts["l515"]
+    off, on = MODES["shift"]
+    return {
+        "1 l515: recall >= min(off's + 0.2, 0.9), precision >= 0.95, clean flags <= off's": bool(
+            still[on]["recall"] >= min(still[off]["recall"] + 0.2, 0.90)
+            and still[on]["precision"] >= 0.95
+            and still[on]["clean_flagged"] <= still[off]["clean_flagged"]
+        ),
+        "2 d435: clean flags at most off's": bool(
+            moving[on]["clean_flagged"] <= moving[off]["clean_flagged"]
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[on] <= c[off] for c in clean.values()),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -125,13 +150,14 @@ def main() -> None:
     except D2SRError as exc:
         ap.error(str(exc))
     d435, l515 = whole["d435"][0], outside_set(args.data)
+    if args.what == "shift":  # seeded as one sequence (no draw repeats across the views), each view cold
+        bad = every_other(l515, 4000.0, args.which)
+        views = [bad[:60], bad[60:]]
+    else:  # each view seeded alike (how K and L were judged)
+        views = [every_other(l515[a : a + 60], 4000.0, args.which) for a in (0, 60)]
     parts_in = {
         "d435": ([every_other(d435, 1000.0, args.which)], [d435], 1000.0),
-        "l515": (
-            [every_other(l515[a : a + 60], 4000.0, args.which) for a in (0, 60)],
-            [l515[:60], l515[60:]],
-            4000.0,
-        ),
+        "l515": (views, [l515[:60], l515[60:]], 4000.0),
     }
     modes = MODES[args.what]
     result: dict = {
@@ -158,6 +184,12 @@ def main() -> None:
             n: {mode: int(flags(net, fr, scale, scene, st).sum()) for mode, (scene, st) in modes.items()}
             for n, (fr, scale) in whole.items()
         }
+        result["clean_flagged"] = {
+            n: {m: f"{v} of {len(whole[n][0])}" for m, v in c.items()} for n, c in clean.items()
+        }
+    if args.what == "shift":
+        result["rule"] = shift_rule(result["parts"], clean)
+    elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
         ms: dict[str, dict[str, float]] = {n: {} for n in still}
         for n, fr in still.items():
@@ -166,9 +198,6 @@ def main() -> None:
                 for mode, (_, st) in modes.items():
                     runs[mode].append(cost(fr, st))
             ms[n] = {mode: round(statistics.median(v), 2) for mode, v in runs.items()}
-        result["clean_flagged"] = {
-            n: {m: f"{v} of {len(whole[n][0])}" for m, v in c.items()} for n, c in clean.items()
-        }
         result["ms_per_frame"] = ms
         result["rule"] = stripes_rule(result["parts"], clean, ms)
     data = {
