@@ -132,6 +132,19 @@ def test_fresh_shifted_windows_flag_a_frame_only_with_shift_area():
             assert not ref.evidence(again).evident  # in place a frame later: something that moved
 
 
+def test_the_loop_flags_a_surface_read_a_centimetre_and_a_half_off_by_default():
+    """The detector misses it (FakeNet flags nothing here), and no pixel deviates beyond its own tolerance;
+    the scene's shifted windows find it, as shipped."""
+    rng = np.random.default_rng(5)
+    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    for _ in range(30):
+        assert not loop.process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
+    hit = _scene(rng)
+    hit[40:70, 30:80] = np.where(hit[40:70, 30:80] > 0, hit[40:70, 30:80] - int(0.015 * SCALE), 0)
+    assert loop.process(Capture(Frame("h", hit), SCALE)).flagged
+    assert not loop.process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
+
+
 def test_bad_settings_and_frames_are_refused():
     with pytest.raises(ConfigError):
         SceneReference(SCALE, shift_area=0)

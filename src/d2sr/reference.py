@@ -8,7 +8,8 @@ out, a never-returning one returning, a depth outside the pixel's clean range by
 in clusters) and what share of the scene they cover.
 
 - A surface read a little off as a whole: a window of steady pixels whose mean reads more than ``SHIFT_M`` off
-  deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G).
+  deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G); fresh such
+  windows over ``SHIFT_AREA`` of the scene flag the frame (judged on sealed set M).
 - Start-up: no evidence until ``warm`` clean frames are in (``Evidence.ready`` is False).
 - Cost: the ring of the last ``frames`` clean frames is re-summarized one stripe of rows (of ``stripes``) per
   added frame, so no frame pays for a full re-sort. 16 stripes (a pixel's statistics at most 16 clean frames
@@ -40,7 +41,7 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import to_metres
 from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
 
-__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "STILL_SHARE", "Evidence", "SceneReference"]
+__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "SHIFT_AREA", "STILL_SHARE", "Evidence", "SceneReference"]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
@@ -61,6 +62,11 @@ TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
 #: of set A's clean pixels (over issue 42's 2%), ``SHIFT_M`` 1.95%. They mark pixels to repair, not frames:
 #: as a flag they missed sealed set H's bar (decisions.md, 2026-11-26).
 SHIFT_PX, SHIFT_M = 15, 0.01
+#: A frame whose fresh shifted windows (``Evidence.fresh_shifted``) cover this share of the known scene is
+#: interfered: about twice the most any clean development frame reached (0.0043). It lifted sets G and H's
+#: recall from 0.35 / 0.20 to 0.85 / 0.83 and sealed set M's from 0.17 to 0.70, with no clean frame flagged
+#: more (docs/research/decisions.md, 2026-11-27).
+SHIFT_AREA = 0.01
 #: A frame more than this share of whose known scene deviates is taken for another view (the camera moved):
 #: the reference says nothing of it. Frames of another L515 view deviate by 0.81-0.89, interference on sets
 #: A-G by at most 0.58.
@@ -172,12 +178,12 @@ class SceneReference:
         tol_rel: float = TOL_REL,
         still_share: float | None = STILL_SHARE,
         rest: int = REST,
-        shift_area: float | None = None,
+        shift_area: float | None = SHIFT_AREA,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
-        ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (None: they
-        only mark pixels)."""
+        ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
+        None: they only mark pixels)."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:

@@ -214,7 +214,8 @@ class Pipeline:
     - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
     - ``scene`` [True]: frames are also judged against the scene the sensor's clean frames have shown
       (``d2sr.reference``), once it has held still: a flagged frame in which nothing deviates from it is
-      passed, one with fresh patches off it is flagged. While the sensor moves the detector decides alone.
+      passed, one with fresh patches off it, or a surface read a centimetre or more off as a whole, is
+      flagged. While the sensor moves the detector decides alone.
       False: the detector alone, always.
     - the repair's ``options``: ``Options``.
     """
