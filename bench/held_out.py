@@ -75,6 +75,7 @@ SALTS = {
     "k": 0xF10,
     "l": 0x5E3,
     "m": 0x3A1,
+    "n": 0x9E7,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -90,6 +91,7 @@ KINDS = {
     "k": ("flood noise", "diagonal comb"),
     "l": ("row skew", "mirror ghost"),
     "m": ("range walk", "phase wedge"),
+    "n": ("window ghost", "column crosstalk"),
 }
 
 
@@ -641,6 +643,54 @@ def walk_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return _written(frame, new, where, scale)
 
 
+def window_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set N (written and sealed 2026-11-27, before the scene's repair ran by default on it, to judge that
+    default: decisions.md). One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-M:
+
+    * window ghost: another sensor's emitter seen through its own cover window: a flat ghost at one depth
+      (0.4-1.5 m, tilted by up to 0.3 m across the view) over a blob (3-6 overlapping ellipses, 8-30% of
+      the view), read wherever it is nearer than the scene at 40-90% of the blob's pixels; 10-40% of the
+      blob's other returns drop out;
+    * column crosstalk: another scanner's lines couple into 3-12 groups of columns (2-8 px wide each), which
+      read 3-15% nearer (each group its own share, +-1% per pixel), and 5-20% of their pixels drop out.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.5% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "n")
+    ghost = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    for _ in range(20):
+        if ghost:
+            blob = np.zeros((h, w), bool)
+            share = rng.uniform(0.08, 0.30)
+            parts = int(rng.integers(3, 7))
+            for _ in range(parts):
+                blob |= _ellipse(rng, y, x, share / parts, 1.5 * share / parts) < 1
+            ang = rng.uniform(0, 2 * np.pi)
+            tilt = rng.uniform(-0.3, 0.3) * ((x * np.cos(ang) + y * np.sin(ang)) / max(h, w))
+            plane = rng.uniform(0.4, 1.5) + tilt
+            nearer = (d == 0) | (plane < d)
+            seen = blob & nearer & (rng.random((h, w)) < rng.uniform(0.4, 0.9))
+            drop = blob & ~seen & (rng.random((h, w)) < rng.uniform(0.1, 0.4))
+            new = np.where(seen, plane, np.where(drop, 0.0, d))
+        else:
+            on = np.zeros(w, bool)
+            share = np.ones(w)
+            for _ in range(int(rng.integers(3, 13))):
+                c0 = int(rng.integers(0, w))
+                cols = slice(c0, min(w, c0 + int(rng.integers(2, 9))))
+                on[cols] = True
+                share[cols] = 1 - rng.uniform(0.03, 0.15)
+            cols2 = np.broadcast_to(on, (h, w))
+            near = d * share[None, :] * (1 + rng.uniform(-0.01, 0.01, (h, w)))
+            drop = cols2 & (rng.random((h, w)) < rng.uniform(0.05, 0.2))
+            new = np.where(drop, 0.0, np.where(cols2, near, d))
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (where & (d > 0)).sum() >= 0.005 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -654,10 +704,11 @@ SETS = {
     "k": flood_interference,
     "l": skew_interference,
     "m": walk_interference,
+    "n": window_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"n"}
 # Sets written for one measurement of their own (K, L, M: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m"}

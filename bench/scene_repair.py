@@ -1,0 +1,170 @@
+"""Benchmark (issue 42): the scene's repair where frames are judged. ``d2sr.Pipeline`` as shipped (the scene
+on, flagged frames repaired) with the scene's repair off and on (``SensorLoop.scene_repair``: where a
+flagged frame deviates freshly from a still scene that is trusted there, the scene's own depth), per set of
+``held_out.py``:
+
+* both L515 views of the outside set, each a cold sequence of 60 frames, the 120 frames corrupted as one
+  sequence (seeds 0-119, as ``bench/scene_reference.py`` does): RMSE change over the corrupted frames,
+  frames made worse, RMSE change per view over all its frames (clean ones too), pixels moved by more than
+  2 cm put back within 1 cm, clean pixels changed (the pixels the corruption left alone, every frame);
+* the hand-held D435 whole with every other frame corrupted (a moving sensor: the scene should stay out);
+* the clean sequences (L515 dev0 and dev1, the D435, whole): valid pixels moved by more than 5 cm.
+
+With ``--set n`` (sealed set N), also whether the rule written for it held (docs/research/decisions.md,
+2026-11-27).
+
+Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--set X ...] \\
+          --json docs/results/scene_repair.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from d2sr.bench import check_output, output_args, write_result
+from d2sr.contract import AUTO_RECOVERY
+from d2sr.errors import D2SRError
+from d2sr.runtime.pipeline import Pipeline
+from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
+
+MODES = {"scene repair off": False, "scene repair on": True}
+
+
+def pipeline(scale: float, scene_repair: bool) -> Pipeline:
+    """``d2sr.Pipeline`` as shipped, the scene's repair set as asked."""
+    p = Pipeline(scale)
+    p.loop.scene_repair = scene_repair
+    return p
+
+
+def repaired(views: list[list[np.ndarray]], scale: float, scene_repair: bool) -> list[np.ndarray]:
+    """Each view through a fresh Pipeline, in order: the repaired frames, views joined."""
+    out = []
+    for frames in views:
+        p = pipeline(scale, scene_repair)
+        out += [p.process(f).depth for f in frames]
+    return out
+
+
+def scored(
+    bad: list[np.ndarray], clean: list[np.ndarray], out: list[np.ndarray], scale: float, views: int
+) -> dict:
+    """The figures of one mode on a set (``views``: equal parts of the sequence, each a view)."""
+    e_in = e_out = 0.0
+    worse = hits = moved = back = changed = pixels = 0
+    per = len(bad) // views
+    view = np.zeros((views, 2))
+    for i, (b, c, o) in enumerate(zip(bad, clean, out, strict=True)):
+        c64, o64 = c.astype(np.float64), o.astype(np.float64)
+        ok = c > 0
+        a = float((((b - c64) / scale)[ok] ** 2).sum())
+        z = float((((o64 - c64) / scale)[ok] ** 2).sum())
+        view[i // per] += (a, z)
+        true = b != c
+        if true.any():
+            hits += 1
+            e_in, e_out, worse = e_in + a, e_out + z, worse + int(z > a)
+            far = ok & (b > 0) & (np.abs(b - c64) > 0.02 * scale)
+            moved += int(far.sum())
+            back += int((far & (np.abs(o64 - c64) <= 0.01 * scale)).sum())
+        changed += int(((o != b) & ~true).sum())
+        pixels += int((~true).sum())
+    return {
+        "rmse_change": round(float(np.sqrt(e_out / max(e_in, 1e-12)) - 1), 4),
+        "frames_worse": worse,
+        "interfered": hits,
+        "rmse_change_per_view": [round(float(np.sqrt(z / max(a, 1e-12)) - 1), 4) for a, z in view],
+        "moved_2cm_put_back": round(back / max(moved, 1), 4),
+        "clean_changed": round(changed / max(pixels, 1), 5),
+    }
+
+
+def moved_5cm(frames: list[np.ndarray], scale: float, scene_repair: bool) -> float:
+    """The share of a clean sequence's valid pixels the Pipeline moves by more than 5 cm."""
+    out = repaired([frames], scale, scene_repair)
+    moved = sum(
+        int(((f > 0) & (np.abs(o.astype(np.float64) - f) > 0.05 * scale)).sum())
+        for f, o in zip(frames, out, strict=True)
+    )
+    return round(moved / max(sum(int((f > 0).sum()) for f in frames), 1), 6)
+
+
+def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    still, moving = parts["l515"], parts["d435"]
+    off, on = (still[m] for m in MODES)
+    d_off, d_on = (moving[m] for m in MODES)
+    views = zip(on["rmse_change_per_view"], off["rmse_change_per_view"], strict=True)
+    return {
+        "1 l515: RMSE change, corrupted frames and each view, at most off's + 0.005": bool(
+            on["rmse_change"] <= off["rmse_change"] + 0.005 and all(a <= b + 0.005 for a, b in views)
+        ),
+        "2 l515: frames made worse no more than off's": on["frames_worse"] <= off["frames_worse"],
+        "3 l515: more of the pixels moved > 2 cm put back than off's": on["moved_2cm_put_back"]
+        > off["moved_2cm_put_back"],
+        "4 l515: clean pixels changed at most 2%": on["clean_changed"] <= 0.02,
+        "5 d435: RMSE change at most off's + 0.005": d_on["rmse_change"] <= d_off["rmse_change"] + 0.005,
+        "6 clean sequences: valid pixels moved > 5 cm no more than off's": all(
+            c["scene repair on"] <= c["scene repair off"] for c in clean.values()
+        ),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--set", dest="sets", nargs="*", default=None, choices=sorted(SETS),
+                    help="sets to run [every set but the sealed ones]")  # fmt: skip
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    sets = args.sets or sorted(set(SETS) - SEALED)
+    try:
+        whole = clean_sequences(args.data)
+        l515 = outside_set(args.data)
+    except D2SRError as exc:
+        ap.error(str(exc))
+    d435 = whole["d435"][0]
+    result: dict = {
+        "benchmark": "issue 42: the scene's repair where frames are judged, off and on",
+        "sets": {},
+    }
+    for w in sets:
+        bad = every_other(l515, 4000.0, w)
+        bad_d435 = every_other(d435, 1000.0, w)
+        result["sets"][w] = {
+            "kinds": list(KINDS[w]),
+            "status": set_data(w)["status"],
+            "l515": {
+                m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r), 4000.0, 2)
+                for m, r in MODES.items()
+            },
+            "d435": {
+                m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r), 1000.0, 1)
+                for m, r in MODES.items()
+            },
+        }
+        print(
+            w,
+            {
+                p: {m: v["rmse_change"] for m, v in x.items()}
+                for p, x in result["sets"][w].items()
+                if p in ("l515", "d435")
+            },
+            flush=True,
+        )
+    clean = {n: {m: moved_5cm(fr, s, r) for m, r in MODES.items()} for n, (fr, s) in whole.items()}
+    result["clean_moved_5cm"] = clean
+    if "n" in sets:
+        result["rule"] = n_rule(result["sets"]["n"], clean)
+    data = {
+        "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
+        "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",
+    }
+    print(write_result(result, args.json, models=used_models(AUTO_RECOVERY), data=data))
+
+
+if __name__ == "__main__":
+    main()
