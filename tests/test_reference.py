@@ -280,14 +280,14 @@ class _NoRepair(FakeNet):
 
 
 def test_the_scene_repairs_a_shifted_patch_where_it_is_trusted_and_leaves_clean_frames_alone():
-    """``scene_repair``: a patch read 4 cm near, which the detector and the model both miss, is put back to
-    within the scene's noise where the scene is trusted; a clean frame comes out bit for bit; without the
-    option, the patch stays."""
+    """``scene_repair`` (on by default): a patch read 4 cm near, which the detector and the model both miss,
+    is put back to within the scene's noise where the scene is trusted; a clean frame comes out bit for bit;
+    with it off, the patch stays."""
     rng = np.random.default_rng(5)
-    on = SensorLoop(
-        _NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True, scene_repair=True
+    on = SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True)
+    off = SensorLoop(
+        _NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True, scene_repair=False
     )
-    off = SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True)
     for _ in range(10):
         f = _scene(rng)
         for loop in (on, off):
@@ -361,7 +361,7 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
         cv2.imwrite(str(rec / f"{i:03d}.png"), f)
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "a"), "--depth-scale", "4000",
                                   "--all", "--no-scene", "--scene-repair")  # fmt: skip
-    assert code == 2 and "--scene-repair needs --scene" in err and not (tmp_path / "a").exists()
+    assert code == 2 and "--scene-repair needs the scene" in err and not (tmp_path / "a").exists()
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "b"), "--depth-scale", "4000",
                                   "--all", "--scene", "--scene-repair")  # fmt: skip
     assert code == 0, err
@@ -369,6 +369,18 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     ok = truth[40:70, 30:80] > 0
     err_m = np.abs(out[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
     assert np.median(err_m) < 0.01  # put back within the scene's noise (it was 4 cm off)
+    # Without --all the scene repairs by default (the frame is flagged by the scene's evidence);
+    # --no-scene-repair leaves the patch to the model.
+    runs = {"c": (), "d": ("--no-scene-repair",)}
+    for name, extra in runs.items():
+        out_dir = str(tmp_path / name)
+        code, _, err = d2sr_inprocess("recover", str(rec), "--out", out_dir, "--depth-scale", "4000", *extra)
+        assert code == 0, err
+    by_default, without = (cv2.imread(str(tmp_path / n / "011.png"), cv2.IMREAD_UNCHANGED) for n in runs)
+    err_m = np.abs(by_default[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
+    assert np.median(err_m) < 0.01
+    err_m = np.abs(without[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
+    assert np.median(err_m) > 0.03
 
 
 def _panned(rng: np.random.Generator, k: int, patch: bool) -> np.ndarray:

@@ -99,13 +99,15 @@ def recover(
     rerun: RerunOpt = None,
     scene: SceneOpt = True,
     scene_repair: Annotated[
-        bool,
+        bool | None,
         typer.Option(
-            "--scene-repair",
-            help="Experimental, with --scene: where the scene is trusted, its own depth repairs a frame's "
-            "fresh deviations, and the model leaves alone what reads as the scene.",
+            "--scene-repair/--no-scene-repair",
+            help="With the scene: where it is trusted, its own depth repairs a frame's fresh deviations, and "
+            "the model leaves alone what reads as the scene. [default: on; off with --all, where it would "
+            "have the scene judge every frame]",
+            show_default=False,
         ),
-    ] = False,
+    ] = None,
     colour_topic: ColourTopic = None,
     overwrite: Overwrite = False,
 ) -> None:

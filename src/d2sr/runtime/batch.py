@@ -242,15 +242,16 @@ def recover_recording(
     max_range: float = PLAUSIBLE_M[1],
     rerun: str | None = None,
     scene: bool = True,
-    scene_repair: bool = False,
+    scene_repair: bool | None = None,
     colour_topic: str | None = None,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Repair a recording: only the frames the detector flags (with ``scene``, weighed against the still
-    sensor's own scene, ``SensorLoop.scene``), or ``every`` frame; ``scene_repair`` (experimental, with
-    ``scene``): the scene's own depth where it is trusted, ``SensorLoop.scene_repair``. ``format``:
+    sensor's own scene, ``SensorLoop.scene``), or ``every`` frame; ``scene_repair`` (with ``scene``): the
+    scene's own depth where it is trusted, ``SensorLoop.scene_repair`` [None: on where frames are judged,
+    off with ``every``, where it would have the scene judge every frame]. ``format``:
     ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``.
     ``rerun``: also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
     ``every``) come out bit for bit as they went in. ``colour_topic`` (a bag in and out, 16-bit depth): every
@@ -271,7 +272,8 @@ def recover_recording(
     # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
     # needs to know which frames were clean.
     if scene_repair and not scene:
-        raise ConfigError("--scene-repair needs --scene")
+        raise ConfigError("--scene-repair needs the scene (drop --no-scene)")
+    scene_repair = scene and (not every if scene_repair is None else scene_repair)
     # Repairing every frame, the scene's verdicts would go unused too: it is judged only for its repair.
     scene = scene and (not every or scene_repair)
     # The scene is judged on every frame (its upkeep needs them all), so it needs the detector's verdicts.

@@ -129,8 +129,9 @@ class SensorLoop:
     intrinsics: Intrinsics | None = None  # the depth camera's, for ``moving_scene`` [guessed]
     # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
-    # model's repair. Experimental: it failed sealed sets G and H (docs/research/decisions.md).
-    scene_repair: bool = False
+    # model's repair. On since it held sealed set N (docs/research/decisions.md, 2026-11-27); it had failed
+    # G and H under ``repair="all"`` before the guard left lone returns alone.
+    scene_repair: bool = True
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.

@@ -217,6 +217,9 @@ class Pipeline:
       passed, one with fresh patches off it, or a surface read a centimetre or more off as a whole, is
       flagged. While the sensor moves the detector decides alone.
       False: the detector alone, always.
+    - ``scene_repair`` [True]: with ``scene``, a repaired frame takes the scene's own depth where it deviates
+      freshly from a still scene that is trusted there, and the model leaves alone what reads as the scene
+      (``SensorLoop.scene_repair``). False: the model alone repairs.
     - the repair's ``options``: ``Options``.
     """
 
@@ -232,6 +235,7 @@ class Pipeline:
         int8: bool = False,
         intrinsics: Intrinsics | None = None,
         scene: bool = True,
+        scene_repair: bool = True,
         **options: Unpack[Options],
     ) -> None:
         if controller not in CONTROLLERS or controller == "oracle":
@@ -251,6 +255,7 @@ class Pipeline:
             threshold=options.get("threshold"),
             repair=mode,
             scene=scene,
+            scene_repair=scene_repair,
             intrinsics=intrinsics,
         )
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
