@@ -76,6 +76,7 @@ SALTS = {
     "l": 0x5E3,
     "m": 0x3A1,
     "n": 0x9E7,
+    "o": 0x0B1,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -92,6 +93,7 @@ KINDS = {
     "l": ("row skew", "mirror ghost"),
     "m": ("range walk", "phase wedge"),
     "n": ("window ghost", "column crosstalk"),
+    "o": ("flying edges", "blotch field"),
 }
 
 
@@ -691,6 +693,52 @@ def window_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarra
     return _written(frame, new, where, scale)
 
 
+def blotch_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set O (written and sealed 2026-11-27, before the scene's repair trusted returns at ``RANGE_RATE`` on
+    it, to judge that: decisions.md). One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in
+    sets A-N:
+
+    * flying edges: another sensor's light mixes the two sides of the scene's range edges: pixels within
+      2-8 px of an edge (of some edges: 40-90% of the view's) read a depth between its two sides (uniform),
+      and 0-10% of them drop out;
+    * blotch field: over an ellipse (15-40% of the view) the depth reads off by smooth blotches (white noise
+      blurred over 3-10 px, scaled to 3-8 cm at its largest), either way, with no dropouts.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.5% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "o")
+    flying = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    for _ in range(20):
+        if flying:
+            filled = cv2.dilate(d.astype(np.float32), np.ones((5, 5), np.uint8))
+            near = cv2.erode(np.where(filled > 0, filled, np.float32(1e3)), np.ones((5, 5), np.uint8))
+            edge = ((filled - near) > 0.1).astype(np.uint8)  # a step of more than 10 cm within 5 px
+            keep = cv2.resize(rng.random((6, 8)).astype(np.float32), (w, h), interpolation=cv2.INTER_NEAREST)
+            edge *= (keep < rng.uniform(0.4, 0.9)).astype(np.uint8)
+            reach = int(rng.integers(2, 9))
+            band = cv2.dilate(edge, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
+            lo = cv2.erode(
+                np.where(d > 0, d, 1e3).astype(np.float32), np.ones((2 * reach + 1,) * 2, np.uint8)
+            )
+            hi = cv2.dilate(d.astype(np.float32), np.ones((2 * reach + 1,) * 2, np.uint8))
+            mix = lo + rng.random((h, w)) * (hi - lo)
+            where = band & (d > 0) & (lo < 1e3)
+            new = np.where(where, mix, d)
+            new = np.where(where & (rng.random((h, w)) < rng.uniform(0.0, 0.1)), 0.0, new)
+        else:
+            region = _ellipse(rng, y, x, 0.15, 0.40) < 1
+            noise = cv2.GaussianBlur(
+                rng.standard_normal((h, w)).astype(np.float32), (0, 0), rng.uniform(3, 10)
+            )
+            noise /= max(float(np.abs(noise).max()), 1e-9)
+            new = np.where(region & (d > 0), d + rng.uniform(0.03, 0.08) * noise, d)
+        changed = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (changed & (d > 0)).sum() >= 0.005 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, changed, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -705,10 +753,11 @@ SETS = {
     "l": skew_interference,
     "m": walk_interference,
     "n": window_interference,
+    "o": blotch_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"o"}
 # Sets written for one measurement of their own (K-N: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m", "n"}

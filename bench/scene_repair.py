@@ -10,10 +10,13 @@ flagged frame deviates freshly from a still scene that is trusted there, the sce
 * the hand-held D435 whole with every other frame corrupted (a moving sensor: the scene should stay out);
 * the clean sequences (L515 dev0 and dev1, the D435, whole): valid pixels moved by more than 5 cm.
 
-With ``--set n`` (sealed set N), also whether the rule written for it held (docs/research/decisions.md,
-2026-11-27).
+``--what returns``: the scene's repair on, trusting a return where the scene returned in ``TRUST_RATE`` of
+its clean frames (as shipped until 2026-11-27) or in ``RANGE_RATE`` (``SceneReference(return_rate=...)``).
 
-Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--set X ...] \\
+With ``--set n`` (sealed set N) or ``--what returns --set o`` (sealed set O), also whether the rule written
+for it held (docs/research/decisions.md, 2026-11-27).
+
+Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
 """
 
@@ -21,30 +24,40 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import AUTO_RECOVERY
 from d2sr.errors import D2SRError
+from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.pipeline import Pipeline
 from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
 
-MODES = {"scene repair off": False, "scene repair on": True}
+Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
+# Per --what: each mode's name and settings.
+WHAT: dict[str, dict[str, Mode]] = {
+    "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
+    "returns": {
+        f"returns trusted from {TRUST_RATE}": (True, {"return_rate": TRUST_RATE}),
+        f"returns trusted from {RANGE_RATE}": (True, {"return_rate": RANGE_RATE}),
+    },
+}
 
 
-def pipeline(scale: float, scene_repair: bool) -> Pipeline:
-    """``d2sr.Pipeline`` as shipped, the scene's repair set as asked."""
+def pipeline(scale: float, mode: Mode) -> Pipeline:
+    """``d2sr.Pipeline`` as shipped, the scene's repair and reference set as asked."""
     p = Pipeline(scale)
-    p.loop.scene_repair = scene_repair
+    p.loop.scene_repair, p.loop.scene_options = mode
     return p
 
 
-def repaired(views: list[list[np.ndarray]], scale: float, scene_repair: bool) -> list[np.ndarray]:
+def repaired(views: list[list[np.ndarray]], scale: float, mode: Mode) -> list[np.ndarray]:
     """Each view through a fresh Pipeline, in order: the repaired frames, views joined."""
     out = []
     for frames in views:
-        p = pipeline(scale, scene_repair)
+        p = pipeline(scale, mode)
         out += [p.process(f).depth for f in frames]
     return out
 
@@ -82,9 +95,9 @@ def scored(
     }
 
 
-def moved_5cm(frames: list[np.ndarray], scale: float, scene_repair: bool) -> float:
+def moved_5cm(frames: list[np.ndarray], scale: float, mode: Mode) -> float:
     """The share of a clean sequence's valid pixels the Pipeline moves by more than 5 cm."""
-    out = repaired([frames], scale, scene_repair)
+    out = repaired([frames], scale, mode)
     moved = sum(
         int(((f > 0) & (np.abs(o.astype(np.float64) - f) > 0.05 * scale)).sum())
         for f, o in zip(frames, out, strict=True)
@@ -94,8 +107,8 @@ def moved_5cm(frames: list[np.ndarray], scale: float, scene_repair: bool) -> flo
 
 def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
     still, moving = parts["l515"], parts["d435"]
-    off, on = (still[m] for m in MODES)
-    d_off, d_on = (moving[m] for m in MODES)
+    off, on = (still[m] for m in WHAT["default"])
+    d_off, d_on = (moving[m] for m in WHAT["default"])
     views = zip(on["rmse_change_per_view"], off["rmse_change_per_view"], strict=True)
     return {
         "1 l515: RMSE change, corrupted frames and each view, at most off's + 0.005": bool(
@@ -112,9 +125,30 @@ def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def o_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    still = parts["l515"]
+    old_name, new_name = WHAT["returns"]
+    old, new = still[old_name], still[new_name]
+    views = zip(new["rmse_change_per_view"], old["rmse_change_per_view"], strict=True)
+    return {
+        "1 l515: RMSE change, corrupted frames and each view, at most the old trust's + 0.005": bool(
+            new["rmse_change"] <= old["rmse_change"] + 0.005 and all(a <= b + 0.005 for a, b in views)
+        ),
+        "2 l515: frames made worse no more than the old trust's": new["frames_worse"] <= old["frames_worse"],
+        "3 l515: at least as many pixels moved > 2 cm put back": new["moved_2cm_put_back"]
+        >= old["moved_2cm_put_back"],
+        "4 l515: clean pixels changed at most the old trust's + 0.0005": new["clean_changed"]
+        <= old["clean_changed"] + 0.0005,
+        "5 clean sequences: valid pixels moved > 5 cm no more than the old trust's": all(
+            c[new_name] <= c[old_name] for c in clean.values()
+        ),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--what", default="default", choices=sorted(WHAT))
     ap.add_argument("--set", dest="sets", nargs="*", default=None, choices=sorted(SETS),
                     help="sets to run [every set but the sealed ones]")  # fmt: skip
     output_args(ap)
@@ -127,8 +161,9 @@ def main() -> None:
     except D2SRError as exc:
         ap.error(str(exc))
     d435 = whole["d435"][0]
+    modes = WHAT[args.what]
     result: dict = {
-        "benchmark": "issue 42: the scene's repair where frames are judged, off and on",
+        "benchmark": f"issue 42: the scene's repair where frames are judged ({', '.join(modes)})",
         "sets": {},
     }
     for w in sets:
@@ -139,11 +174,11 @@ def main() -> None:
             "status": set_data(w)["status"],
             "l515": {
                 m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r), 4000.0, 2)
-                for m, r in MODES.items()
+                for m, r in modes.items()
             },
             "d435": {
                 m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r), 1000.0, 1)
-                for m, r in MODES.items()
+                for m, r in modes.items()
             },
         }
         print(
@@ -155,10 +190,12 @@ def main() -> None:
             },
             flush=True,
         )
-    clean = {n: {m: moved_5cm(fr, s, r) for m, r in MODES.items()} for n, (fr, s) in whole.items()}
+    clean = {n: {m: moved_5cm(fr, s, r) for m, r in modes.items()} for n, (fr, s) in whole.items()}
     result["clean_moved_5cm"] = clean
-    if "n" in sets:
+    if args.what == "default" and "n" in sets:
         result["rule"] = n_rule(result["sets"]["n"], clean)
+    if args.what == "returns" and "o" in sets:
+        result["rule"] = o_rule(result["sets"]["o"], clean)
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",

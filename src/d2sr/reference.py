@@ -179,11 +179,13 @@ class SceneReference:
         still_share: float | None = STILL_SHARE,
         rest: int = REST,
         shift_area: float | None = SHIFT_AREA,
+        return_rate: float = TRUST_RATE,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
         ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
-        None: they only mark pixels)."""
+        None: they only mark pixels). ``return_rate``: a return the scene repairs needs to have returned in
+        this share of the clean frames, at depths that agree (``TRUST_ABS``, ``TRUST_REL``)."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
@@ -196,7 +198,14 @@ class SceneReference:
             raise ConfigError(f"rest must be >= 0, got {rest}")
         if shift_area is not None and not 0 < shift_area <= 1:
             raise ConfigError(f"shift_area must be in (0, 1], got {shift_area}")
-        self.still_share, self.rest, self.shift_area = still_share, rest, shift_area
+        if not 0 < return_rate <= 1:
+            raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
+        self.still_share, self.rest, self.shift_area, self.return_rate = (
+            still_share,
+            rest,
+            shift_area,
+            return_rate,
+        )
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -389,11 +398,14 @@ class SceneReference:
         if s is None or not ev.usable:
             none = np.zeros(shape, bool)
             return SceneRepair(none, np.zeros(shape, np.float32), none)
-        trusted = (s.rate >= TRUST_RATE) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
+        m = ev.metres
+        # A return where the scene's clean depths agree is trusted from ``return_rate``: it did return, and
+        # the scene says where; a dropout only where the scene nearly always returns (``TRUST_RATE``).
+        rate = np.where(m > 0, np.float32(self.return_rate), np.float32(TRUST_RATE))
+        trusted = (s.rate >= rate) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
         trusted &= s.nz_median > 0
         where = ev.fresh & (_neighbours(ev.fresh) >= HALF) & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
-        m = ev.metres
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
         keep = (m > 0) & ~ev.mask & ((s.rate < RANGE_RATE) | within)
         return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
