@@ -10,7 +10,7 @@ import pytest
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
-from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, STILL_SHARE, SceneReference
+from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, STILL_SHARE, TRUST_RATE, SceneReference
 from d2sr.runtime.loop import Capture, SensorLoop
 from test_runtime import FakeNet
 
@@ -148,6 +148,8 @@ def test_the_loop_flags_a_surface_read_a_centimetre_and_a_half_off_by_default():
 def test_bad_settings_and_frames_are_refused():
     with pytest.raises(ConfigError):
         SceneReference(SCALE, shift_area=0)
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, return_rate=1.5)
     with pytest.raises(ConfigError):
         SceneReference(SCALE, frames=4, warm=8)
     with pytest.raises(ConfigError):
@@ -307,6 +309,42 @@ def test_the_scene_repairs_a_shifted_patch_where_it_is_trusted_and_leaves_clean_
     assert not fixed.mask[: 40 - SHIFT_PX].any()
     back = hit[:40] > 0
     assert np.abs(fixed.depth[:40][back].astype(float) - hit[:40][back]).max() <= 0.02 * SCALE
+
+
+def test_the_scene_repairs_a_return_where_it_returns_most_of_the_time():
+    """A region that returns in about 70% of the clean frames at agreeing depths: a 4 cm shift of its
+    returns is put back by the scene (``return_rate``, ``RANGE_RATE`` by default); trusting returns only
+    where the scene returned in ``TRUST_RATE`` of its frames leaves them; the region's dropouts stay."""
+    flicker = np.s_[40:70, 30:55]  # the left half of the patch below flickers
+
+    def scene(rng: np.random.Generator) -> np.ndarray:
+        f = _scene(rng)
+        f[flicker] = np.where(rng.random(f[flicker].shape) < 0.3, 0, f[flicker])
+        return f
+
+    loops = {
+        rate: SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True,
+                         scene_options={"return_rate": rate})
+        for rate in (None, TRUST_RATE)
+    }  # fmt: skip
+    loops[None].scene_options = {}  # as shipped
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        f = scene(rng)
+        for loop in loops.values():
+            loop.process(Capture(Frame("c", f), SCALE))
+    truth = scene(rng)
+    hit = truth.copy()
+    patch = np.s_[40:70, 30:80]
+    hit[patch] = np.where(hit[patch] > 0, hit[patch] - int(0.04 * SCALE), 0)
+    shipped, strict = (loop.process(Capture(Frame("h", hit), SCALE)) for loop in loops.values())
+    back = truth[flicker] > 0
+    err = np.abs(shipped.depth[flicker].astype(float) - truth[flicker])[back] / SCALE
+    assert shipped.flagged and np.median(err) < 0.01
+    # Trusting returns only from TRUST_RATE, the few pixels that happened to return that often are repaired.
+    assert (strict.depth[flicker] != hit[flicker])[back].mean() < 0.1
+    assert (shipped.depth[flicker] != hit[flicker])[back].mean() > 0.8
+    assert (shipped.depth[flicker][~back] > 0).mean() < 0.1  # a dropout: only where it nearly always returns
 
 
 class _Guesses(FakeNet):

@@ -179,13 +179,15 @@ class SceneReference:
         still_share: float | None = STILL_SHARE,
         rest: int = REST,
         shift_area: float | None = SHIFT_AREA,
-        return_rate: float = TRUST_RATE,
+        return_rate: float = RANGE_RATE,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
         ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
         None: they only mark pixels). ``return_rate``: a return the scene repairs needs to have returned in
-        this share of the clean frames, at depths that agree (``TRUST_ABS``, ``TRUST_REL``)."""
+        this share of the clean frames, at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``:
+        on sealed set O and every development set it put more back and made no frame worse than
+        ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
