@@ -997,7 +997,9 @@ def _moved(tmp: Path, folder: Path, scale: float, models: list[str], recovery: S
     frames = sorted(folder.glob("*.png"))
     s = ["--depth-scale", f"{scale:g}", *models]
     d2sr("detect", str(folder), "--out", str(tmp / "d435.csv"), *s, "--no-scene")
-    d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery, "--no-scene")
+    # The models alone, unless the run asked for the scene (--scene, --scene-repair): then recover as asked.
+    scene = [] if "--scene" in models else ["--no-scene"]
+    d2sr("recover", str(folder), "--out", str(tmp / "d435-fixed"), *s, *recovery, *scene)
     share, _, _ = moved_5cm(folder, tmp / "d435-fixed", scale)
     return {"frames": len(frames), "flagged": round(float(_flags(tmp / "d435.csv").mean()), 4),
             "moved_5cm": round(share, 5)}  # fmt: skip
