@@ -373,7 +373,8 @@ class SceneReference:
         s = self._stats
         assert s is not None
         steady = (metres > 0) & self._steady
-        diff = np.where(steady, metres - s.nz_median, 0).astype(np.float32)
+        diff = np.subtract(metres, s.nz_median, dtype=np.float32)
+        diff *= steady  # 0 (or -0, the same to every use below) off the steady returns
         clipped = np.clip(diff, -3 * SHIFT_M, 3 * SHIFT_M)  # one far-off pixel cannot shift a window
         count = cv2.boxFilter(steady.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
         total = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX))
