@@ -105,15 +105,18 @@ def moved_5cm(frames: list[np.ndarray], scale: float, mode: Mode) -> float:
     return round(moved / max(sum(int((f > 0).sum()) for f in frames), 1), 6)
 
 
+def _rmse_held(new: dict, old: dict) -> bool:
+    """``new``'s RMSE change over the corrupted frames, and each view's, at most ``old``'s + half a point."""
+    views = zip(new["rmse_change_per_view"], old["rmse_change_per_view"], strict=True)
+    return bool(new["rmse_change"] <= old["rmse_change"] + 0.005 and all(a <= b + 0.005 for a, b in views))
+
+
 def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
     still, moving = parts["l515"], parts["d435"]
     off, on = (still[m] for m in WHAT["default"])
     d_off, d_on = (moving[m] for m in WHAT["default"])
-    views = zip(on["rmse_change_per_view"], off["rmse_change_per_view"], strict=True)
     return {
-        "1 l515: RMSE change, corrupted frames and each view, at most off's + 0.005": bool(
-            on["rmse_change"] <= off["rmse_change"] + 0.005 and all(a <= b + 0.005 for a, b in views)
-        ),
+        "1 l515: RMSE change, corrupted frames and each view, at most off's + 0.005": _rmse_held(on, off),
         "2 l515: frames made worse no more than off's": on["frames_worse"] <= off["frames_worse"],
         "3 l515: more of the pixels moved > 2 cm put back than off's": on["moved_2cm_put_back"]
         > off["moved_2cm_put_back"],
@@ -129,10 +132,9 @@ def o_rule(parts: dict, clean: dict) -> dict[str, bool]:
     still = parts["l515"]
     old_name, new_name = WHAT["returns"]
     old, new = still[old_name], still[new_name]
-    views = zip(new["rmse_change_per_view"], old["rmse_change_per_view"], strict=True)
     return {
-        "1 l515: RMSE change, corrupted frames and each view, at most the old trust's + 0.005": bool(
-            new["rmse_change"] <= old["rmse_change"] + 0.005 and all(a <= b + 0.005 for a, b in views)
+        "1 l515: RMSE change, corrupted frames and each view, at most the old trust's + 0.005": _rmse_held(
+            new, old
         ),
         "2 l515: frames made worse no more than the old trust's": new["frames_worse"] <= old["frames_worse"],
         "3 l515: at least as many pixels moved > 2 cm put back": new["moved_2cm_put_back"]
