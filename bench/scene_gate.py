@@ -11,6 +11,8 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what shift`` (set M): shifted windows flagging frames off (``SceneReference(shift_area=None)``) and on
   (``shift_area=0.01``); beside the set, the clean sequences. Its L515 views are corrupted as one sequence
   of 120 frames (seeds 0-119, as ``bench/scene_reference.py`` does), so no draw repeats across them.
+* ``--what far`` (set P): far-off returns flagging frames off (``far_area=None``) and on (0.001); beside the
+  set, the clean sequences; its views seeded as ``--what shift``'s.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -22,6 +24,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_stripes_l.json
       .venv/bin/python bench/scene_gate.py --what shift --set m --data ../shared/data \\
           --json docs/results/scene_shift_m.json
+      .venv/bin/python bench/scene_gate.py --what far --set p --data ../shared/data \\
+          --json docs/results/scene_far_p.json
 """
 
 from __future__ import annotations
@@ -56,6 +60,7 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "shift flags off": (True, {"shift_area": None}),
         "shift flags 0.01": (True, {"shift_area": 0.01}),
     },
+    "far": {"far flags off": (True, {"far_area": None}), "far flags 0.001": (True, {"far_area": 0.001})},
 }
 
 
@@ -136,6 +141,22 @@ def shift_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def far_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    moving, still = parts["d435"], parts["l515"]
+    off, on = MODES["far"]
+    return {
+        "1 l515: recall >= min(off's + 0.1, 0.9), precision >= 0.95, clean flags <= off's": bool(
+            still[on]["recall"] >= min(still[off]["recall"] + 0.1, 0.90)
+            and still[on]["precision"] >= 0.95
+            and still[on]["clean_flagged"] <= still[off]["clean_flagged"]
+        ),
+        "2 d435: clean flags at most off's": bool(
+            moving[on]["clean_flagged"] <= moving[off]["clean_flagged"]
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[on] <= c[off] for c in clean.values()),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -150,7 +171,10 @@ def main() -> None:
     except D2SRError as exc:
         ap.error(str(exc))
     d435, l515 = whole["d435"][0], outside_set(args.data)
-    if args.what == "shift":  # seeded as one sequence (no draw repeats across the views), each view cold
+    if args.what in (
+        "shift",
+        "far",
+    ):  # seeded as one sequence (no draw repeats across the views), each view cold
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -189,6 +213,8 @@ def main() -> None:
         }
     if args.what == "shift":
         result["rule"] = shift_rule(result["parts"], clean)
+    elif args.what == "far":
+        result["rule"] = far_rule(result["parts"], clean)
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
         ms: dict[str, dict[str, float]] = {n: {} for n in still}

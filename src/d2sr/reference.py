@@ -67,6 +67,11 @@ SHIFT_PX, SHIFT_M = 15, 0.01
 #: recall from 0.35 / 0.20 to 0.85 / 0.83 and sealed set M's from 0.17 to 0.70, with no clean frame flagged
 #: more (docs/research/decisions.md, 2026-11-27).
 SHIFT_AREA = 0.01
+#: A return read this far (m, and share of the range) beyond its pixel's clean range, where the scene
+#: returns at least ``RANGE_RATE`` of the time, is far off: the sensor's own flicker does not do that (on
+#: clean development frames at most 0.0005 of the scene, fresh; interference's thin lines and dots, which
+#: never deviate densely, do: sets B, C, F and K).
+FAR_ABS, FAR_REL = 0.1, 0.05
 #: A frame more than this share of whose known scene deviates is taken for another view (the camera moved):
 #: the reference says nothing of it. Frames of another L515 view deviate by 0.81-0.89, interference on sets
 #: A-G by at most 0.58.
@@ -115,6 +120,9 @@ class Evidence:
     _fresh: tuple[np.ndarray, float] | None = field(default=None, init=False, repr=False)
     _shift: np.ndarray | None = field(default=None, repr=False)  # bool: the shifted windows' pixels
     _known: int = field(default=1, repr=False)  # pixels the reference has seen return (the shares' base)
+    far: float = 0.0  # share of the known scene read far off (``FAR_ABS``, ``FAR_REL``)
+    far_area: float | None = None  # fresh far-off returns over this share of the scene flag it (None: never)
+    _far: np.ndarray | None = field(default=None, repr=False)  # bool: the returns read far off
 
     @property
     def fresh(self) -> np.ndarray:
@@ -137,6 +145,13 @@ class Evidence:
         return float(np.count_nonzero(self.fresh & self._shift)) / self._known
 
     @property
+    def fresh_far(self) -> float:
+        """The share of the known scene read far off, not explained by something that moved."""
+        if self._far is None or not self.far:
+            return 0.0
+        return float(np.count_nonzero(self.fresh & self._far)) / self._known
+
+    @property
     def evident(self) -> bool:
         """``fresh_dense`` reaches ``EVIDENT``, or fresh shifted windows cover ``shift_area``: interfered,
         whatever a detector says (only when ``usable``). Each fresh share is at most its whole one, so a
@@ -145,8 +160,10 @@ class Evidence:
             return False
         if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
             return True
-        area = self.shift_area
-        return area is not None and self.shifted >= area and self.fresh_shifted >= area
+        area, far = self.shift_area, self.far_area
+        if area is not None and self.shifted >= area and self.fresh_shifted >= area:
+            return True
+        return far is not None and self.far >= far and self.fresh_far >= far
 
     def _explained(self) -> tuple[np.ndarray, float]:
         if self._fresh is None:
@@ -180,6 +197,7 @@ class SceneReference:
         rest: int = REST,
         shift_area: float | None = SHIFT_AREA,
         return_rate: float = RANGE_RATE,
+        far_area: float | None = None,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -202,6 +220,9 @@ class SceneReference:
             raise ConfigError(f"shift_area must be in (0, 1], got {shift_area}")
         if not 0 < return_rate <= 1:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
+        if far_area is not None and not 0 < far_area <= 1:
+            raise ConfigError(f"far_area must be in (0, 1], got {far_area}")
+        self.far_area = far_area
         self.still_share, self.rest, self.shift_area, self.return_rate = (
             still_share,
             rest,
@@ -352,6 +373,8 @@ class SceneReference:
         if lasting.any():
             self._take(frame, lasting)
         shifted = float(np.count_nonzero(shift)) / known if self.shift_area is not None else 0.0
+        far_off = self._far_off(metres, deviates) if self.far_area is not None else None
+        far = float(np.count_nonzero(far_off)) / known if far_off is not None else 0.0
         return Evidence(
             mask,
             share,
@@ -364,7 +387,26 @@ class SceneReference:
             shift_area=self.shift_area,
             _shift=shift,
             _known=known,
+            far=far,
+            far_area=self.far_area,
+            _far=far_off,
         )
+
+    def _far_off(self, metres: np.ndarray, deviates: np.ndarray) -> np.ndarray:
+        """The deviating returns read more than ``FAR_ABS`` + ``FAR_REL`` x depth beyond their pixel's clean
+        range, where the scene returns at least ``RANGE_RATE`` of the time (worked out at the deviating
+        pixels only: a few percent of a clean frame)."""
+        s = self._stats
+        assert s is not None
+        at = np.flatnonzero(deviates)
+        m = metres.ravel()[at]
+        median = s.nz_median.ravel()[at]
+        tol = FAR_ABS + FAR_REL * median
+        off = (m > 0) & (s.rate.ravel()[at] >= RANGE_RATE)
+        off &= (m < s.lo.ravel()[at] - tol) | (m > s.hi.ravel()[at] + tol)
+        out = np.zeros(metres.shape, bool)
+        out.ravel()[at] = off
+        return out
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
