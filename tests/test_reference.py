@@ -145,7 +145,30 @@ def test_the_loop_flags_a_surface_read_a_centimetre_and_a_half_off_by_default():
     assert not loop.process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
 
 
+def test_thin_lines_read_far_off_flag_a_frame_that_never_deviates_densely():
+    """Lines 1 px wide every 8 rows, read at 60% of the depth, where the scene's returns agree: too thin for
+    the dense evidence, but far off their pixels' clean range, which the sensor's flicker never is. The loop
+    flags the frame as shipped (``FAR_AREA``), not with ``far_area=None``; clean frames stay unflagged."""
+    loops = {
+        area: SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True,
+                         scene_options={} if area == "shipped" else {"far_area": None})
+        for area in ("shipped", None)
+    }  # fmt: skip
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        f = _scene(rng)
+        assert not any(loop.process(Capture(Frame("c", f), SCALE)).flagged for loop in loops.values())
+    hit = _scene(rng)
+    lines = hit[10::8, 20:110]
+    hit[10::8, 20:110] = np.where(lines > 0, (lines * 0.6).astype(np.uint16), 0)
+    shipped, off = (loop.process(Capture(Frame("h", hit), SCALE)) for loop in loops.values())
+    assert shipped.flagged and not off.flagged
+    assert not loops["shipped"].process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
+
+
 def test_bad_settings_and_frames_are_refused():
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, far_area=0)
     with pytest.raises(ConfigError):
         SceneReference(SCALE, shift_area=0)
     with pytest.raises(ConfigError):

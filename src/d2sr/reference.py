@@ -10,6 +10,9 @@ in clusters) and what share of the scene they cover.
 - A surface read a little off as a whole: a window of steady pixels whose mean reads more than ``SHIFT_M`` off
   deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G); fresh such
   windows over ``SHIFT_AREA`` of the scene flag the frame (judged on sealed set M).
+- Thin lines and dots that never deviate densely: a return read far beyond its pixel's clean range
+  (``FAR_ABS``, ``FAR_REL``), which the sensor's own flicker does not do; fresh such returns over ``FAR_AREA``
+  of the scene flag the frame (judged on sealed set P).
 - Start-up: no evidence until ``warm`` clean frames are in (``Evidence.ready`` is False).
 - Cost: the ring of the last ``frames`` clean frames is re-summarized one stripe of rows (of ``stripes``) per
   added frame, so no frame pays for a full re-sort. 16 stripes (a pixel's statistics at most 16 clean frames
@@ -41,7 +44,16 @@ from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import to_metres
 from d2sr.labels import CleanStats, Labeller, blur_shares, count_from, stack_stats
 
-__all__ = ["EVIDENT", "MOTION_PX", "QUIET", "SHIFT_AREA", "STILL_SHARE", "Evidence", "SceneReference"]
+__all__ = [
+    "EVIDENT",
+    "FAR_AREA",
+    "MOTION_PX",
+    "QUIET",
+    "SHIFT_AREA",
+    "STILL_SHARE",
+    "Evidence",
+    "SceneReference",
+]
 
 #: A frame whose dense evidence is below this matches its scene: the detector's flag on it is a false alarm.
 #: Chosen on outside sets A-F and the clean L515 sequences (docs/research/scene-reference.md).
@@ -72,6 +84,11 @@ SHIFT_AREA = 0.01
 #: clean development frames at most 0.0005 of the scene, fresh; interference's thin lines and dots, which
 #: never deviate densely, do: sets B, C, F and K).
 FAR_ABS, FAR_REL = 0.1, 0.05
+#: A frame whose fresh far-off returns (``Evidence.fresh_far``) cover this share of the known scene is
+#: interfered: twice the most any clean development frame reached. It lifted K's recall from 0.38 to 0.83
+#: and C's from 0.67 to 0.88, and sealed set P's (thin strokes and rings) from 0 to 0.37, with no clean
+#: frame flagged more (docs/research/decisions.md, 2026-11-27).
+FAR_AREA = 0.001
 #: A frame more than this share of whose known scene deviates is taken for another view (the camera moved):
 #: the reference says nothing of it. Frames of another L515 view deviate by 0.81-0.89, interference on sets
 #: A-G by at most 0.58.
@@ -197,15 +214,16 @@ class SceneReference:
         rest: int = REST,
         shift_area: float | None = SHIFT_AREA,
         return_rate: float = RANGE_RATE,
-        far_area: float | None = None,
+        far_area: float | None = FAR_AREA,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
         ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
-        None: they only mark pixels). ``return_rate``: a return the scene repairs needs to have returned in
-        this share of the clean frames, at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``:
-        on sealed set O and every development set it put more back and made no frame worse than
-        ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
+        None: they only mark pixels). ``far_area``: fresh far-off returns (``FAR_ABS``, ``FAR_REL``)
+        covering this share of the scene flag a frame (``FAR_AREA``; None: never). ``return_rate``: a
+        return the scene repairs needs to have returned in this share of the clean frames, at depths that
+        agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every development set it
+        put more back and made no frame worse than ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
