@@ -78,6 +78,7 @@ SALTS = {
     "n": 0x9E7,
     "o": 0x0B1,
     "p": 0x5A7,
+    "q": 0x7C2,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -96,6 +97,7 @@ KINDS = {
     "n": ("window ghost", "column crosstalk"),
     "o": ("flying edges", "blotch field"),
     "p": ("spark segments", "echo rings"),
+    "q": ("dash rain", "grid glints"),
 }
 
 
@@ -786,6 +788,50 @@ def spark_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray
     return _written(frame, new, where, scale)
 
 
+def rain_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set Q (written and sealed 2026-11-27, before far-off returns counted over every return ran on it, to
+    judge that: decisions.md). One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-P:
+
+    * dash rain: another scanner's fast axis streaks a band of the view (a third to all of it, across) with
+      200-1500 short dashes, 1 px wide and 2-12 px long, tilted by up to 20 degrees from vertical, on which
+      this sensor reads a later echo, 1.3-2 times the depth, and a tenth of their pixels drop out;
+    * grid glints: over an ellipse (15-45% of the view) single pixels and small plus signs (5 px) on a grid
+      every 10-30 px, rotated, where this sensor reads the other sensor's emitter at one depth (0.3-1 m).
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.1% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "q")
+    rain = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    for _ in range(20):
+        if rain:
+            span = rng.uniform(1 / 3, 1.0) * w
+            x0 = rng.uniform(0, w - span)
+            dashes = np.zeros((h, w), np.uint8)
+            for _ in range(int(rng.integers(200, 1501))):
+                px, py = rng.uniform(x0, x0 + span), rng.uniform(0, h)
+                ang = np.pi / 2 + rng.uniform(-0.35, 0.35)
+                length = rng.uniform(2, 12)
+                end = (int(px + length * np.cos(ang)), int(py + length * np.sin(ang)))
+                cv2.line(dashes, (int(px), int(py)), end, 1, 1)
+            on = (dashes > 0) & (d > 0)
+            new = np.where(on, d * rng.uniform(1.3, 2.0), d)
+            new[on & (rng.random((h, w)) < 0.1)] = 0.0
+        else:
+            region = _ellipse(rng, y, x, 0.15, 0.45) < 1
+            rot, step = rng.uniform(0, np.pi), rng.uniform(10, 30)
+            u = (x * np.cos(rot) + y * np.sin(rot)) % step
+            v = (-x * np.sin(rot) + y * np.cos(rot)) % step
+            dot = (u < 1) & (v < 1)
+            plus = cv2.dilate(dot.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))) > 0
+            glint = region & (plus if rng.random() < 0.5 else dot)
+            new = np.where(glint, rng.uniform(0.3, 1.0), d)
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if (where & (d > 0)).sum() >= 0.001 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -802,10 +848,11 @@ SETS = {
     "n": window_interference,
     "o": blotch_interference,
     "p": spark_interference,
+    "q": rain_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"q"}
 # Sets written for one measurement of their own (K-P: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m", "n", "o", "p"}

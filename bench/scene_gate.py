@@ -13,6 +13,8 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
   of 120 frames (seeds 0-119, as ``bench/scene_reference.py`` does), so no draw repeats across them.
 * ``--what far`` (set P): far-off returns flagging frames off (``far_area=None``) and on (0.001); beside the
   set, the clean sequences; its views seeded as ``--what shift``'s.
+* ``--what thin`` (set Q): far-off returns counted among the deviations (as shipped) or over every return
+  (``far_thin=True``), likewise.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -26,6 +28,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_shift_m.json
       .venv/bin/python bench/scene_gate.py --what far --set p --data ../shared/data \\
           --json docs/results/scene_far_p.json
+      .venv/bin/python bench/scene_gate.py --what thin --set q --data ../shared/data \\
+          --json docs/results/scene_thin_q.json
 """
 
 from __future__ import annotations
@@ -61,6 +65,10 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "shift flags 0.01": (True, {"shift_area": 0.01}),
     },
     "far": {"far flags off": (True, {"far_area": None}), "far flags 0.001": (True, {"far_area": 0.001})},
+    "thin": {
+        "far-off among the deviations (shipped)": (True, {}),
+        "far-off over every return": (True, {"far_thin": True}),
+    },
 }
 
 
@@ -141,9 +149,10 @@ def shift_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
-def far_rule(parts: dict, clean: dict) -> dict[str, bool]:
+def far_rule(parts: dict, clean: dict, what: str = "far") -> dict[str, bool]:
+    """Set P's rule (``--what far``), and set Q's (``--what thin``), the same items."""
     moving, still = parts["d435"], parts["l515"]
-    off, on = MODES["far"]
+    off, on = MODES[what]
     return {
         "1 l515: recall >= min(off's + 0.1, 0.9), precision >= 0.95, clean flags <= off's": bool(
             still[on]["recall"] >= min(still[off]["recall"] + 0.1, 0.90)
@@ -171,10 +180,9 @@ def main() -> None:
     except D2SRError as exc:
         ap.error(str(exc))
     d435, l515 = whole["d435"][0], outside_set(args.data)
-    if args.what in (
-        "shift",
-        "far",
-    ):  # seeded as one sequence (no draw repeats across the views), each view cold
+    # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
+    # the views), each view cold.
+    if args.what in ("shift", "far", "thin"):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -213,8 +221,8 @@ def main() -> None:
         }
     if args.what == "shift":
         result["rule"] = shift_rule(result["parts"], clean)
-    elif args.what == "far":
-        result["rule"] = far_rule(result["parts"], clean)
+    elif args.what in ("far", "thin"):
+        result["rule"] = far_rule(result["parts"], clean, args.what)
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
         ms: dict[str, dict[str, float]] = {n: {} for n in still}

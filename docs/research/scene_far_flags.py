@@ -97,4 +97,4 @@ for w in [*open_sets(), *sorted(OWN)]:
     bad = every_other(l515, 4000.0, w)
     hit = [bool((b != c).any()) for b, c in zip(bad, l515, strict=True)]
     top = max(top, *(peaks(bad[a:a + 60], 4000.0, hit[a:a + 60]) for a in (0, 60)))
-print(f"  clean frames of sets A-O: {top:.4f}")
+print(f"  clean frames of every set: {top:.4f}")

@@ -140,6 +140,9 @@ class Evidence:
     far: float = 0.0  # share of the known scene read far off (``FAR_ABS``, ``FAR_REL``)
     far_area: float | None = None  # fresh far-off returns over this share of the scene flag it (None: never)
     _far: np.ndarray | None = field(default=None, repr=False)  # bool: the returns read far off
+    # With ``far_thin``: the fresh share of ``_far``, worked out against the frame before on its own
+    # (thin far-off returns need not be among ``mask``'s deviations).
+    _far_fresh: Callable[[], float] | None = field(default=None, repr=False)
 
     @property
     def fresh(self) -> np.ndarray:
@@ -166,6 +169,8 @@ class Evidence:
         """The share of the known scene read far off, not explained by something that moved."""
         if self._far is None or not self.far:
             return 0.0
+        if self._far_fresh is not None:
+            return self._far_fresh()
         return float(np.count_nonzero(self.fresh & self._far)) / self._known
 
     @property
@@ -196,6 +201,8 @@ class SceneReference:
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
     _steady: np.ndarray  # bool: pixels the scene is sure of (``TRUST_RATE``), once warm (``_limits``)
+    _far_lo: np.ndarray  # with ``far_thin``: a return below this is far off (``_far_off``), once warm
+    _far_hi: np.ndarray  # and above this
     _returned: np.ndarray  # per row, pixels it has seen return, once warm
     _known: int  # their sum (at least 1)
 
@@ -215,12 +222,14 @@ class SceneReference:
         shift_area: float | None = SHIFT_AREA,
         return_rate: float = RANGE_RATE,
         far_area: float | None = FAR_AREA,
+        far_thin: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
         ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
         None: they only mark pixels). ``far_area``: fresh far-off returns (``FAR_ABS``, ``FAR_REL``)
-        covering this share of the scene flag a frame (``FAR_AREA``; None: never). ``return_rate``: a
+        covering this share of the scene flag a frame (``FAR_AREA``; None: never); ``far_thin``: counted
+        over every return, not only those among the density-filtered deviations. ``return_rate``: a
         return the scene repairs needs to have returned in this share of the clean frames, at depths that
         agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every development set it
         put more back and made no frame worse than ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
@@ -240,7 +249,7 @@ class SceneReference:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
         if far_area is not None and not 0 < far_area <= 1:
             raise ConfigError(f"far_area must be in (0, 1], got {far_area}")
-        self.far_area = far_area
+        self.far_area, self.far_thin = far_area, far_thin
         self.still_share, self.rest, self.shift_area, self.return_rate = (
             still_share,
             rest,
@@ -310,6 +319,8 @@ class SceneReference:
             self._stats = _stats(self._ring[: self.count], self.scale)
             self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
             self._steady = np.zeros(frame.shape, bool)
+            self._far_lo = np.zeros(frame.shape, np.float32)
+            self._far_hi = np.zeros(frame.shape, np.float32)
             self._returned = np.zeros(frame.shape[0], np.int64)
             self._limits()
             self._streak = np.zeros(frame.shape, np.uint16)
@@ -331,6 +342,11 @@ class SceneReference:
         labeller.refresh(rows)
         self._steady[rows] = (s.rate[rows] >= TRUST_RATE) & (s.nz_median[rows] > 0)
         self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
+        if self.far_thin:  # where a return is far off (``_far_off`` over every return): inf where never
+            tol = FAR_ABS + FAR_REL * s.nz_median[rows]
+            often = s.rate[rows] >= RANGE_RATE
+            self._far_lo[rows] = np.where(often, s.lo[rows] - tol, -np.inf)
+            self._far_hi[rows] = np.where(often, s.hi[rows] + tol, np.inf)
         self._known = max(int(self._returned.sum()), 1)
 
     def evidence(self, frame: np.ndarray, metres: np.ndarray | None = None) -> Evidence:
@@ -391,8 +407,20 @@ class SceneReference:
         if lasting.any():
             self._take(frame, lasting)
         shifted = float(np.count_nonzero(shift)) / known if self.shift_area is not None else 0.0
-        far_off = self._far_off(metres, deviates) if self.far_area is not None else None
+        far_off = (
+            self._far_off(metres, None if self.far_thin else deviates) if self.far_area is not None else None
+        )
         far = float(np.count_nonzero(far_off)) / known if far_off is not None else 0.0
+        far_fresh = None
+        if far_off is not None and self.far_thin:
+
+            def far_fresh() -> float:  # as ``explain`` does for the deviations
+                if before is None:
+                    return 0.0
+                if not before.any():
+                    return far
+                return float(np.count_nonzero(far_off & ~_explained(metres, far_off, before))) / known
+
         return Evidence(
             mask,
             share,
@@ -408,14 +436,17 @@ class SceneReference:
             far=far,
             far_area=self.far_area,
             _far=far_off,
+            _far_fresh=far_fresh,
         )
 
-    def _far_off(self, metres: np.ndarray, deviates: np.ndarray) -> np.ndarray:
-        """The deviating returns read more than ``FAR_ABS`` + ``FAR_REL`` x depth beyond their pixel's clean
-        range, where the scene returns at least ``RANGE_RATE`` of the time (worked out at the deviating
-        pixels only: a few percent of a clean frame)."""
+    def _far_off(self, metres: np.ndarray, deviates: np.ndarray | None) -> np.ndarray:
+        """The returns read more than ``FAR_ABS`` + ``FAR_REL`` x depth beyond their pixel's clean range,
+        where the scene returns at least ``RANGE_RATE`` of the time: among the ``deviates`` pixels (a few
+        percent of a clean frame), or every return (None)."""
         s = self._stats
         assert s is not None
+        if deviates is None:
+            return (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
         at = np.flatnonzero(deviates)
         m = metres.ravel()[at]
         median = s.nz_median.ravel()[at]
