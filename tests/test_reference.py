@@ -166,6 +166,28 @@ def test_thin_lines_read_far_off_flag_a_frame_that_never_deviates_densely():
     assert not loops["shipped"].process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
 
 
+def test_strokes_one_pixel_wide_are_counted_over_every_return():
+    """Short strokes one pixel wide, scattered, read at half the depth: the labeller's density filter drops
+    them from the deviations, so only far-off returns counted over every return (``far_thin``, shipped) flag
+    the frame."""
+    loops = {
+        thin: SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True,
+                         scene_options={"far_thin": thin})
+        for thin in (True, False)
+    }  # fmt: skip
+    assert SceneReference(SCALE).far_thin
+    rng = np.random.default_rng(10)
+    for _ in range(20):
+        f = _scene(rng)
+        assert not any(loop.process(Capture(Frame("c", f), SCALE)).flagged for loop in loops.values())
+    hit = _scene(rng)
+    for y0 in range(12, 90, 14):
+        for x0 in range(5, 120, 20):
+            hit[y0, x0 : x0 + 3] = hit[y0, x0 : x0 + 3] // 2  # a stroke 3 px long, 1 px wide
+    thin, dense_only = (loop.process(Capture(Frame("h", hit), SCALE)) for loop in loops.values())
+    assert thin.flagged and not dense_only.flagged
+
+
 def test_bad_settings_and_frames_are_refused():
     with pytest.raises(ConfigError):
         SceneReference(SCALE, far_area=0)

@@ -222,14 +222,15 @@ class SceneReference:
         shift_area: float | None = SHIFT_AREA,
         return_rate: float = RANGE_RATE,
         far_area: float | None = FAR_AREA,
-        far_thin: bool = False,
+        far_thin: bool = True,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
         ``shift_area``: fresh shifted windows covering this share of the scene flag a frame (``SHIFT_AREA``;
         None: they only mark pixels). ``far_area``: fresh far-off returns (``FAR_ABS``, ``FAR_REL``)
         covering this share of the scene flag a frame (``FAR_AREA``; None: never); ``far_thin``: counted
-        over every return, not only those among the density-filtered deviations. ``return_rate``: a
+        over every return (strokes one pixel wide), not only among the density-filtered deviations (sealed
+        set Q, docs/research/decisions.md, 2026-11-27). ``return_rate``: a
         return the scene repairs needs to have returned in this share of the clean frames, at depths that
         agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every development set it
         put more back and made no frame worse than ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
