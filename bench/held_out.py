@@ -79,6 +79,7 @@ SALTS = {
     "o": 0x0B1,
     "p": 0x5A7,
     "q": 0x7C2,
+    "r": 0x2D9,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -98,6 +99,7 @@ KINDS = {
     "o": ("flying edges", "blotch field"),
     "p": ("spark segments", "echo rings"),
     "q": ("dash rain", "grid glints"),
+    "r": ("dark fill", "edge spray"),
 }
 
 
@@ -832,6 +834,50 @@ def rain_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return _written(frame, new, where, scale)
 
 
+def dark_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set R (written and sealed 2026-11-27, before the scene's repair kept only returns near their depth
+    where it seldom returns, to judge that: decisions.md). Interference where this sensor returns little.
+    One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-Q:
+
+    * dark fill: over an ellipse (15-40% of the view), another sensor's light makes 30-70% of this frame's
+      dropouts return, at a smooth wrong surface 0.5-2 m away (tilted by up to 0.5 m across the view), and
+      reads 10% of its returns there 10-30% nearer;
+    * edge spray: within 2-4 px of the scene's range edges (of some edges: 40-90% of the view's), 30-60% of
+      the pixels read a depth drawn between 0.5 and 1.5 times their own, and dropouts there return at such a
+      depth of a neighbour.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.2% of the
+    returns or dropouts is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "r")
+    dark = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    for _ in range(20):
+        if dark:
+            region = _ellipse(rng, y, x, 0.15, 0.40) < 1
+            ang = rng.uniform(0, 2 * np.pi)
+            plane = rng.uniform(0.5, 2.0) + rng.uniform(-0.5, 0.5) * (
+                (x * np.cos(ang) + y * np.sin(ang)) / max(h, w)
+            )
+            lit = region & (d == 0) & (rng.random((h, w)) < rng.uniform(0.3, 0.7))
+            near = region & (d > 0) & (rng.random((h, w)) < 0.1)
+            new = np.where(lit, plane, np.where(near, d * rng.uniform(0.7, 0.9, (h, w)), d))
+        else:
+            filled = cv2.dilate(d.astype(np.float32), np.ones((5, 5), np.uint8))
+            low = cv2.erode(np.where(filled > 0, filled, np.float32(1e3)), np.ones((5, 5), np.uint8))
+            edge = ((filled - low) > 0.1).astype(np.uint8)
+            keep = cv2.resize(rng.random((6, 8)).astype(np.float32), (w, h), interpolation=cv2.INTER_NEAREST)
+            edge *= (keep < rng.uniform(0.4, 0.9)).astype(np.uint8)
+            reach = int(rng.integers(2, 5))
+            band = cv2.dilate(edge, np.ones((2 * reach + 1,) * 2, np.uint8)) > 0
+            spray = band & (rng.random((h, w)) < rng.uniform(0.3, 0.6))
+            source = np.where(d > 0, d, filled)
+            new = np.where(spray & (source > 0), source * rng.uniform(0.5, 1.5, (h, w)), d)
+        where = (np.abs(new - d) > 0.02) & ((d > 0) | (new > 0))
+        if where.sum() >= 0.002 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -849,10 +895,11 @@ SETS = {
     "o": blotch_interference,
     "p": spark_interference,
     "q": rain_interference,
+    "r": dark_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"r"}
 # Sets written for one measurement of their own (K-Q: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q"}

@@ -13,8 +13,11 @@ flagged frame deviates freshly from a still scene that is trusted there, the sce
 ``--what returns``: the scene's repair on, trusting a return where the scene returned in ``TRUST_RATE`` of
 its clean frames (as shipped until 2026-11-27) or in ``RANGE_RATE`` (``SceneReference(return_rate=...)``).
 
-With ``--set n`` (sealed set N) or ``--what returns --set o`` (sealed set O), also whether the rule written
-for it held (docs/research/decisions.md, 2026-11-27).
+``--what rare``: the scene's repair keeping any return where the scene seldom returns (as shipped until
+2026-11-27) or only one near the depth it returned at (``SceneReference(rare_near=True)``).
+
+With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O) or ``--what rare --set r`` (sealed
+set R), also whether the rule written for it held (docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
@@ -42,6 +45,10 @@ WHAT: dict[str, dict[str, Mode]] = {
     "returns": {
         f"returns trusted from {TRUST_RATE}": (True, {"return_rate": TRUST_RATE}),
         f"returns trusted from {RANGE_RATE}": (True, {"return_rate": RANGE_RATE}),
+    },
+    "rare": {
+        "any return kept where the scene seldom returns": (True, {"rare_near": False}),
+        "only a return near its depth kept there": (True, {"rare_near": True}),
     },
 }
 
@@ -128,20 +135,22 @@ def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
-def o_rule(parts: dict, clean: dict) -> dict[str, bool]:
+def o_rule(parts: dict, clean: dict, what: str = "returns") -> dict[str, bool]:
+    """Set O's rule (``--what returns``), and set R's (``--what rare``), the same items."""
     still = parts["l515"]
-    old_name, new_name = WHAT["returns"]
+    old_name, new_name = WHAT[what]
     old, new = still[old_name], still[new_name]
     return {
-        "1 l515: RMSE change, corrupted frames and each view, at most the old trust's + 0.005": _rmse_held(
+        "1 l515: RMSE change, corrupted frames and each view, at most the old setting's + 0.005": _rmse_held(
             new, old
         ),
-        "2 l515: frames made worse no more than the old trust's": new["frames_worse"] <= old["frames_worse"],
+        "2 l515: frames made worse no more than the old setting's": new["frames_worse"]
+        <= old["frames_worse"],
         "3 l515: at least as many pixels moved > 2 cm put back": new["moved_2cm_put_back"]
         >= old["moved_2cm_put_back"],
-        "4 l515: clean pixels changed at most the old trust's + 0.0005": new["clean_changed"]
+        "4 l515: clean pixels changed at most the old setting's + 0.0005": new["clean_changed"]
         <= old["clean_changed"] + 0.0005,
-        "5 clean sequences: valid pixels moved > 5 cm no more than the old trust's": all(
+        "5 clean sequences: valid pixels moved > 5 cm no more than the old setting's": all(
             c[new_name] <= c[old_name] for c in clean.values()
         ),
     }
@@ -198,6 +207,8 @@ def main() -> None:
         result["rule"] = n_rule(result["sets"]["n"], clean)
     if args.what == "returns" and "o" in sets:
         result["rule"] = o_rule(result["sets"]["o"], clean)
+    if args.what == "rare" and "r" in sets:
+        result["rule"] = o_rule(result["sets"]["r"], clean, "rare")
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",

@@ -223,6 +223,7 @@ class SceneReference:
         return_rate: float = RANGE_RATE,
         far_area: float | None = FAR_AREA,
         far_thin: bool = True,
+        rare_near: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -230,7 +231,9 @@ class SceneReference:
         None: they only mark pixels). ``far_area``: fresh far-off returns (``FAR_ABS``, ``FAR_REL``)
         covering this share of the scene flag a frame (``FAR_AREA``; None: never); ``far_thin``: counted
         over every return (strokes one pixel wide), not only among the density-filtered deviations (sealed
-        set Q, docs/research/decisions.md, 2026-11-27). ``return_rate``: a
+        set Q, docs/research/decisions.md, 2026-11-27). ``rare_near``: the repair keeps a return where the
+        scene seldom returns (``RANGE_RATE``) only within ``FAR_ABS`` + ``FAR_REL`` of the depth it returned
+        at (or where it never returned), not any such return. ``return_rate``: a
         return the scene repairs needs to have returned in this share of the clean frames, at depths that
         agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every development set it
         put more back and made no frame worse than ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
@@ -250,7 +253,7 @@ class SceneReference:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
         if far_area is not None and not 0 < far_area <= 1:
             raise ConfigError(f"far_area must be in (0, 1], got {far_area}")
-        self.far_area, self.far_thin = far_area, far_thin
+        self.far_area, self.far_thin, self.rare_near = far_area, far_thin, rare_near
         self.still_share, self.rest, self.shift_area, self.return_rate = (
             still_share,
             rest,
@@ -502,7 +505,10 @@ class SceneReference:
         where = ev.fresh & (_neighbours(ev.fresh) >= HALF) & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
-        keep = (m > 0) & ~ev.mask & ((s.rate < RANGE_RATE) | within)
+        seldom = s.rate < RANGE_RATE
+        if self.rare_near:  # where it seldom returns, only a return near the depth it did return at
+            seldom &= (s.rate == 0) | (np.abs(m - s.nz_median) <= FAR_ABS + FAR_REL * s.nz_median)
+        keep = (m > 0) & ~ev.mask & (seldom | within)
         return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
