@@ -392,6 +392,49 @@ def test_the_scene_repairs_a_return_where_it_returns_most_of_the_time():
     assert (shipped.depth[flicker][~back] > 0).mean() < 0.1  # a dropout: only where it nearly always returns
 
 
+class _Doubles(FakeNet):
+    def recover(
+        self, metres, previous=None
+    ):  # masks everything; reads a return under 1.6 m at twice its depth
+        return np.where(metres < 1.6, 2 * metres, metres).astype(np.float32), np.ones(metres.shape, bool)
+
+
+def test_the_scene_keeps_a_seldom_seen_return_only_near_its_depth():
+    """Where the scene seldom returns (a flickering region), a return near the depth it did return at is
+    kept from the model (``keep``); one read far off is left to the model (``rare_near``, shipped), where
+    before it was kept whatever its depth."""
+    rare = np.s_[20:40, 10:40]
+
+    def scene(rng: np.random.Generator) -> np.ndarray:
+        f = _scene(rng)
+        f[rare] = np.where(rng.random(f[rare].shape) < 0.6, 0, f[rare])  # returns 40% of the time
+        return f
+
+    loops = {
+        near: SensorLoop(_Doubles(), make_controller("static", 30, 30), repair="all", scene=True,
+                         scene_options={"rare_near": near})
+        for near in (True, False)
+    }  # fmt: skip
+    assert SceneReference(SCALE).rare_near
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        f = scene(rng)
+        for loop in loops.values():
+            loop.process(Capture(Frame("c", f), SCALE))
+    hit = scene(rng)
+    hit[rare] = np.where(hit[rare] > 0, hit[rare], 0)
+    far = np.zeros(hit.shape, bool)
+    far[25, 15:35] = True  # a stroke read at half its pixels' depth, where the scene seldom returns
+    truth = _scene(np.random.default_rng(11))[far]
+    hit[far] = np.where(truth > 0, truth // 2, 0)
+    near_out, any_out = (loop.process(Capture(Frame("h", hit), SCALE)) for loop in loops.values())
+    returned = hit[rare] > 0
+    kept_near = (near_out.depth[rare] == hit[rare])[returned & ~far[rare]]
+    assert kept_near.mean() > 0.9  # returns near their depth: kept from the model either way
+    left_any, left_near = ((out.depth[far] == hit[far]).mean() for out in (any_out, near_out))
+    assert left_any > 0.5 and left_near < 0.5  # before: most of the far-off stroke kept; now: the model's
+
+
 class _Guesses(FakeNet):
     def recover(self, metres, previous=None):  # masks everything, and guesses 1.5 m farther than it reads
         return np.where(metres > 0, metres + 1.5, 3.0).astype(np.float32), np.ones(metres.shape, bool)

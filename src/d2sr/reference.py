@@ -223,7 +223,7 @@ class SceneReference:
         return_rate: float = RANGE_RATE,
         far_area: float | None = FAR_AREA,
         far_thin: bool = True,
-        rare_near: bool = False,
+        rare_near: bool = True,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -233,10 +233,11 @@ class SceneReference:
         over every return (strokes one pixel wide), not only among the density-filtered deviations (sealed
         set Q, docs/research/decisions.md, 2026-11-27). ``rare_near``: the repair keeps a return where the
         scene seldom returns (``RANGE_RATE``) only within ``FAR_ABS`` + ``FAR_REL`` of the depth it returned
-        at (or where it never returned), not any such return. ``return_rate``: a
-        return the scene repairs needs to have returned in this share of the clean frames, at depths that
-        agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every development set it
-        put more back and made no frame worse than ``TRUST_RATE``, docs/research/decisions.md, 2026-11-27]."""
+        at (or where it never returned), not any such return (sealed set R, decisions.md, 2026-11-27).
+        ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
+        at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
+        development set it put more back and made no frame worse than ``TRUST_RATE``,
+        docs/research/decisions.md, 2026-11-27]."""
         if not depth_scale > 0:
             raise ConfigError(f"depth_scale must be positive, got {depth_scale}")
         if not 3 <= warm <= frames:
