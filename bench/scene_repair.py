@@ -39,12 +39,15 @@ from d2sr.runtime.pipeline import Pipeline
 from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
 
 Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
+# What came after set O was judged (far-off flags, the seldom-returns keep), off as it was then, so that
+# ``--what returns`` reproduces O's result. ``--what default`` measures the scene's repair as shipped today.
+BEFORE_FAR: dict[str, Any] = {"far_area": None, "rare_near": False}
 # Per --what: each mode's name and settings.
 WHAT: dict[str, dict[str, Mode]] = {
     "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
     "returns": {
-        f"returns trusted from {TRUST_RATE}": (True, {"return_rate": TRUST_RATE}),
-        f"returns trusted from {RANGE_RATE}": (True, {"return_rate": RANGE_RATE}),
+        f"returns trusted from {TRUST_RATE}": (True, {"return_rate": TRUST_RATE, **BEFORE_FAR}),
+        f"returns trusted from {RANGE_RATE}": (True, {"return_rate": RANGE_RATE, **BEFORE_FAR}),
     },
     "rare": {
         "any return kept where the scene seldom returns": (True, {"rare_near": False}),

@@ -4,7 +4,8 @@ but never densely (sets K, C, F). The loop's flags with the scene as shipped (``
 candidate ``SceneReference(far_area=...)`` values, on every development sequence (L515 dev0, dev1 and the
 D435 whole; both views of sets A-I, K-O, seeded as ``bench/scene_reference.py`` seeds them; the D435 part of
 K-O). Precision and recall per set, clean frames flagged per sequence; then the highest share of the scene
-that fresh far-off returns reach on a clean frame where the scene is usable. Development figures only.
+that fresh far-off returns reach on a clean frame where the scene is usable. Development figures only. Far-off
+returns are counted among the deviations (``far_thin=False``), as when it was run.
 Run from the repository root: python docs/research/scene_far_flags.py [AREA ...]"""
 
 import sys
@@ -26,7 +27,7 @@ areas = [None, *(float(a) for a in sys.argv[1:])] if len(sys.argv) > 1 else [Non
 
 def flags(frames, scale, area):
     lp = SensorLoop(
-        net, make_controller("static", 30, 30), repair="none", scene=True, scene_options={"far_area": area}
+        net, make_controller("static", 30, 30), repair="none", scene=True, scene_options={"far_area": area, "far_thin": False}
     )
     return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
 
@@ -70,7 +71,7 @@ print("worst L515 recall".ljust(12), *(f"{worst[a]:.3f}".rjust(22) for a in area
 def peaks(frames, scale, hit):
     """The highest ``Evidence.fresh_far`` on the frames not in ``hit`` where the scene was usable."""
     lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True,
-                    scene_options={"far_area": 1.0})
+                    scene_options={"far_area": 1.0, "far_thin": False})
     seen = []
     judge = lp._scene_evidence
 

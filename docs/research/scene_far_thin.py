@@ -29,7 +29,7 @@ def flags(frames, scale, area):
         make_controller("static", 30, 30),
         repair="none",
         scene=True,
-        scene_options={} if area is None else {"far_area": area, "far_thin": True},
+        scene_options={"far_thin": False} if area is None else {"far_area": area, "far_thin": True},
     )
     return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
 

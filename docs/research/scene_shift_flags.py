@@ -4,7 +4,7 @@ sequence (L515 dev0, dev1 and the D435 whole; both views of sets A-I, K and L, s
 ``bench/scene_reference.py`` seeds them; the D435 part of K and L).
 Precision and recall per set, clean frames flagged per sequence; then the highest share of the scene that
 fresh shifted windows reach on a clean frame where the scene is usable (the clean sequences, and the clean
-frames of every set). Development figures only.
+frames of every set). Development figures only. Far-off flags (added after it) are off, as when it was run.
 Run from the repository root: python docs/research/scene_shift_flags.py [AREA ...]"""
 
 import sys
@@ -26,7 +26,7 @@ areas = [None, *(float(a) for a in sys.argv[1:])] if len(sys.argv) > 1 else [Non
 
 def flags(frames, scale, area):
     lp = SensorLoop(
-        net, make_controller("static", 30, 30), repair="none", scene=True, scene_options={"shift_area": area}
+        net, make_controller("static", 30, 30), repair="none", scene=True, scene_options={"shift_area": area, "far_area": None}
     )
     return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
 
@@ -70,7 +70,7 @@ print("worst L515 recall".ljust(12), *(f"{worst[a]:.3f}".rjust(22) for a in area
 def peaks(frames, scale, hit):
     """The highest ``Evidence.fresh_shifted`` on the frames not in ``hit`` where the scene was usable."""
     lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True,
-                    scene_options={"shift_area": 1.0})
+                    scene_options={"shift_area": 1.0, "far_area": None})
     seen = []
     judge = lp._scene_evidence
 

@@ -31,6 +31,7 @@ in clusters) and what share of the scene they cover.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from collections.abc import Callable
@@ -157,14 +158,14 @@ class Evidence:
         """Evidence a verdict may rest on: the reference is warm and the sensor held still."""
         return self.ready and self.still
 
-    @property
+    @functools.cached_property
     def fresh_shifted(self) -> float:
         """The share of the known scene in shifted windows that nothing moving explains."""
         if self._shift is None or not self.shifted:
             return 0.0
         return float(np.count_nonzero(self.fresh & self._shift)) / self._known
 
-    @property
+    @functools.cached_property
     def fresh_far(self) -> float:
         """The share of the known scene read far off, not explained by something that moved."""
         if self._far is None or not self.far:
@@ -201,7 +202,7 @@ class SceneReference:
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
     _steady: np.ndarray  # bool: pixels the scene is sure of (``TRUST_RATE``), once warm (``_limits``)
-    _far_lo: np.ndarray  # with ``far_thin``: a return below this is far off (``_far_off``), once warm
+    _far_lo: np.ndarray  # with ``far_area``: a return below this is far off, once warm (``_limits``)
     _far_hi: np.ndarray  # and above this
     _returned: np.ndarray  # per row, pixels it has seen return, once warm
     _known: int  # their sum (at least 1)
@@ -254,12 +255,12 @@ class SceneReference:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
         if far_area is not None and not 0 < far_area <= 1:
             raise ConfigError(f"far_area must be in (0, 1], got {far_area}")
-        self.far_area, self.far_thin, self.rare_near = far_area, far_thin, rare_near
-        self.still_share, self.rest, self.shift_area, self.return_rate = (
-            still_share,
-            rest,
-            shift_area,
+        self.still_share, self.rest, self.shift_area = still_share, rest, shift_area
+        self.return_rate, self.far_area, self.far_thin, self.rare_near = (
             return_rate,
+            far_area,
+            far_thin,
+            rare_near,
         )
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
@@ -347,7 +348,9 @@ class SceneReference:
         labeller.refresh(rows)
         self._steady[rows] = (s.rate[rows] >= TRUST_RATE) & (s.nz_median[rows] > 0)
         self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
-        if self.far_thin:  # where a return is far off (``_far_off`` over every return): inf where never
+        # Where a return is far off (``FAR_ABS``, ``FAR_REL``), only where the scene returns at least
+        # ``RANGE_RATE`` of the time (+-inf elsewhere).
+        if self.far_area is not None:
             tol = FAR_ABS + FAR_REL * s.nz_median[rows]
             often = s.rate[rows] >= RANGE_RATE
             self._far_lo[rows] = np.where(often, s.lo[rows] - tol, -np.inf)
@@ -392,12 +395,10 @@ class SceneReference:
         before = self._before
 
         def explain() -> tuple[np.ndarray, float]:
-            if before is None:  # the first frame judged against a new reference: no motion to tell by
-                return np.zeros_like(mask), 0.0
-            if mask.any() and before.any():
-                fresh = mask & ~_explained(metres, mask, before)
-                return fresh, _dense(fresh & deviates, known)
-            return mask, dense  # nothing deviated a frame before: nothing is explained
+            fresh = _unexplained(metres, mask, before)
+            if fresh is mask:  # nothing explained: its dense share is the frame's
+                return mask, dense
+            return fresh, _dense(fresh & deviates, known) if before is not None else 0.0
 
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker;
         # their depths, -1 a dropout, written where they are (patches are few).
@@ -412,19 +413,17 @@ class SceneReference:
         if lasting.any():
             self._take(frame, lasting)
         shifted = float(np.count_nonzero(shift)) / known if self.shift_area is not None else 0.0
-        far_off = (
-            self._far_off(metres, None if self.far_thin else deviates) if self.far_area is not None else None
-        )
+        far_off = None
+        if self.far_area is not None:  # over every return, or among the density-filtered deviations
+            far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
+            if not self.far_thin:
+                far_off &= deviates
         far = float(np.count_nonzero(far_off)) / known if far_off is not None else 0.0
         far_fresh = None
         if far_off is not None and self.far_thin:
 
-            def far_fresh() -> float:  # as ``explain`` does for the deviations
-                if before is None:
-                    return 0.0
-                if not before.any():
-                    return far
-                return float(np.count_nonzero(far_off & ~_explained(metres, far_off, before))) / known
+            def far_fresh() -> float:  # thin far-off returns need not be among ``mask``: on their own
+                return float(np.count_nonzero(_unexplained(metres, far_off, before))) / known
 
         return Evidence(
             mask,
@@ -443,24 +442,6 @@ class SceneReference:
             _far=far_off,
             _far_fresh=far_fresh,
         )
-
-    def _far_off(self, metres: np.ndarray, deviates: np.ndarray | None) -> np.ndarray:
-        """The returns read more than ``FAR_ABS`` + ``FAR_REL`` x depth beyond their pixel's clean range,
-        where the scene returns at least ``RANGE_RATE`` of the time: among the ``deviates`` pixels (a few
-        percent of a clean frame), or every return (None)."""
-        s = self._stats
-        assert s is not None
-        if deviates is None:
-            return (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
-        at = np.flatnonzero(deviates)
-        m = metres.ravel()[at]
-        median = s.nz_median.ravel()[at]
-        tol = FAR_ABS + FAR_REL * median
-        off = (m > 0) & (s.rate.ravel()[at] >= RANGE_RATE)
-        off &= (m < s.lo.ravel()[at] - tol) | (m > s.hi.ravel()[at] + tol)
-        out = np.zeros(metres.shape, bool)
-        out.ravel()[at] = off
-        return out
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
         """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
@@ -551,6 +532,17 @@ def _neighbours(mask: np.ndarray) -> np.ndarray:
 def _dense(mask: np.ndarray, known: int) -> float:
     """The share of ``known`` pixels amid others in ``mask`` (half of their 9x9 neighbourhood)."""
     return float(np.count_nonzero(_neighbours(mask) >= HALF)) / known
+
+
+def _unexplained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray | None) -> np.ndarray:
+    """The pixels of ``mask`` nothing that moved explains (``_explained``): none on the first frame judged
+    against a new reference (``before`` None: no motion to tell by); ``mask`` itself where nothing deviated
+    a frame before."""
+    if before is None:
+        return np.zeros_like(mask)
+    if mask.any() and before.any():
+        return mask & ~_explained(metres, mask, before)
+    return mask
 
 
 def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:
