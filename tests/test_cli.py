@@ -138,6 +138,41 @@ def test_sweep_writes_results_and_checks_bars(tmp_path):
     assert res.returncode == 2 and "no such file" in res.stderr
 
 
+def test_bench_worst_runs_again_until_the_long_run_takes_longer(monkeypatch):
+    """The worst case's time a frame is the difference between a long and a short recover run; where a busy
+    machine makes the short run the slower, it runs both again (up to as many runs more) rather than report a
+    negative time, and says so in one line if the difference never comes out positive."""
+    import subprocess
+    import time
+
+    import numpy as np
+
+    from d2sr import bench
+    from d2sr.errors import D2SRError
+
+    clock = [0.0]
+    plans: dict[str, list[float]] = {}
+
+    def fake_run(args, **kw):  # each recover "takes" the next planned seconds of its kind; the floor 0.1 s
+        if args[1] == "-c":
+            return subprocess.CompletedProcess(args, 0, "0.1\n", "")
+        clock[0] += plans[args[-1].rsplit("in", 1)[1]].pop(0)
+        return subprocess.CompletedProcess(args, 0, "", "")
+
+    monkeypatch.setattr(subprocess, "run", fake_run)
+    monkeypatch.setattr(time, "perf_counter", lambda: clock[0])
+    frames = [np.full((24, 32), 4000, np.uint16)] * 20
+    # run 1: 10 frames 2.0 s, 20 frames 1.5 s (the short one slower); run 2: 1.0 and 2.0 s
+    plans.update({"10": [2.0, 1.0], "20": [1.5, 2.0]})
+    out = bench.bench_worst(frames, 4000.0, runs=1)
+    assert out["runs"] == 2 and out["seconds"]["recover 20"] == [1.5, 2.0]
+    assert out["recover_ms_per_frame"] == pytest.approx(1000 * (1.75 - 1.5) / 10)
+    assert out["ratio_to_floor"] == pytest.approx(25.0 / 5.0)
+    plans.update({"10": [2.0, 2.0], "20": [1.5, 1.5]})  # never longer: refused in one line
+    with pytest.raises(D2SRError, match="2 runs of 20 frames took no longer than of 10"):
+        bench.bench_worst(frames, 4000.0, runs=1)
+
+
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_bench_typical_and_worst_on_a_recording(tmp_path):
     from d2sr.bench import frame_4000

@@ -4,12 +4,13 @@ pixels there lay within 2 px of a range edge or a dropout of the clean frame. Th
 leaves alone a returning pixel whose own depth a trusted return (one the mask does not flag) within
 ``SUPPORT_PX`` pixels shares, within the clamp's noise band (``KEEP_M`` + ``KEEP_REL`` x depth): a
 neighbour confirms it. ``--edges``: only where the frame's own 5x5 window holds a dropout or a range step
-over 10% of the pixel's depth. ``d2sr.Pipeline`` as shipped on both L515 views of each set (each view a cold
+over 10% of the pixel's depth. ``--backed``: only where no trusted return within ``SUPPORT_PX`` backs the
+repair's own depth either (a repair between two surfaces). ``d2sr.Pipeline`` as shipped on both L515 views of each set (each view a cold
 sequence of 60 frames) with flagged frames repaired and with every frame repaired, and on the D435 with
 flagged frames repaired (every other frame corrupted, as ``bench/held_out.py`` does); the guard as shipped,
 then with the candidate. RMSE change and frames made worse over the corrupted frames, mask F1, clean pixels
 changed. Development figures only. Run from the repository root:
-python docs/research/guard_support.py [--edges] [SET ...]"""
+python docs/research/guard_support.py [--edges] [--backed] [SET ...]"""
 import sys
 from pathlib import Path
 
@@ -40,6 +41,9 @@ def supported_guard(edges: bool):
         v = x[ys, xs]
         tol = np.float32(contract.KEEP_M) + np.float32(contract.KEEP_REL) * v
         sup = np.zeros(v.shape, bool)
+        pv = p[ys, xs]
+        ptol = np.float32(contract.KEEP_M) + np.float32(contract.KEEP_REL) * pv
+        backed = np.zeros(v.shape, bool)  # the repair's depth has a trusted neighbour too
         hole = np.zeros(v.shape, bool)
         lo, hi = np.full(v.shape, np.inf, np.float32), np.zeros(v.shape, np.float32)
         for dy in range(-r, r + 1):
@@ -48,9 +52,13 @@ def supported_guard(edges: bool):
                 hole |= q <= 0
                 lo, hi = np.where(q > 0, np.minimum(lo, q), lo), np.maximum(hi, q)
                 if dy or dx:
-                    sup |= np.abs(trusted[ys + r + dy, xs + r + dx] - v) <= tol
+                    t = trusted[ys + r + dy, xs + r + dx]
+                    sup |= np.abs(t - v) <= tol
+                    backed |= np.abs(t - pv) <= ptol
         if edges:
             sup &= hole | (hi - lo > 0.1 * v)
+        if BACKED:
+            sup &= ~backed
         keep[ys[sup], xs[sup]] = False
         return p, keep
 
@@ -82,11 +90,12 @@ def score(clean: list, scale: float, which: str, repair: str, views: int) -> str
 
 args = sys.argv[1:]
 edges = "--edges" in args
-sets = [a for a in args if a != "--edges"] or ["r", "a", "b"]
+BACKED = "--backed" in args
+sets = [a for a in args if not a.startswith("--")] or ["r", "a", "b"]
 data = Path("../shared/data")
 l515, (d435, d435_scale) = outside_set(data), clean_sequences(data)["d435"]
 for which in sets:
-    for name, guard in (("shipped", shipped), ("support" + (", edges" if edges else ""), supported_guard(edges))):
+    for name, guard in (("shipped", shipped), ("support" + (", edges" if edges else "") + (", backed" if BACKED else ""), supported_guard(edges))):
         contract.guard = guard  # refill and repair_frame look it up at each call
         print(f"set {which} {name:14s} | L515 flagged: {score(l515, 4000.0, which, 'flagged', 2)} "
               f"| L515 all: {score(l515, 4000.0, which, 'all', 2)} "

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
+from d2sr.errors import D2SRError
 from d2sr.provenance import cpu, stamp
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
@@ -471,11 +472,18 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         return time.perf_counter() - t, r.stdout
 
     times: dict[str, list[float]] = {"floor loop": [], "recover 10": [], f"recover {n}": []}
+
+    def per_frame() -> float:
+        return (statistics.median(times[f"recover {n}"]) - statistics.median(times["recover 10"])) / (n - 10)
+
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         for k in (10, n):
             _recording(root / f"in{k}", frames[:k], depth_scale)
-        for r in range(runs):
+        r = 0
+        # Further runs (up to ``runs`` more) while the machine's noise leaves the difference at or below 0:
+        # on a loaded machine a short run's start-up once took longer than the whole long run.
+        while r < runs or (per_frame() <= 0 and r < 2 * runs):
             times["floor loop"].append(
                 float(run(["-c", floor, str(root / f"in{n}"), str(root / f"f{r}")])[1])
             )
@@ -483,18 +491,23 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
                 times[f"recover {k}"].append(
                     run([*recover, str(root / f"r{k}_{r}"), str(root / f"in{k}")])[0]
                 )
-    rec = (statistics.median(times[f"recover {n}"]) - statistics.median(times["recover 10"])) / (n - 10)
+            r += 1
+    rec = per_frame()
+    if rec <= 0:
+        raise D2SRError(
+            f"worst case: {r} runs of {n} frames took no longer than of 10; the machine is too busy"
+        )
     png = statistics.median(times["floor loop"]) / n
     return {
         "measured": f"d2sr recover IN --all --out OUT from outside, {n} frames vs 10; the floor: OpenCV "
         f"reading and writing the {n} PNGs",
         "frames": n,
         "size": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
-        "runs": runs,
+        "runs": r,
         "seconds": {k: [round(v, 4) for v in t] for k, t in times.items()},
         "recover_ms_per_frame": round(1000 * rec, 2),
         "floor_ms_per_frame": round(1000 * png, 2),
-        "recover_fps": round(1 / rec, 1) if rec > 0 else None,
+        "recover_fps": round(1 / rec, 1),
         "ratio_to_floor": round(rec / png, 2),
         "bar_ratio_to_floor": 1.5,
     }
