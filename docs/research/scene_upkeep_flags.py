@@ -4,11 +4,9 @@ the loop's flags with the scene on the clean sequences (L515 dev0, dev1, the D43
 views of every development set (each view a cold sequence of 60 frames, every other one corrupted).
 Run from the repository root: python docs/research/scene_upkeep_flags.py"""
 import sys
-from functools import partial
 from pathlib import Path
 import numpy as np
 sys.path.insert(0, "bench")
-import d2sr.runtime.loop as loop_module
 import d2sr.reference as reference
 from d2sr.desync import make_controller
 from d2sr.frames import Frame, open_frames
