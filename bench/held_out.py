@@ -80,6 +80,7 @@ SALTS = {
     "p": 0x5A7,
     "q": 0x7C2,
     "r": 0x2D9,
+    "s": 0x6F3,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -100,6 +101,7 @@ KINDS = {
     "p": ("spark segments", "echo rings"),
     "q": ("dash rain", "grid glints"),
     "r": ("dark fill", "edge spray"),
+    "s": ("speckle veil", "beam scatter"),
 }
 
 
@@ -878,6 +880,50 @@ def dark_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return _written(frame, new, where, scale)
 
 
+def veil_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set S (written and sealed 2026-11-27, before the scene's repair filled sparser patches where the
+    scene nearly always returns, to judge that: decisions.md). Stray light another sensor scatters into this
+    one. One of two models, chosen by the seed, neither in ``d2sr.sim`` nor in sets A-R:
+
+    * speckle veil: 1-3 soft blobs (each 8-30% of the view) of another sensor's diffuse light; a return
+      inside reads a haze 3-25% nearer than its surface with a chance that falls off from the blob's centre
+      (25-60% there, none at its rim), and 5% of those drop out instead;
+    * beam scatter: 3-12 straight bands (3-9 px wide, at random angles) where a scanning beam's scattered
+      light lands; 20-50% of their returns read a depth pulled 30-80% of the way toward a plane 0.4-1.5 m
+      away.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.2% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "s")
+    veil = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    has = d > 0
+    for _ in range(20):
+        new = d.copy()
+        if veil:
+            chance = np.zeros((h, w))
+            for _ in range(int(rng.integers(1, 4))):
+                r2 = _ellipse(rng, y, x, 0.08, 0.30)
+                chance = np.maximum(chance, rng.uniform(0.25, 0.6) * np.clip(1 - r2, 0, 1))
+            hit = has & (rng.random((h, w)) < chance)
+            new = np.where(hit, d * (1 - rng.uniform(0.03, 0.25, (h, w))), d)
+            new = np.where(hit & (rng.random((h, w)) < 0.05), 0.0, new)
+        else:
+            band = np.zeros((h, w), bool)
+            for _ in range(int(rng.integers(3, 13))):
+                ang = rng.uniform(0, np.pi)
+                s_ = x * np.cos(ang) + y * np.sin(ang)
+                at = rng.uniform(s_.min(), s_.max())
+                band |= np.abs(s_ - at) < rng.uniform(1.5, 4.5)
+            hit = band & has & (rng.random((h, w)) < rng.uniform(0.2, 0.5))
+            plane = rng.uniform(0.4, 1.5)
+            new = np.where(hit, d + rng.uniform(0.3, 0.8) * (plane - d), d)
+        where = (np.abs(new - d) > 0.02) & (has | (new > 0))
+        if where.sum() >= 0.002 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -896,13 +942,14 @@ SETS = {
     "p": spark_interference,
     "q": rain_interference,
     "r": dark_interference,
+    "s": veil_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
-# Sets written for one measurement of their own (K-R: settings of the scene, on the D435 too), which the
+SEALED: set[str] = {"s"}
+# Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r"}
+OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {

@@ -16,8 +16,13 @@ its clean frames (as shipped until 2026-11-27) or in ``RANGE_RATE`` (``SceneRefe
 ``--what rare``: the scene's repair keeping any return where the scene seldom returns (as shipped until
 2026-11-27) or only one near the depth it returned at (``SceneReference(rare_near=True)``).
 
-With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O) or ``--what rare --set r`` (sealed
-set R), also whether the rule written for it held (docs/research/decisions.md, 2026-11-27).
+``--what reliable``: the scene's repair taking its depth for fresh deviations amid half of their 9x9
+neighbours (as shipped until 2026-11-27), or also amid a quarter where the scene nearly always returns
+(``SceneReference(reliable_fill=True)``).
+
+With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
+set R) or ``--what reliable --set s`` (sealed set S), also whether the rule written for it held
+(docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
@@ -52,6 +57,10 @@ WHAT: dict[str, dict[str, Mode]] = {
     "rare": {
         "any return kept where the scene seldom returns": (True, {"rare_near": False}),
         "only a return near its depth kept there": (True, {"rare_near": True}),
+    },
+    "reliable": {
+        "fresh deviations amid half their neighbours filled": (True, {"reliable_fill": False}),
+        "amid a quarter where the scene nearly always returns": (True, {"reliable_fill": True}),
     },
 }
 
@@ -139,7 +148,8 @@ def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
 
 
 def o_rule(parts: dict, clean: dict, what: str = "returns") -> dict[str, bool]:
-    """Set O's rule (``--what returns``), and set R's (``--what rare``), the same items."""
+    """Set O's rule (``--what returns``); set R's (``--what rare``) and S's (``--what reliable``) are the
+    same items."""
     still = parts["l515"]
     old_name, new_name = WHAT[what]
     old, new = still[old_name], still[new_name]
@@ -212,6 +222,8 @@ def main() -> None:
         result["rule"] = o_rule(result["sets"]["o"], clean)
     if args.what == "rare" and "r" in sets:
         result["rule"] = o_rule(result["sets"]["r"], clean, "rare")
+    if args.what == "reliable" and "s" in sets:
+        result["rule"] = o_rule(result["sets"]["s"], clean, "reliable")
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",

@@ -392,6 +392,45 @@ def test_the_scene_repairs_a_return_where_it_returns_most_of_the_time():
     assert (shipped.depth[flicker][~back] > 0).mean() < 0.1  # a dropout: only where it nearly always returns
 
 
+def test_reliable_fill_repairs_sparser_patches_only_where_the_scene_nearly_always_returns():
+    """``reliable_fill``: a region where a third of the returns read 10% near (fresh deviations amid about a
+    third of their 9x9 neighbours, under ``HALF``) takes the scene's depth where the scene nearly always
+    returns, and not without it; where the scene returns in only about 70% of its frames it is left to the
+    model either way; a clean frame gets no fill either way."""
+    flicker = np.s_[40:70, 90:120]
+
+    def scene(rng: np.random.Generator) -> np.ndarray:
+        f = _scene(rng)
+        f[flicker] = np.where(rng.random(f[flicker].shape) < 0.3, 0, f[flicker])
+        return f
+
+    refs = {k: SceneReference(SCALE, reliable_fill=k) for k in (False, True)}
+    rng = np.random.default_rng(11)
+    for _ in range(16):
+        f = scene(rng)
+        for ref in refs.values():
+            ref.evidence(f)
+            ref.add(f)
+    clean = scene(rng)
+    for ref in refs.values():
+        assert not ref.repair(ref.evidence(clean)).fill.any()
+    truth = scene(rng)
+    hit = truth.copy()
+    region = np.s_[40:70, 20:120]
+    some = (hit[region] > 0) & (rng.random(hit[region].shape) < 1 / 3)
+    hit[region] = np.where(some, (hit[region] * 0.9).astype(np.uint16), hit[region])
+    off, on = (ref.repair(ref.evidence(hit)) for ref in refs.values())
+    reliable = np.s_[40:70, 20:90]
+    moved = (hit != truth)[reliable]
+    assert off.fill[reliable][moved].mean() < 0.2 and on.fill[reliable][moved].mean() > 0.8
+    err = np.abs(on.depth[reliable][on.fill[reliable]] - truth[reliable][on.fill[reliable]] / SCALE)
+    assert np.median(err) < 0.01  # the scene's own depth, within its noise
+    # Where the scene returns about 70% of the time (only the few pixels that happened to return in 90% of
+    # its frames count as nearly always): the model's, with it or without.
+    hit_f = (hit != truth)[flicker]
+    assert on.fill[flicker][hit_f].mean() < 0.2 and off.fill[flicker][hit_f].mean() < 0.2
+
+
 class _Doubles(FakeNet):
     def recover(
         self, metres, previous=None

@@ -225,6 +225,7 @@ class SceneReference:
         far_area: float | None = FAR_AREA,
         far_thin: bool = True,
         rare_near: bool = True,
+        reliable_fill: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -235,6 +236,8 @@ class SceneReference:
         set Q, docs/research/decisions.md, 2026-11-27). ``rare_near``: the repair keeps a return where the
         scene seldom returns (``RANGE_RATE``) only within ``FAR_ABS`` + ``FAR_REL`` of the depth it returned
         at (or where it never returned), not any such return (sealed set R, decisions.md, 2026-11-27).
+        ``reliable_fill``: the repair also takes the scene's depth for a fresh deviation amid a quarter of
+        fresh neighbours (``QUARTER``, not ``HALF``) where the scene nearly always returns (``TRUST_RATE``).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -262,6 +265,7 @@ class SceneReference:
             far_thin,
             rare_near,
         )
+        self.reliable_fill = reliable_fill
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -484,7 +488,11 @@ class SceneReference:
         rate = np.where(m > 0, np.float32(self.return_rate), np.float32(TRUST_RATE))
         trusted = (s.rate >= rate) & (s.hi - s.lo <= TRUST_ABS + TRUST_REL * s.nz_median)
         trusted &= s.nz_median > 0
-        where = ev.fresh & (_neighbours(ev.fresh) >= HALF) & trusted
+        near = _neighbours(ev.fresh)
+        patches = near >= HALF
+        if self.reliable_fill:  # where the scene nearly always returns, sparser patches too
+            patches |= (near >= QUARTER) & (s.rate >= TRUST_RATE)
+        where = ev.fresh & patches & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
         seldom = s.rate < RANGE_RATE
