@@ -44,9 +44,11 @@ from d2sr.runtime.pipeline import Pipeline
 from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
 
 Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
-# What came after set O was judged (far-off flags, the seldom-returns keep), off as it was then, so that
-# ``--what returns`` reproduces O's result. ``--what default`` measures the scene's repair as shipped today.
-BEFORE_FAR: dict[str, Any] = {"far_area": None, "rare_near": False}
+# What came after set O was judged (far-off flags, the seldom-returns keep, the sparser fill), off as it was
+# then, so that ``--what returns`` reproduces O's result. ``--what default``: the repair as shipped today.
+BEFORE_FAR: dict[str, Any] = {"far_area": None, "rare_near": False, "reliable_fill": False}
+# What came after set R was judged (the sparser fill), off as it was then: ``--what rare`` reproduces R's.
+BEFORE_S: dict[str, Any] = {"reliable_fill": False}
 # Per --what: each mode's name and settings.
 WHAT: dict[str, dict[str, Mode]] = {
     "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
@@ -55,8 +57,8 @@ WHAT: dict[str, dict[str, Mode]] = {
         f"returns trusted from {RANGE_RATE}": (True, {"return_rate": RANGE_RATE, **BEFORE_FAR}),
     },
     "rare": {
-        "any return kept where the scene seldom returns": (True, {"rare_near": False}),
-        "only a return near its depth kept there": (True, {"rare_near": True}),
+        "any return kept where the scene seldom returns": (True, {"rare_near": False, **BEFORE_S}),
+        "only a return near its depth kept there": (True, {"rare_near": True, **BEFORE_S}),
     },
     "reliable": {
         "fresh deviations amid half their neighbours filled": (True, {"reliable_fill": False}),
