@@ -27,7 +27,6 @@ from d2sr.errors import OutputError
 __all__ = [
     "CALLER",
     "CSV_HEADERS",
-    "MADE_BY",
     "MANIFEST",
     "atomic_dir",
     "atomic_file",
@@ -41,7 +40,6 @@ __all__ = [
 ]
 
 MANIFEST = ".d2sr-manifest.json"
-MADE_BY = "made_by"  # the key a JSON file d2sr writes carries ("d2sr <version>")
 CALLER = "/d2sr"  # the caller id of the connections d2sr adds to a ROS 1 bag
 CSV_HEADERS = ("frame,score,interfered",)  # the first lines of the CSV files d2sr writes
 _PNG_TEXT = b"tEXtSoftware\x00d2sr"  # matplotlib's metadata={"Software": "d2sr ..."}
@@ -52,6 +50,8 @@ def made_by_d2sr(path: Path) -> bool:
     """Whether the existing file ``path`` is one d2sr wrote, by what it says of itself: a CSV's header, a
     JSON object's ``made_by``, a PNG's Software text, a Rerun recording's application id, a ROS 1 bag's
     connection from ``CALLER``."""
+    from d2sr.provenance import MADE_BY  # the key stamp writes (provenance stamps what atomic commits)
+
     suffix = path.suffix.lower()
     if suffix == ".json":
         try:

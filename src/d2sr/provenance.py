@@ -22,8 +22,9 @@ from pathlib import Path
 
 from d2sr.contract import WEIGHTS
 
-__all__ = ["KEYS", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
+__all__ = ["KEYS", "MADE_BY", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
 
+MADE_BY = "made_by"  # the key heading every JSON file d2sr writes ("d2sr <version>"): how it knows its own
 # The keys ``record`` writes; a result holding at least "command" and "commit" is traceable.
 KEYS = ("command", "commit", "version", "models", "data", "cpu", "date")
 ROOT = Path(__file__).resolve().parents[2]  # the checkout, when d2sr runs from one (else no commit)
@@ -133,7 +134,6 @@ def stamp(
     """``result`` headed by ``made_by`` and its provenance (``record``); a ``data`` key of the result's own
     replaces the record's. Any other key the record writes is refused: it would hide the provenance."""
     from d2sr import __version__
-    from d2sr.atomic import MADE_BY
 
     head = record(models=models, folder=folder, data=data)
     clash = set(result) & (set(head) - {"data"})
