@@ -24,7 +24,13 @@ a blinded region's survivors read too near or another scanner's direct beam (``s
 opened it the same day, on the moving D435 as well): flood noise and diagonal scanner combs
 (``flood_interference``). ``--set l`` (written and sealed 2026-11-27, to judge the scene's 16-stripe upkeep;
 ``bench/scene_gate.py --what stripes`` opened it the same day): rows read skewed sideways and a mirror ghost
-(``skew_interference``).
+(``skew_interference``). Sets M-S (2026-11-27), each written and sealed to judge one setting of the scene
+and opened once by ``bench/scene_gate.py`` or ``bench/scene_repair.py``: a timing walk and phase wedges
+(``walk_interference``), a cover window's ghost and column crosstalk (``window_interference``), flying
+edges and blotch fields (``blotch_interference``), spark segments and echo rings (``spark_interference``),
+dash rain and grid glints (``rain_interference``), dropouts made to return and edge spray
+(``dark_interference``), and stray light as a speckle veil or beam scatter (``veil_interference``);
+``STATUS`` says what each judged.
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
   ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
