@@ -1,0 +1,61 @@
+"""Where the clean pixels the repair changes come from (issue 42's mask F1 and "clean pixels changed"):
+``d2sr.Pipeline`` as shipped (flagged frames repaired, the scene's repair on) on both L515 views of each set
+(each view a cold sequence of 60 frames, every other one corrupted), and the same outputs with a filled
+dropout put back to no return, after the fact, where a usable scene says (1) the pixel returns in under 90%
+of its clean frames, or (2) that and it is not among the frame's deviations from the scene. The share of the
+changed clean pixels that are filled dropouts; RMSE change and mask F1 over the corrupted frames; clean
+pixels changed over all frames. Development figures only. Run from the repository root:
+python docs/research/dropout_fills.py [SET ...]"""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, "bench")
+import d2sr
+import d2sr.reference as reference
+from held_out import every_other, outside_set
+
+clean = outside_set(Path("../shared/data"))
+seen = {}
+shipped_evidence = reference.SceneReference.evidence
+
+
+def evidence(self, *a, **k):  # keep each frame's evidence and its reference's statistics
+    ev = shipped_evidence(self, *a, **k)
+    seen["ev"], seen["stats"] = ev, self._stats
+    return ev
+
+
+reference.SceneReference.evidence = evidence
+RULES = ("as shipped", "rate < 0.9", "rate < 0.9, not deviating")
+for which in sys.argv[1:] or ["a", "b"]:
+    bad = every_other(clean, 4000.0, which)
+    sums = {rule: np.zeros(8) for rule in RULES}
+    for v in (0, 60):
+        pipe = d2sr.Pipeline(4000.0)
+        for b, c in zip(bad[v : v + 60], clean[v : v + 60], strict=True):
+            seen.clear()
+            r = pipe.process(b)
+            hit = b != c
+            ev, s = seen.get("ev"), seen.get("stats")
+            usable = ev is not None and ev.usable and s is not None
+            for rule in RULES:
+                out, mask = r.depth.copy(), r.mask.copy()
+                if rule != "as shipped" and usable:
+                    back = (b == 0) & (out != b) & (s.rate < 0.9)
+                    if rule.endswith("not deviating"):
+                        back &= ~ev.mask
+                    out[back], mask = 0, mask & ~back
+                changed = (out != b) & ~hit
+                a = sums[rule]
+                a[5], a[6], a[7] = a[5] + changed.sum(), a[6] + (changed & (b == 0)).sum(), a[7] + (~hit).sum()
+                if hit.any():
+                    ok = c > 0
+                    a[0] += (((b.astype(float) - c) / 4000)[ok] ** 2).sum()
+                    a[1] += (((out.astype(float) - c) / 4000)[ok] ** 2).sum()
+                    a[2], a[3], a[4] = a[2] + (mask & hit).sum(), a[3] + (mask & ~hit).sum(), a[4] + (~mask & hit).sum()
+    for rule, a in sums.items():
+        p, rc = a[2] / (a[2] + a[3]), a[2] / (a[2] + a[4])
+        print(f"set {which} {rule:26s} RMSE {np.sqrt(a[1] / a[0]) - 1:+.1%}  mask F1 {2 * p * rc / (p + rc):.3f}  "
+              f"clean changed {a[5] / a[7]:.2%} (filled dropouts {a[6] / max(a[5], 1):.0%} of it)", flush=True)  # fmt: skip
