@@ -49,6 +49,16 @@ def _warm(ref: SceneReference, rng: np.random.Generator, n: int = 16) -> None:
         ref.add(f)
 
 
+def _loops(net: FakeNet, repair: str, settings: dict) -> dict:
+    """A still sensor's loop (the scene on) for each of ``settings``: name -> ``SceneReference`` keywords."""
+    return {
+        name: SensorLoop(
+            net, make_controller("static", 30, 30), repair=repair, scene=True, scene_options=opts
+        )
+        for name, opts in settings.items()
+    }
+
+
 def test_a_patch_shifted_a_few_centimetres_is_evidence_and_the_scene_is_not():
     rng = np.random.default_rng(0)
     ref = SceneReference(SCALE)
@@ -149,11 +159,7 @@ def test_thin_lines_read_far_off_flag_a_frame_that_never_deviates_densely():
     """Lines 1 px wide every 8 rows, read at 60% of the depth, where the scene's returns agree: too thin for
     the dense evidence, but far off their pixels' clean range, which the sensor's flicker never is. The loop
     flags the frame as shipped (``FAR_AREA``), not with ``far_area=None``; clean frames stay unflagged."""
-    loops = {
-        area: SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True,
-                         scene_options={} if area == "shipped" else {"far_area": None})
-        for area in ("shipped", None)
-    }  # fmt: skip
+    loops = _loops(FakeNet(), "none", {"shipped": {}, None: {"far_area": None}})
     rng = np.random.default_rng(9)
     for _ in range(20):
         f = _scene(rng)
@@ -170,11 +176,7 @@ def test_strokes_one_pixel_wide_are_counted_over_every_return():
     """Short strokes one pixel wide, scattered, read at half the depth: the labeller's density filter drops
     them from the deviations, so only far-off returns counted over every return (``far_thin``, shipped) flag
     the frame."""
-    loops = {
-        thin: SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True,
-                         scene_options={"far_thin": thin})
-        for thin in (True, False)
-    }  # fmt: skip
+    loops = _loops(FakeNet(), "none", {thin: {"far_thin": thin} for thin in (True, False)})
     assert SceneReference(SCALE).far_thin
     rng = np.random.default_rng(10)
     for _ in range(20):
@@ -369,12 +371,8 @@ def test_the_scene_repairs_a_return_where_it_returns_most_of_the_time():
         f[flicker] = np.where(rng.random(f[flicker].shape) < 0.3, 0, f[flicker])
         return f
 
-    loops = {
-        rate: SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True,
-                         scene_options={"return_rate": rate})
-        for rate in (None, TRUST_RATE)
-    }  # fmt: skip
-    loops[None].scene_options = {}  # as shipped
+    # None: as shipped
+    loops = _loops(_NoRepair(), "flagged", {None: {}, TRUST_RATE: {"return_rate": TRUST_RATE}})
     rng = np.random.default_rng(8)
     for _ in range(20):
         f = scene(rng)
@@ -451,11 +449,7 @@ def test_the_scene_keeps_a_seldom_seen_return_only_near_its_depth():
         f[rare] = np.where(rng.random(f[rare].shape) < 0.6, 0, f[rare])  # returns 40% of the time
         return f
 
-    loops = {
-        near: SensorLoop(_Doubles(), make_controller("static", 30, 30), repair="all", scene=True,
-                         scene_options={"rare_near": near})
-        for near in (True, False)
-    }  # fmt: skip
+    loops = _loops(_Doubles(), "all", {near: {"rare_near": near} for near in (True, False)})
     assert SceneReference(SCALE).rare_near
     rng = np.random.default_rng(11)
     for _ in range(20):

@@ -480,22 +480,22 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         root = Path(tmp)
         for k in (10, n):
             _recording(root / f"in{k}", frames[:k], depth_scale)
-        r = 0
+        done = 0
         # Further runs (up to ``runs`` more) while the machine's noise leaves the difference at or below 0:
         # on a loaded machine a short run's start-up once took longer than the whole long run.
-        while r < runs or (per_frame() <= 0 and r < 2 * runs):
+        while done < runs or (per_frame() <= 0 and done < 2 * runs):
             times["floor loop"].append(
-                float(run(["-c", floor, str(root / f"in{n}"), str(root / f"f{r}")])[1])
+                float(run(["-c", floor, str(root / f"in{n}"), str(root / f"f{done}")])[1])
             )
             for k in (10, n):
                 times[f"recover {k}"].append(
-                    run([*recover, str(root / f"r{k}_{r}"), str(root / f"in{k}")])[0]
+                    run([*recover, str(root / f"r{k}_{done}"), str(root / f"in{k}")])[0]
                 )
-            r += 1
+            done += 1
     rec = per_frame()
     if rec <= 0:
         raise D2SRError(
-            f"worst case: {r} runs of {n} frames took no longer than of 10; the machine is too busy"
+            f"worst case: {done} runs of {n} frames took no longer than of 10; the machine is too busy"
         )
     png = statistics.median(times["floor loop"]) / n
     return {
@@ -503,7 +503,7 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         f"reading and writing the {n} PNGs",
         "frames": n,
         "size": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
-        "runs": r,
+        "runs": done,
         "seconds": {k: [round(v, 4) for v in t] for k, t in times.items()},
         "recover_ms_per_frame": round(1000 * rec, 2),
         "floor_ms_per_frame": round(1000 * png, 2),

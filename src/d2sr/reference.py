@@ -492,8 +492,8 @@ class SceneReference:
         trusted &= s.nz_median > 0
         near = _neighbours(ev.fresh)
         patches = near >= HALF
-        if self.reliable_fill:  # where the scene nearly always returns, sparser patches too
-            patches |= (near >= QUARTER) & (s.rate >= TRUST_RATE)
+        if self.reliable_fill:  # where the scene nearly always returns (steady), sparser patches too
+            patches |= (near >= QUARTER) & self._steady
         where = ev.fresh & patches & trusted
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
