@@ -87,6 +87,7 @@ SALTS = {
     "q": 0x7C2,
     "r": 0x2D9,
     "s": 0x6F3,
+    "t": 0x7A5,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -108,6 +109,7 @@ KINDS = {
     "q": ("dash rain", "grid glints"),
     "r": ("dark fill", "edge spray"),
     "s": ("speckle veil", "beam scatter"),
+    "t": ("range staircase", "clamped plane"),
 }
 
 
@@ -930,6 +932,51 @@ def veil_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return _written(frame, new, where, scale)
 
 
+def stair_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set T (written and sealed 2026-11-27, before a recording's loop judged its first frames against a
+    scene learned from the frames ahead, to judge that: decisions.md). Another sensor's light saturating this
+    one's receiver over part of the view, so that its timing reads coarse. One of two models, chosen by the
+    seed, neither in ``d2sr.sim`` nor in sets A-S:
+
+    * range staircase: in 1-2 ellipses (each 6-25% of the view), every return snaps to a grid of steps 4-12 cm
+      apart (at a random phase), and 0-10% of them drop out;
+    * clamped plane: in a convex polygon of 4-7 corners (5-25% of the view), every return reads one depth,
+      the region's 10th-40th percentile, with 0.5-1.5 cm of noise: a flat wall where the scene has shape.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.2% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "t")
+    stairs = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    has = d > 0
+    for _ in range(20):
+        if stairs:
+            region = np.zeros((h, w), bool)
+            for _ in range(int(rng.integers(1, 3))):
+                region |= _ellipse(rng, y, x, 0.06, 0.25) < 1
+            step = rng.uniform(0.04, 0.12)
+            phase = rng.uniform(0, step)
+            new = np.where(region & has, np.round((d - phase) / step) * step + phase, d)
+            new = np.where(region & has & (rng.random((h, w)) < rng.uniform(0, 0.1)), 0.0, new)
+        else:
+            k = int(rng.integers(4, 8))
+            cy, cx = rng.uniform(0.2, 0.8) * h, rng.uniform(0.2, 0.8) * w
+            radius = np.sqrt(rng.uniform(0.05, 0.25) * h * w / np.pi)
+            ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+            r = radius * rng.uniform(0.7, 1.3, k)
+            corners = np.stack([cx + r * np.cos(ang), cy + r * np.sin(ang)], 1)
+            region = np.zeros((h, w), np.uint8)
+            cv2.fillConvexPoly(region, cv2.convexHull(np.rint(corners).astype(np.int32)), 1)
+            inside = region.astype(bool) & has
+            level = float(np.percentile(d[inside], rng.uniform(10, 40))) if inside.any() else 0.0
+            noise = rng.normal(0, rng.uniform(0.005, 0.015), (h, w))
+            new = np.where(inside, np.maximum(level + noise, 0.05), d)
+        where = (np.abs(new - d) > 0.02) & (has | (new > 0))
+        if where.sum() >= 0.002 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -949,13 +996,14 @@ SETS = {
     "q": rain_interference,
     "r": dark_interference,
     "s": veil_interference,
+    "t": stair_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"t"}
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s"}
+OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {

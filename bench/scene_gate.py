@@ -15,6 +15,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
   set, the clean sequences; its views seeded as ``--what shift``'s.
 * ``--what thin`` (set Q): far-off returns counted among the deviations (as shipped) or over every return
   (``far_thin=True``), likewise.
+* ``--what prime`` (set T): each sequence cold, as a live sensor starts, and primed as ``d2sr detect`` and
+  ``d2sr recover`` judge a recording: the scene first learns from its ``PRIME_FRAMES`` frames ahead
+  (``SensorLoop.primed``); likewise.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -30,6 +33,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_far_p.json
       .venv/bin/python bench/scene_gate.py --what thin --set q --data ../shared/data \\
           --json docs/results/scene_thin_q.json
+      .venv/bin/python bench/scene_gate.py --what prime --set t --data ../shared/data \\
+          --json docs/results/scene_prime_t.json
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ from d2sr.errors import D2SRError
 from d2sr.frames import Frame
 from d2sr.reference import STILL_FRAMES, STILL_MIN, STILL_Q, STILL_SHARE, SceneReference
 from d2sr.runtime.backends import Backend, open_backend
-from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
 from held_out import KINDS, SETS, clean_sequences, every_other, outside_set, set_data
 
 # Per --what: each mode's name, whether the loop judges the scene, and the SceneReference settings. Settings
@@ -73,15 +78,22 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "far-off among the deviations (shipped)": (True, {"far_thin": False}),
         "far-off over every return": (True, {"far_thin": True}),
     },
+    "prime": {"cold (a live sensor)": (True, {}), "primed (a recording)": (True, {})},
 }
+# Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
+PRIMED = {"primed (a recording)": PRIME_FRAMES}
 
 
-def flags(net: Backend, frames: list[np.ndarray], scale: float, scene: bool, settings: dict) -> np.ndarray:
-    """The loop's flag on each frame, in order, from a cold start (``settings``: the scene reference's)."""
+def flags(
+    net: Backend, frames: list[np.ndarray], scale: float, scene: bool, settings: dict, prime: int = 0
+) -> np.ndarray:
+    """The loop's flag on each frame, in order, from a cold start (``settings``: the scene reference's), or
+    primed on the first ``prime`` frames (``SensorLoop.primed``)."""
     lp = SensorLoop(
         net, make_controller("static", 30, 30), repair="none", scene=scene, scene_options=settings
     )
-    return np.array([lp.process(Capture(Frame(f"{i}", f), scale)).flagged for i, f in enumerate(frames)])
+    caps = (Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
+    return np.array([lp.process(c).flagged for c in lp.primed(caps, prime)])
 
 
 def rates(f: np.ndarray, hit: np.ndarray) -> dict:
@@ -160,6 +172,25 @@ def flag_rule(parts: dict, clean: dict, what: str) -> dict[str, bool]:
     }
 
 
+def prime_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set T's rule (decisions.md, 2026-11-27): the primed loop finds at least 2 more of the 60 corrupted
+    L515 frames (or reaches 0.95) at precision 0.95, and flags no clean frame more, anywhere."""
+    moving, still = parts["d435"], parts["l515"]
+    cold, primed = MODES["prime"]
+    return {
+        "1 l515: recall >= min(cold's + 0.03, 0.95), precision >= 0.95, clean flags <= cold's": bool(
+            still[primed]["recall"] >= min(still[cold]["recall"] + 0.03, 0.95)
+            and still[primed]["precision"] >= 0.95
+            and still[primed]["clean_flagged"] <= still[cold]["clean_flagged"]
+        ),
+        "2 d435: clean flags at most cold's, recall at least cold's - 0.02": bool(
+            moving[primed]["clean_flagged"] <= moving[cold]["clean_flagged"]
+            and moving[primed]["recall"] >= moving[cold]["recall"] - 0.02
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[primed] <= c[cold] for c in clean.values()),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -176,7 +207,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN:
+    if args.what in GAIN or args.what == "prime":
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -198,7 +229,9 @@ def main() -> None:
             ]
         )
         result["parts"][part] = {
-            mode: rates(np.concatenate([flags(net, s, scale, scene, st) for s in bad]), hit)
+            mode: rates(
+                np.concatenate([flags(net, s, scale, scene, st, PRIMED.get(mode, 0)) for s in bad]), hit
+            )
             for mode, (scene, st) in modes.items()
         }
     if args.what == "gate":
@@ -207,7 +240,10 @@ def main() -> None:
         result["gate"]["still_min"] = STILL_MIN
     else:
         clean = {
-            n: {mode: int(flags(net, fr, scale, scene, st).sum()) for mode, (scene, st) in modes.items()}
+            n: {
+                mode: int(flags(net, fr, scale, scene, st, PRIMED.get(mode, 0)).sum())
+                for mode, (scene, st) in modes.items()
+            }
             for n, (fr, scale) in whole.items()
         }
         result["clean_flagged"] = {
@@ -215,6 +251,9 @@ def main() -> None:
         }
     if args.what in GAIN:
         result["rule"] = flag_rule(result["parts"], clean, args.what)
+    elif args.what == "prime":
+        result["rule"] = prime_rule(result["parts"], clean)
+        result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
         ms: dict[str, dict[str, float]] = {n: {} for n in still}

@@ -9,8 +9,10 @@ controller's window, as in the timing world. Open-loop sources (recordings) give
 
 from __future__ import annotations
 
+import itertools
 import time
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -25,8 +27,21 @@ from d2sr.runtime.backends import Backend
 from d2sr.synth.warp import Pose
 
 REPAIR = ("flagged", "all", "none")
+# Frames a recording's loop judges ahead of its first to warm the scene (``SensorLoop.primed``): twice the
+# scene's ring, so that with every other frame interfered its 16 clean frames are all judged warm.
+PRIME_FRAMES = 32
 
-__all__ = ["REPAIR", "Capture", "Decision", "PeriodEnd", "Result", "SensorLoop", "Sink", "Trigger"]
+__all__ = [
+    "PRIME_FRAMES",
+    "REPAIR",
+    "Capture",
+    "Decision",
+    "PeriodEnd",
+    "Result",
+    "SensorLoop",
+    "Sink",
+    "Trigger",
+]
 
 
 @dataclass
@@ -219,6 +234,33 @@ class SensorLoop:
         if cap.counted:
             self._buffer(flagged, cap.slot)
         return d
+
+    def prime(self, captures: Sequence[Capture]) -> None:
+        """Let the still sensor's scene learn from a recording's frames ahead (with ``scene``), so that its
+        first frames are judged against a scene too, not by the detector alone as a live sensor's are. They
+        are judged as ``decide`` judges them, from the last to the second, so the scene ends where the
+        recording starts; the first is left out, as it would explain its own deviations. Nothing else
+        changes: no result, no flag for the controller, no frame the models remember."""
+        if not self.scene or len(captures) < 2:
+            return
+        kept = (self.repair, self._last, self._last_clean, self._unjudged)
+        self.repair = "none"
+        try:
+            for cap in reversed(captures[1:]):
+                self.decide(replace(cap, counted=False))
+        finally:
+            self.repair, self._last, self._last_clean, self._unjudged = kept
+
+    def primed(self, captures: Iterable[Capture], frames: int = PRIME_FRAMES) -> Iterator[Capture]:
+        """``captures`` as they come, once the first ``frames`` of them have primed the scene (``prime``;
+        0: none, the loop starts cold as a live sensor's does)."""
+        if frames < 0:
+            raise ConfigError(f"frames to prime the scene must be >= 0, got {frames}")
+        it = iter(captures)
+        ahead = list(itertools.islice(it, frames)) if self.scene and frames > 1 else []
+        self.prime(ahead)
+        yield from ahead
+        yield from it
 
     def finish(self, d: Decision) -> Result:
         """Repair a decided frame (when it is to be repaired) and hand the result to the sink."""
