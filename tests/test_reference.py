@@ -619,14 +619,55 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
         assert code == 0, err
         flags[name] = [int(r["interfered"]) for r in csv.DictReader(out.open())]
     assert flags["default"] == [0] * 9 + [1] and flags["alone"] == [0] * 10
-    # the summary line says how many verdicts the scene weighed (not the first 5: it was being built)
-    assert "1 of 10 frames interfered, the sensor's scene weighed 5 ->" in said["default"]
+    # the summary line says how many verdicts the scene weighed: every one, as the recording's frames ahead
+    # built it first (``--prime``); from the 6th with --prime 0, as a live sensor starts
+    assert "1 of 10 frames interfered, the sensor's scene weighed 10 ->" in said["default"]
     assert "0 of 10 frames interfered ->" in said["alone"]
+    code, cold, err = d2sr_inprocess(
+        "detect", str(rec), "--depth-scale", "4000", "--out", str(tmp_path / "cold.csv"), "--prime", "0"
+    )
+    assert code == 0 and "1 of 10 frames interfered, the sensor's scene weighed 5 ->" in cold, err
     # Each result says whether the scene weighed it: from the 6th frame (4 build it, the 5th shows it still)
     frames = [f.depth for f in open_frames(rec)]
     judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]
     weighed = [[p.process(f).scene for f in frames] for p in judged]
     assert weighed[0] == [False] * 5 + [True] * 5 and weighed[1] == [None] * 10
+
+
+def test_a_primed_loop_judges_a_recording_s_first_frames_against_its_scene():
+    """A recording whose frames 1 and 3 have a patch read 4 cm near that the detector misses: cold (a live
+    sensor) both come before the scene is built and pass; primed on the frames ahead (``SensorLoop.primed``)
+    both are flagged, and the scene weighs every verdict. Priming leaves nothing else behind: the period,
+    the controller's window and the frames the models remember are those of a loop that saw nothing."""
+    rng = np.random.default_rng(6)
+    frames = [_scene(rng) for _ in range(12)]
+    for k in (1, 3):
+        patch = frames[k][40:70, 30:80]
+        patch[patch > 0] -= 160
+    runs = {}
+    for prime in (0, 32):
+        net = FakeNet(frames=2)  # a temporal detector: it is given the frame before
+        loop = SensorLoop(
+            net, make_controller("robust", 30, 6, seed=0), repair="none", scene=True, exact_scores=True
+        )
+        caps = loop.primed((Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)), prime)
+        first = next(caps)
+        assert loop.period == 0 and loop.controller.offset == make_controller("robust", 30, 6, seed=0).offset
+        before = len(net.before)
+        res = [loop.process(first)] + [loop.process(c) for c in caps]
+        runs[prime] = res
+        assert net.before[before] is None and net.before[before + 1] is not None  # frame 0 has none before
+        assert len(net.before) == 12 + (11 if prime else 0)  # primed on frames 11 to 1
+        assert [r.capture.name for r in res] == [str(i) for i in range(12)] and loop.period == 2
+    flagged = {p: [i for i, r in enumerate(res) if r.flagged] for p, res in runs.items()}
+    assert flagged == {0: [], 32: [1, 3]}
+    assert all(r.scene for r in runs[32]) and not any(r.scene for r in runs[0][:5])
+    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    with pytest.raises(ConfigError):
+        loop.primed([], -1)
+    alone = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none")  # no scene: nothing read
+    caps = [Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)]
+    assert [c.name for c in alone.primed(iter(caps))] == [c.name for c in caps]
 
 
 def test_a_scene_that_keeps_moving_rests_longer_each_time_until_its_gate_opens():

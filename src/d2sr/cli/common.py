@@ -98,6 +98,15 @@ SceneOpt = Annotated[
         "patches off it is flagged. --no-scene: the detector alone.",
     ),
 ]
+PrimeOpt = Annotated[
+    int,
+    typer.Option(
+        "--prime",
+        help="With the scene: frames of the recording it first learns from, judged backwards, so that the "
+        "first frames are judged against a scene too. 0: start cold, as a live sensor does.",
+        min=0,
+    ),
+]
 ActiveFrames = Annotated[int, typer.Option(help="Frames per 1 s period (30 slots).")]
 RepairOpt = Annotated[str, typer.Option(help="flagged (default), all (worst case) or none.")]
 TriggerOpt = Annotated[

@@ -19,6 +19,7 @@ from d2sr.cli.common import (
     ModelName,
     Overwrite,
     Passes,
+    PrimeOpt,
     RerunOpt,
     Scale,
     SceneOpt,
@@ -28,6 +29,7 @@ from d2sr.cli.common import (
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.batch import Progress
+from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.ui import print_line, progress_bar
 
 __all__ = ["detect", "recover"]
@@ -51,6 +53,7 @@ def detect(
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     scene: SceneOpt = True,
+    prime: PrimeOpt = PRIME_FRAMES,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 1: score every frame (probability that it is interfered).
@@ -62,8 +65,8 @@ def detect(
     with _bar("detecting") as progress:
         s = detect_recording(
             input, out, depth_scale=depth_scale, topic=topic, threshold=threshold, models=models,
-            backend=backend, max_range=max_range, scene=scene, overwrite=overwrite, progress=progress,
-            say=print_line,
+            backend=backend, max_range=max_range, scene=scene, prime=prime, overwrite=overwrite,
+            progress=progress, say=print_line,
         )  # fmt: skip
     typer.echo(f"{s.flagged} of {s.frames} frames interfered{s.scene_note()} -> {out}")
 
@@ -108,6 +111,7 @@ def recover(
             show_default=False,
         ),
     ] = None,
+    prime: PrimeOpt = PRIME_FRAMES,
     colour_topic: ColourTopic = None,
     overwrite: Overwrite = False,
 ) -> None:
@@ -125,7 +129,7 @@ def recover(
         s = recover_recording(
             input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
             threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair,
+            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair, prime=prime,
             colour_topic=colour_topic, overwrite=overwrite, progress=progress, say=print_line,
         )  # fmt: skip
     made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""

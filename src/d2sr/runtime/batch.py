@@ -32,7 +32,7 @@ from d2sr.frames.base import PLAUSIBLE_M, to_metres, to_units
 from d2sr.frames.checks import checked, checked_counts, open_input
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
-from d2sr.runtime.loop import Capture, Result, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES, Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import check_options, open_models
 
@@ -187,6 +187,7 @@ def detect_recording(
     backend: str = "auto",
     max_range: float = PLAUSIBLE_M[1],
     scene: bool = True,
+    prime: int = PRIME_FRAMES,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
@@ -195,6 +196,8 @@ def detect_recording(
     detector's probability that the frame is interfered, exact for every frame, so that any threshold can
     be applied to it later; interfered: 1 at or above ``threshold``, and with
     ``scene`` only if the frame also deviates from the still sensor's own scene, ``SensorLoop.scene``).
+    ``prime``: with ``scene``, the recording's first frames the scene learns from before the first is
+    judged (``SensorLoop.primed``; 0: none, as a live sensor starts).
     ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
     if threshold is not None:
         check_probability(threshold, "--threshold")
@@ -214,7 +217,8 @@ def detect_recording(
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_HEADER)
     flagged = done = used = 0
-    for res in map(loop.process, (Capture(f, scale) for f in prefetch(checked(reader, scale)))):
+    caps = (Capture(f, scale) for f in prefetch(checked(reader, scale)))
+    for res in map(loop.process, loop.primed(caps, prime)):
         flagged += res.flagged
         used += bool(res.scene)
         w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged)])
@@ -243,6 +247,7 @@ def recover_recording(
     rerun: str | None = None,
     scene: bool = True,
     scene_repair: bool | None = None,
+    prime: int = PRIME_FRAMES,
     colour_topic: str | None = None,
     overwrite: bool = False,
     progress: Progress | None = None,
@@ -251,7 +256,9 @@ def recover_recording(
     """Repair a recording: only the frames the detector flags (with ``scene``, weighed against the still
     sensor's own scene, ``SensorLoop.scene``), or ``every`` frame; ``scene_repair`` (with ``scene``): the
     scene's own depth where it is trusted, ``SensorLoop.scene_repair`` [None: on where frames are judged,
-    off with ``every``, where it would have the scene judge every frame]. ``format``:
+    off with ``every``, where it would have the scene judge every frame]; ``prime``: with the scene, the
+    recording's first frames it learns from before the first is judged (``SensorLoop.primed``; 0: none).
+    ``format``:
     ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``.
     ``rerun``: also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
     ``every``) come out bit for bit as they went in. ``colour_topic`` (a bag in and out, 16-bit depth): every
@@ -306,7 +313,8 @@ def recover_recording(
     flagged = repaired = done = used = 0
     with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
-        for res in in_order(loop, (Capture(f, scale) for f in frames), workers):
+        caps = loop.primed((Capture(f, scale) for f in frames), prime)
+        for res in in_order(loop, caps, workers):
             if view is not None:
                 view.write(0, res)
             fix = every or res.flagged

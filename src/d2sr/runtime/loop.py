@@ -256,11 +256,13 @@ class SensorLoop:
         0: none, the loop starts cold as a live sensor's does)."""
         if frames < 0:
             raise ConfigError(f"frames to prime the scene must be >= 0, got {frames}")
-        it = iter(captures)
-        ahead = list(itertools.islice(it, frames)) if self.scene and frames > 1 else []
+        return self._primed(iter(captures), frames if self.scene else 0)
+
+    def _primed(self, captures: Iterator[Capture], frames: int) -> Iterator[Capture]:
+        ahead = list(itertools.islice(captures, frames))
         self.prime(ahead)
         yield from ahead
-        yield from it
+        yield from captures
 
     def finish(self, d: Decision) -> Result:
         """Repair a decided frame (when it is to be repaired) and hand the result to the sink."""

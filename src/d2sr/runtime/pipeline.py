@@ -12,6 +12,7 @@ import functools
 import itertools
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict, Unpack
@@ -331,6 +332,20 @@ class Pipeline:
         else:
             depth = to_units(s.depth, scale)
         return Synthesized(depth, s.confidence, s.method, s.since_real)
+
+    def prime(self, depths: Sequence[np.ndarray]) -> None:
+        """For a recording: let the sensor's scene (``scene``) first learn from its opening frames, in time
+        order, so that they too are judged against a scene rather than by the detector alone; then
+        ``process`` the recording from its first frame. A live sensor starts cold instead. ``d2sr detect``
+        and ``d2sr recover`` do this with the first ``PRIME_FRAMES`` (``SensorLoop.prime``)."""
+        caps = []
+        for i, depth in enumerate(depths):
+            frame, scale = _as_frame(depth, self.depth_scale, f"prime frame {i}")
+            if not self._probed:
+                _probe(frame, scale, f"prime frame {i}")
+                self._probed = True
+            caps.append(Capture(Frame(f"prime{i:06d}", frame), scale))
+        self.loop.prime(caps)
 
     def decide(
         self,
