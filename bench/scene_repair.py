@@ -20,6 +20,9 @@ its clean frames (as shipped until 2026-11-27) or in ``RANGE_RATE`` (``SceneRefe
 neighbours (as shipped until 2026-11-27), or also amid a quarter where the scene nearly always returns
 (``SceneReference(reliable_fill=True)``).
 
+``--what prime``: the scene's repair as shipped, each sequence cold (a live sensor) or primed on its first
+``PRIME_FRAMES`` frames, as ``d2sr recover`` repairs a recording (``Pipeline.prime``).
+
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
 set R) or ``--what reliable --set s`` (sealed set S), also whether the rule written for it held
 (docs/research/decisions.md, 2026-11-27).
@@ -40,6 +43,7 @@ from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import AUTO_RECOVERY
 from d2sr.errors import D2SRError
 from d2sr.reference import RANGE_RATE, TRUST_RATE
+from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline
 from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
 
@@ -64,7 +68,10 @@ WHAT: dict[str, dict[str, Mode]] = {
         "fresh deviations amid half their neighbours filled": (True, {"reliable_fill": False}),
         "amid a quarter where the scene nearly always returns": (True, {"reliable_fill": True}),
     },
+    "prime": {"cold (a live sensor)": (True, {}), "primed (d2sr recover on a recording)": (True, {})},
 }
+# Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
+PRIMED = {"primed (d2sr recover on a recording)"}
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -74,11 +81,16 @@ def pipeline(scale: float, mode: Mode) -> Pipeline:
     return p
 
 
-def repaired(views: list[list[np.ndarray]], scale: float, mode: Mode) -> list[np.ndarray]:
-    """Each view through a fresh Pipeline, in order: the repaired frames, views joined."""
+def repaired(
+    views: list[list[np.ndarray]], scale: float, mode: Mode, primed: bool = False
+) -> list[np.ndarray]:
+    """Each view through a fresh Pipeline, in order (``primed``: its scene first learns from the view's
+    first ``PRIME_FRAMES``): the repaired frames, views joined."""
     out = []
     for frames in views:
         p = pipeline(scale, mode)
+        if primed:
+            p.prime(frames[:PRIME_FRAMES])
         out += [p.process(f).depth for f in frames]
     return out
 
@@ -116,9 +128,9 @@ def scored(
     }
 
 
-def moved_5cm(frames: list[np.ndarray], scale: float, mode: Mode) -> float:
+def moved_5cm(frames: list[np.ndarray], scale: float, mode: Mode, primed: bool = False) -> float:
     """The share of a clean sequence's valid pixels the Pipeline moves by more than 5 cm."""
-    out = repaired([frames], scale, mode)
+    out = repaired([frames], scale, mode, primed)
     moved = sum(
         int(((f > 0) & (np.abs(o.astype(np.float64) - f) > 0.05 * scale)).sum())
         for f, o in zip(frames, out, strict=True)
@@ -199,11 +211,11 @@ def main() -> None:
             "kinds": list(KINDS[w]),
             "status": set_data(w)["status"],
             "l515": {
-                m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r), 4000.0, 2)
+                m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r, m in PRIMED), 4000.0, 2)
                 for m, r in modes.items()
             },
             "d435": {
-                m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r), 1000.0, 1)
+                m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r, m in PRIMED), 1000.0, 1)
                 for m, r in modes.items()
             },
         }
@@ -216,7 +228,9 @@ def main() -> None:
             },
             flush=True,
         )
-    clean = {n: {m: moved_5cm(fr, s, r) for m, r in modes.items()} for n, (fr, s) in whole.items()}
+    clean = {
+        n: {m: moved_5cm(fr, s, r, m in PRIMED) for m, r in modes.items()} for n, (fr, s) in whole.items()
+    }
     result["clean_moved_5cm"] = clean
     if args.what == "default" and "n" in sets:
         result["rule"] = n_rule(result["sets"]["n"], clean)

@@ -118,6 +118,13 @@ def _outside(d: dict) -> str:
     )
 
 
+def _scene_flags(d: dict) -> str:
+    mw = d["outside_mean_worst"]["detector + scene, primed (d2sr detect on a recording)"]
+    p, r = mw["precision"], mw["recall"]
+    sets = len(d["outside"])
+    return f"{p['mean']:.3f} / {r['mean']:.3f}; {p['worst']:.3f} / {r['worst']:.3f} ({sets} sets)"
+
+
 README_ROWS = (
     Row(
         "frames interfered, 2 LiDARs at 15 fps, with the controller (static)",
@@ -153,6 +160,13 @@ README_ROWS = (
         "docs/results/outside_sets.json",
         _outside,
         "`make outside`",
+    ),
+    Row(
+        "detector + scene on recordings, outside sets (development): precision / recall, mean / worst",
+        "—",
+        "docs/results/scene_reference.json",
+        _scene_flags,
+        "`bench/scene_reference.py`",
     ),
     Row(
         "latency per 640x480 frame, detector / UNet8",
