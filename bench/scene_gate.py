@@ -18,6 +18,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what prime`` (set T): each sequence cold, as a live sensor starts, and primed as ``d2sr detect`` and
   ``d2sr recover`` judge a recording: the scene first learns from its ``PRIME_FRAMES`` frames ahead
   (``SensorLoop.primed``); likewise.
+* ``--what subtle`` (set U): a subtle shift explained by the frame before as a moving object is
+  (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``), each
+  sequence primed as a recording; likewise.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -35,6 +38,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_thin_q.json
       .venv/bin/python bench/scene_gate.py --what prime --set t --data ../shared/data \\
           --json docs/results/scene_prime_t.json
+      .venv/bin/python bench/scene_gate.py --what subtle --set u --data ../shared/data \\
+          --json docs/results/scene_subtle_u.json
 """
 
 from __future__ import annotations
@@ -79,9 +84,13 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "far-off over every return": (True, {"far_thin": True}),
     },
     "prime": {"cold (a live sensor)": (True, {}), "primed (a recording)": (True, {})},
+    "subtle": {
+        "subtle shifts explained as motion": (True, {"subtle_shifts": False}),
+        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True}),
+    },
 }
 # Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
-PRIMED = {"primed (a recording)": PRIME_FRAMES}
+PRIMED = {"primed (a recording)": PRIME_FRAMES} | {m: PRIME_FRAMES for m in MODES["subtle"]}
 
 
 def flags(
@@ -191,6 +200,25 @@ def prime_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def subtle_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set U's rule (decisions.md, 2026-11-27): at least one more of the 60 corrupted L515 frames found at
+    precision 0.95, and no clean frame flagged more, anywhere."""
+    moving, still = parts["d435"], parts["l515"]
+    off, on = MODES["subtle"]
+    return {
+        "1 l515: recall >= off's + 0.015, precision >= 0.95, clean flags <= off's": bool(
+            still[on]["recall"] >= still[off]["recall"] + 0.015
+            and still[on]["precision"] >= 0.95
+            and still[on]["clean_flagged"] <= still[off]["clean_flagged"]
+        ),
+        "2 d435: clean flags at most off's, recall at least off's - 0.02": bool(
+            moving[on]["clean_flagged"] <= moving[off]["clean_flagged"]
+            and moving[on]["recall"] >= moving[off]["recall"] - 0.02
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[on] <= c[off] for c in clean.values()),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -207,7 +235,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN or args.what == "prime":
+    if args.what in GAIN or args.what in ("prime", "subtle"):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -253,6 +281,9 @@ def main() -> None:
         result["rule"] = flag_rule(result["parts"], clean, args.what)
     elif args.what == "prime":
         result["rule"] = prime_rule(result["parts"], clean)
+        result["prime_frames"] = PRIME_FRAMES
+    elif args.what == "subtle":
+        result["rule"] = subtle_rule(result["parts"], clean)
         result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}

@@ -20,11 +20,16 @@ its clean frames (as shipped until 2026-11-27) or in ``RANGE_RATE`` (``SceneRefe
 neighbours (as shipped until 2026-11-27), or also amid a quarter where the scene nearly always returns
 (``SceneReference(reliable_fill=True)``).
 
+``--what subtle``: the scene's repair with a subtle shift explained by the frame before as a moving object's
+surface is (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``),
+each sequence primed as a recording.
+
 ``--what prime``: the scene's repair as shipped, each sequence cold (a live sensor) or primed on its first
 ``PRIME_FRAMES`` frames, as ``d2sr recover`` repairs a recording (``Pipeline.prime``).
 
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
-set R) or ``--what reliable --set s`` (sealed set S), also whether the rule written for it held
+set R), ``--what reliable --set s`` (sealed set S) or ``--what subtle --set u`` (sealed set U), also whether
+the rule written for it held
 (docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
@@ -69,9 +74,13 @@ WHAT: dict[str, dict[str, Mode]] = {
         "amid a quarter where the scene nearly always returns": (True, {"reliable_fill": True}),
     },
     "prime": {"cold (a live sensor)": (True, {}), "primed (d2sr recover on a recording)": (True, {})},
+    "subtle": {
+        "subtle shifts explained as motion": (True, {"subtle_shifts": False}),
+        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True}),
+    },
 }
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
-PRIMED = {"primed (d2sr recover on a recording)"}
+PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"]}
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -162,8 +171,8 @@ def n_rule(parts: dict, clean: dict) -> dict[str, bool]:
 
 
 def o_rule(parts: dict, clean: dict, what: str = "returns") -> dict[str, bool]:
-    """Set O's rule (``--what returns``); set R's (``--what rare``) and S's (``--what reliable``) are the
-    same items."""
+    """Set O's rule (``--what returns``); set R's (``--what rare``), S's (``--what reliable``) and U's repair
+    (``--what subtle``) are the same items."""
     still = parts["l515"]
     old_name, new_name = WHAT[what]
     old, new = still[old_name], still[new_name]
@@ -240,6 +249,8 @@ def main() -> None:
         result["rule"] = o_rule(result["sets"]["r"], clean, "rare")
     if args.what == "reliable" and "s" in sets:
         result["rule"] = o_rule(result["sets"]["s"], clean, "reliable")
+    if args.what == "subtle" and "u" in sets:
+        result["rule"] = o_rule(result["sets"]["u"], clean, "subtle")
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",

@@ -75,6 +75,9 @@ TRUST_RATE, TRUST_ABS, TRUST_REL = 0.9, 0.02, 0.01
 #: of set A's clean pixels (over issue 42's 2%), ``SHIFT_M`` 1.95%. They mark pixels to repair, not frames:
 #: as a flag they missed sealed set H's bar (decisions.md, 2026-11-26).
 SHIFT_PX, SHIFT_M = 15, 0.01
+#: A shifted pixel read within this of the scene (the clip ``_shifted`` puts on one pixel's part in a window)
+#: is a subtle shift, for ``SceneReference(subtle_shifts=True)``.
+SHIFT_CAP = 3 * SHIFT_M
 #: A frame whose fresh shifted windows (``Evidence.fresh_shifted``) cover this share of the known scene is
 #: interfered: about twice the most any clean development frame reached (0.0043). It lifted sets G and H's
 #: recall from 0.35 / 0.20 to 0.85 / 0.83 and sealed set M's from 0.17 to 0.70, with no clean frame flagged
@@ -226,6 +229,7 @@ class SceneReference:
         far_thin: bool = True,
         rare_near: bool = True,
         reliable_fill: bool = True,
+        subtle_shifts: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -240,6 +244,9 @@ class SceneReference:
         fresh neighbours (``QUARTER``, not ``HALF``) where the scene nearly always returns (``TRUST_RATE``):
         on sealed set S and every development set it put more back and made each view better (S: RMSE
         -17.3% -> -22.4%), for 0.02-0.05 points more clean pixels changed (decisions.md, 2026-11-27).
+        ``subtle_shifts``: a shifted pixel read within ``SHIFT_CAP`` of the scene is explained by the frame
+        before only where one of its deviations nearby read within ``SHIFT_M`` of its depth, not the
+        ``MOTION_ABS`` + ``MOTION_REL`` that a moving object needs (a few centimetres is all of such a shift).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -267,7 +274,7 @@ class SceneReference:
             far_thin,
             rare_near,
         )
-        self.reliable_fill = reliable_fill
+        self.reliable_fill, self.subtle_shifts = reliable_fill, subtle_shifts
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -400,8 +407,13 @@ class SceneReference:
         dense = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference in patches
         before = self._before
 
+        stats = self._stats
+
         def explain() -> tuple[np.ndarray, float]:
-            fresh = _unexplained(metres, mask, before)
+            subtle = None
+            if self.subtle_shifts and shift.any():
+                subtle = shift & (np.abs(metres - stats.nz_median) <= SHIFT_CAP)
+            fresh = _unexplained(metres, mask, before, subtle)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense
             return fresh, _dense(fresh & deviates, known) if before is not None else 0.0
@@ -458,7 +470,7 @@ class SceneReference:
         steady = (metres > 0) & self._steady
         diff = np.subtract(metres, s.nz_median, dtype=np.float32)
         diff *= steady  # 0 (or -0, the same to every use below) off the steady returns
-        clipped = np.clip(diff, -3 * SHIFT_M, 3 * SHIFT_M)  # one far-off pixel cannot shift a window
+        clipped = np.clip(diff, -SHIFT_CAP, SHIFT_CAP)  # one far-off pixel cannot shift a window
         count = cv2.boxFilter(steady.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
         total = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX))
         # Only a steady pixel that reads that far off itself, amid at least half steady ones, can be shifted:
@@ -544,20 +556,25 @@ def _dense(mask: np.ndarray, known: int) -> float:
     return float(np.count_nonzero(_neighbours(mask) >= HALF)) / known
 
 
-def _unexplained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray | None) -> np.ndarray:
+def _unexplained(
+    metres: np.ndarray, mask: np.ndarray, before: np.ndarray | None, subtle: np.ndarray | None = None
+) -> np.ndarray:
     """The pixels of ``mask`` nothing that moved explains (``_explained``): none on the first frame judged
     against a new reference (``before`` None: no motion to tell by); ``mask`` itself where nothing deviated
     a frame before."""
     if before is None:
         return np.zeros_like(mask)
     if mask.any() and before.any():
-        return mask & ~_explained(metres, mask, before)
+        return mask & ~_explained(metres, mask, before, subtle)
     return mask
 
 
-def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.ndarray:
+def _explained(
+    metres: np.ndarray, mask: np.ndarray, before: np.ndarray, subtle: np.ndarray | None = None
+) -> np.ndarray:
     """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
-    within ``MOTION_PX`` read at about the same depth: a moved object's surface."""
+    within ``MOTION_PX`` read at about the same depth: a moved object's surface. ``subtle`` (bool): pixels
+    held to ``SHIFT_M`` instead of ``MOTION_ABS`` + ``MOTION_REL`` (``SceneReference.subtle_shifts``)."""
     out = np.zeros(mask.shape, bool)
     # Nothing further than MOTION_PX from the frame before's deviations can be explained: the cost follows
     # them (erode and dilate ignore what lies beyond a crop's edge).
@@ -570,6 +587,8 @@ def _explained(metres: np.ndarray, mask: np.ndarray, before: np.ndarray) -> np.n
     lo = cv2.erode(np.where(b > 0, b, np.float32(np.inf)), k)
     hi = cv2.dilate(b, k)
     tol = MOTION_ABS + MOTION_REL * m
+    if subtle is not None:
+        tol = np.where(subtle[rs, cs], np.float32(SHIFT_M), tol)
     near = (m > 0) & (m >= lo - tol) & (m <= hi + tol)
     dropped = (m == 0) & (cv2.erode(np.where(b < 0, 0, 1).astype(np.uint8), k) == 0)
     out[rs, cs] = mask[rs, cs] & (near | dropped)
