@@ -244,9 +244,10 @@ class SceneReference:
         fresh neighbours (``QUARTER``, not ``HALF``) where the scene nearly always returns (``TRUST_RATE``):
         on sealed set S and every development set it put more back and made each view better (S: RMSE
         -17.3% -> -22.4%), for 0.02-0.05 points more clean pixels changed (decisions.md, 2026-11-27).
-        ``subtle_shifts``: a shifted pixel read within ``SHIFT_CAP`` of the scene is explained by the frame
-        before only where one of its deviations nearby read within ``SHIFT_M`` of its depth, not the
-        ``MOTION_ABS`` + ``MOTION_REL`` that a moving object needs (a few centimetres is all of such a shift).
+        ``subtle_shifts`` (off, experimental): a shifted pixel read within ``SHIFT_CAP`` of the scene is
+        explained by the frame before only where one of its deviations nearby read within ``SHIFT_M`` of its
+        depth, not the ``MOTION_ABS`` + ``MOTION_REL`` a moving object needs. It found one or two more frames
+        on development sets G, H and M but none on sealed set U (decisions.md, 2026-11-27).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
