@@ -697,3 +697,36 @@ def test_a_scene_that_keeps_moving_rests_longer_each_time_until_its_gate_opens()
     assert SceneReference(SCALE, rest=0).rest == 0
     with pytest.raises(ConfigError):
         SceneReference(SCALE, rest=-1)
+
+
+def test_subtle_shifts_are_explained_only_by_a_deviation_near_their_own_depth():
+    """``SceneReference(subtle_shifts=True)`` (off by default: it failed sealed set U): on a flat wall, a
+    patch read 2 cm near, beside where the frame before deviated 8 cm near, is something that moved by the
+    default's tolerance (5 cm + 5%) wherever that deviation lies within ``MOTION_PX``; with the option only
+    where the frame before's deviations nearby (the patch and the wall's flicker around it) span its depth
+    to within ``SHIFT_M``, so much more of it is fresh."""
+    rng = np.random.default_rng(11)
+
+    def wall() -> np.ndarray:
+        z = 2.5 + rng.normal(0, 0.005, (96, 128))
+        z[:8] = 0
+        return np.rint(z * SCALE).astype(np.uint16)
+
+    clean, before, now = [wall() for _ in range(16)], wall(), wall()
+    before[30:50, 40:60] -= int(0.08 * SCALE)  # the frame before: a patch 8 cm near
+    now[30:70, 40:90] -= int(0.02 * SCALE)  # now: the wall 2 cm near, over and beside it
+    evs = {}
+    for on in (False, True):
+        ref = SceneReference(SCALE, subtle_shifts=on)
+        for f in clean:
+            ref.evidence(f)
+            ref.add(f)
+        ref.evidence(before)
+        evs[on] = ref.evidence(now)
+    shifted = evs[True].shifted
+    assert shifted > 0.1 and evs[False].shifted == shifted
+    assert evs[False].fresh_shifted < 0.45 * shifted  # within MOTION_PX of the 8 cm patch: "it moved"
+    assert evs[True].fresh_shifted > 1.5 * evs[False].fresh_shifted
+    inside = np.s_[30:50, 40:60]  # where the frame before read 8 cm near: all explained by default
+    assert not (evs[False].fresh & evs[False]._shift)[inside].any()
+    assert (evs[True].fresh & evs[True]._shift)[inside].mean() > 0.15
