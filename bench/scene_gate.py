@@ -21,6 +21,8 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what subtle`` (set U): a subtle shift explained by the frame before as a moving object is
   (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``), each
   sequence primed as a recording; likewise.
+* ``--what shiftrate`` (set V): shifted windows worked out over the pixels that return in 90% of the clean
+  frames (``SceneReference(shift_rate=0.9)``, as shipped) or in 70% (``0.7``), each sequence primed; likewise.
 
 Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a moving sensor, one
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
@@ -40,6 +42,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_prime_t.json
       .venv/bin/python bench/scene_gate.py --what subtle --set u --data ../shared/data \\
           --json docs/results/scene_subtle_u.json
+      .venv/bin/python bench/scene_gate.py --what shiftrate --set v --data ../shared/data \\
+          --json docs/results/scene_shiftrate_v.json
 """
 
 from __future__ import annotations
@@ -88,9 +92,15 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "subtle shifts explained as motion": (True, {"subtle_shifts": False}),
         "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True}),
     },
+    "shiftrate": {
+        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": 0.9}),
+        "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
+    },
 }
 # Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
-PRIMED = {"primed (a recording)": PRIME_FRAMES} | {m: PRIME_FRAMES for m in MODES["subtle"]}
+PRIMED = {"primed (a recording)": PRIME_FRAMES} | {
+    m: PRIME_FRAMES for what in ("subtle", "shiftrate") for m in MODES[what]
+}
 
 
 def flags(
@@ -200,14 +210,20 @@ def prime_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
-def subtle_rule(parts: dict, clean: dict) -> dict[str, bool]:
-    """Set U's rule (decisions.md, 2026-11-27): at least one more of the 60 corrupted L515 frames found at
-    precision 0.95, and no clean frame flagged more, anywhere."""
+# The gain in L515 recall each recording-mode change asked for (sets U and V; decisions.md, 2026-11-27).
+RECORDING_GAIN = {"subtle": 0.015, "shiftrate": 0.03}
+
+
+def recording_rule(parts: dict, clean: dict, what: str) -> dict[str, bool]:
+    """The rule of a set that judged a change of the scene with each sequence primed (``--what subtle``:
+    set U, ``shiftrate``: set V): recall up by ``RECORDING_GAIN`` at precision 0.95, and no clean frame
+    flagged more, anywhere."""
     moving, still = parts["d435"], parts["l515"]
-    off, on = MODES["subtle"]
+    off, on = MODES[what]
+    gain = RECORDING_GAIN[what]
     return {
-        "1 l515: recall >= off's + 0.015, precision >= 0.95, clean flags <= off's": bool(
-            still[on]["recall"] >= still[off]["recall"] + 0.015
+        f"1 l515: recall >= off's + {gain}, precision >= 0.95, clean flags <= off's": bool(
+            still[on]["recall"] >= still[off]["recall"] + gain
             and still[on]["precision"] >= 0.95
             and still[on]["clean_flagged"] <= still[off]["clean_flagged"]
         ),
@@ -235,7 +251,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN or args.what in ("prime", "subtle"):
+    if args.what in GAIN or args.what in ("prime", *RECORDING_GAIN):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -282,8 +298,8 @@ def main() -> None:
     elif args.what == "prime":
         result["rule"] = prime_rule(result["parts"], clean)
         result["prime_frames"] = PRIME_FRAMES
-    elif args.what == "subtle":
-        result["rule"] = subtle_rule(result["parts"], clean)
+    elif args.what in RECORDING_GAIN:
+        result["rule"] = recording_rule(result["parts"], clean, args.what)
         result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}

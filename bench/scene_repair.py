@@ -24,12 +24,15 @@ neighbours (as shipped until 2026-11-27), or also amid a quarter where the scene
 surface is (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``),
 each sequence primed as a recording.
 
+``--what shiftrate``: the scene's repair with shifted windows worked out over pixels that return in 90%
+(``SceneReference(shift_rate=0.9)``, as shipped) or 70% (``0.7``) of the clean frames, each sequence primed.
+
 ``--what prime``: the scene's repair as shipped, each sequence cold (a live sensor) or primed on its first
 ``PRIME_FRAMES`` frames, as ``d2sr recover`` repairs a recording (``Pipeline.prime``).
 
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
-set R), ``--what reliable --set s`` (sealed set S) or ``--what subtle --set u`` (sealed set U), also whether
-the rule written for it held
+set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U) or ``--what
+shiftrate --set v`` (sealed set V), also whether the rule written for it held
 (docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
@@ -78,9 +81,13 @@ WHAT: dict[str, dict[str, Mode]] = {
         "subtle shifts explained as motion": (True, {"subtle_shifts": False}),
         "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True}),
     },
+    "shiftrate": {
+        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": 0.9}),
+        "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
+    },
 }
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
-PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"]}
+PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"]}
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -192,6 +199,26 @@ def o_rule(parts: dict, clean: dict, what: str = "returns") -> dict[str, bool]:
     }
 
 
+def v_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set V's repair items (``--what shiftrate``, decisions.md, 2026-11-27): frames the wider shifted
+    windows newly flag get repaired, so up to 2 more may come out worse; the rest as sets O-S."""
+    still = parts["l515"]
+    old_name, new_name = WHAT["shiftrate"]
+    old, new = still[old_name], still[new_name]
+    return {
+        "4a l515: RMSE change, corrupted frames and each view, at most the old setting's + 0.005": _rmse_held(
+            new, old
+        ),
+        "4b l515: clean pixels changed at most the old setting's + 0.0005": new["clean_changed"]
+        <= old["clean_changed"] + 0.0005,
+        "4c l515: frames made worse at most the old setting's + 2": new["frames_worse"]
+        <= old["frames_worse"] + 2,
+        "4d clean sequences: valid pixels moved > 5 cm no more than the old setting's": all(
+            c[new_name] <= c[old_name] for c in clean.values()
+        ),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -251,6 +278,8 @@ def main() -> None:
         result["rule"] = o_rule(result["sets"]["s"], clean, "reliable")
     if args.what == "subtle" and "u" in sets:
         result["rule"] = o_rule(result["sets"]["u"], clean, "subtle")
+    if args.what == "shiftrate" and "v" in sets:
+        result["rule"] = v_rule(result["sets"]["v"], clean)
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",

@@ -205,6 +205,7 @@ class SceneReference:
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
     _steady: np.ndarray  # bool: pixels the scene is sure of (``TRUST_RATE``), once warm (``_limits``)
+    _shift_px: np.ndarray  # bool: pixels shifted windows are worked out over (``shift_rate``), once warm
     _far_lo: np.ndarray  # with ``far_area``: a return below this is far off, once warm (``_limits``)
     _far_hi: np.ndarray  # and above this
     _returned: np.ndarray  # per row, pixels it has seen return, once warm
@@ -230,6 +231,7 @@ class SceneReference:
         rare_near: bool = True,
         reliable_fill: bool = True,
         subtle_shifts: bool = False,
+        shift_rate: float = TRUST_RATE,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -248,6 +250,8 @@ class SceneReference:
         explained by the frame before only where one of its deviations nearby read within ``SHIFT_M`` of its
         depth, not the ``MOTION_ABS`` + ``MOTION_REL`` a moving object needs. It found one or two more frames
         on development sets G, H and M but none on sealed set U (decisions.md, 2026-11-27).
+        ``shift_rate``: shifted windows are worked out over the pixels that returned in at least this share
+        of the clean frames [``TRUST_RATE``, the steady ones].
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -264,6 +268,8 @@ class SceneReference:
             raise ConfigError(f"rest must be >= 0, got {rest}")
         if shift_area is not None and not 0 < shift_area <= 1:
             raise ConfigError(f"shift_area must be in (0, 1], got {shift_area}")
+        if not 0 < shift_rate <= 1:
+            raise ConfigError(f"shift_rate must be in (0, 1], got {shift_rate}")
         if not 0 < return_rate <= 1:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
         if far_area is not None and not 0 < far_area <= 1:
@@ -275,7 +281,7 @@ class SceneReference:
             far_thin,
             rare_near,
         )
-        self.reliable_fill, self.subtle_shifts = reliable_fill, subtle_shifts
+        self.reliable_fill, self.subtle_shifts, self.shift_rate = reliable_fill, subtle_shifts, shift_rate
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -339,6 +345,7 @@ class SceneReference:
             self._stats = _stats(self._ring[: self.count], self.scale)
             self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
             self._steady = np.zeros(frame.shape, bool)
+            self._shift_px = self._steady if self.shift_rate == TRUST_RATE else np.zeros(frame.shape, bool)
             self._far_lo = np.zeros(frame.shape, np.float32)
             self._far_hi = np.zeros(frame.shape, np.float32)
             self._returned = np.zeros(frame.shape[0], np.int64)
@@ -361,6 +368,8 @@ class SceneReference:
         assert s is not None and labeller is not None
         labeller.refresh(rows)
         self._steady[rows] = (s.rate[rows] >= TRUST_RATE) & (s.nz_median[rows] > 0)
+        if self._shift_px is not self._steady:
+            self._shift_px[rows] = (s.rate[rows] >= self.shift_rate) & (s.nz_median[rows] > 0)
         self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
         # Where a return is far off (``FAR_ABS``, ``FAR_REL``), only where the scene returns at least
         # ``RANGE_RATE`` of the time (+-inf elsewhere).
@@ -463,12 +472,13 @@ class SceneReference:
         )
 
     def _shifted(self, metres: np.ndarray) -> np.ndarray:
-        """Steady pixels (returning in ``TRUST_RATE`` of the clean frames) in a ``SHIFT_PX`` window whose
-        mean difference from the scene is beyond ``SHIFT_M``, themselves that far off the same way: a surface
-        read a few centimetres off, within each pixel's tolerance but not the window's."""
+        """Pixels returning in ``shift_rate`` of the clean frames (by default the steady ones, ``TRUST_RATE``)
+        in a ``SHIFT_PX`` window of them whose mean difference from the scene is beyond ``SHIFT_M``,
+        themselves that far off the same way: a surface read a few centimetres off, within each pixel's
+        tolerance but not the window's."""
         s = self._stats
         assert s is not None
-        steady = (metres > 0) & self._steady
+        steady = (metres > 0) & self._shift_px
         diff = np.subtract(metres, s.nz_median, dtype=np.float32)
         diff *= steady  # 0 (or -0, the same to every use below) off the steady returns
         clipped = np.clip(diff, -SHIFT_CAP, SHIFT_CAP)  # one far-off pixel cannot shift a window
