@@ -58,9 +58,16 @@ from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_
 Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
 # What came after set O was judged (far-off flags, the seldom-returns keep, the sparser fill), off as it was
 # then, so that ``--what returns`` reproduces O's result. ``--what default``: the repair as shipped today.
-BEFORE_FAR: dict[str, Any] = {"far_area": None, "rare_near": False, "reliable_fill": False}
+BEFORE_FAR: dict[str, Any] = {
+    "far_area": None,
+    "rare_near": False,
+    "reliable_fill": False,
+    "shift_rate": TRUST_RATE,
+}
 # What came after set R was judged (the sparser fill), off as it was then: ``--what rare`` reproduces R's.
-BEFORE_S: dict[str, Any] = {"reliable_fill": False}
+BEFORE_S: dict[str, Any] = {"reliable_fill": False, "shift_rate": TRUST_RATE}
+# What came after set U was judged (shifted windows over pixels returning 70% of the time), as it was then.
+BEFORE_V: dict[str, Any] = {"shift_rate": TRUST_RATE}
 # Per --what: each mode's name and settings.
 WHAT: dict[str, dict[str, Mode]] = {
     "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
@@ -73,16 +80,19 @@ WHAT: dict[str, dict[str, Mode]] = {
         "only a return near its depth kept there": (True, {"rare_near": True, **BEFORE_S}),
     },
     "reliable": {
-        "fresh deviations amid half their neighbours filled": (True, {"reliable_fill": False}),
-        "amid a quarter where the scene nearly always returns": (True, {"reliable_fill": True}),
+        "fresh deviations amid half their neighbours filled": (True, {"reliable_fill": False, **BEFORE_V}),
+        "amid a quarter where the scene nearly always returns": (True, {"reliable_fill": True, **BEFORE_V}),
     },
-    "prime": {"cold (a live sensor)": (True, {}), "primed (d2sr recover on a recording)": (True, {})},
+    "prime": {
+        "cold (a live sensor)": (True, {**BEFORE_V}),
+        "primed (d2sr recover on a recording)": (True, {**BEFORE_V}),
+    },
     "subtle": {
-        "subtle shifts explained as motion": (True, {"subtle_shifts": False}),
-        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True}),
+        "subtle shifts explained as motion": (True, {"subtle_shifts": False, **BEFORE_V}),
+        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True, **BEFORE_V}),
     },
     "shiftrate": {
-        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": 0.9}),
+        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": TRUST_RATE}),
         "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
     },
 }

@@ -10,7 +10,7 @@ import pytest
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
-from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, STILL_SHARE, TRUST_RATE, SceneReference
+from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, SHIFT_RATE, STILL_SHARE, TRUST_RATE, SceneReference
 from d2sr.runtime.loop import Capture, SensorLoop
 from test_runtime import FakeNet
 
@@ -730,3 +730,30 @@ def test_subtle_shifts_are_explained_only_by_a_deviation_near_their_own_depth():
     inside = np.s_[30:50, 40:60]  # where the frame before read 8 cm near: all explained by default
     assert not (evs[False].fresh & evs[False]._shift)[inside].any()
     assert (evs[True].fresh & evs[True]._shift)[inside].mean() > 0.15
+
+
+def test_shifted_windows_are_worked_out_over_pixels_that_return_70_percent_of_the_time():
+    """Where a wall's returns drop out a fifth of the time, a patch read 3 cm near is found by the shifted
+    windows as shipped (``SHIFT_RATE``: pixels returning 70% of the time), not over steady pixels alone
+    (``TRUST_RATE``, as before sealed set V)."""
+    rng = np.random.default_rng(12)
+
+    def wall() -> np.ndarray:
+        z = 2.5 + rng.normal(0, 0.005, (96, 128))
+        z[:8] = 0
+        z[20:80, 30:100][rng.random((60, 70)) < 0.2] = 0  # this part of the wall flickers
+        return np.rint(z * SCALE).astype(np.uint16)
+
+    clean, now = [wall() for _ in range(16)], wall()
+    now[30:70, 40:90] = np.where(now[30:70, 40:90] > 0, now[30:70, 40:90] - int(0.03 * SCALE), 0)
+    shifted = {}
+    for rate in (TRUST_RATE, SHIFT_RATE):
+        ref = SceneReference(SCALE, shift_rate=rate)
+        for f in clean:
+            ref.evidence(f)
+            ref.add(f)
+        shifted[rate] = ref.evidence(now).shifted
+    assert SceneReference(SCALE).shift_rate == SHIFT_RATE < TRUST_RATE
+    assert shifted[TRUST_RATE] < 0.01 <= 0.08 < shifted[SHIFT_RATE], shifted
+    with pytest.raises(ConfigError):
+        SceneReference(SCALE, shift_rate=0)
