@@ -21,6 +21,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what subtle`` (set U): a subtle shift explained by the frame before as a moving object is
   (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``), each
   sequence primed as a recording; likewise.
+* ``--what full`` (set W): shifted windows counting pixels that return 70% of the time from the start (as
+  shipped) or only once the ring holds its clean frames (``SceneReference(shift_rate_full=True)``), each
+  sequence cold and primed; likewise.
 * ``--what shiftrate`` (set V): shifted windows worked out over the pixels that return in 90% of the clean
   frames (``SceneReference(shift_rate=0.9)``, as shipped) or in 70% (``0.7``), each sequence primed; likewise.
 
@@ -44,6 +47,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_subtle_u.json
       .venv/bin/python bench/scene_gate.py --what shiftrate --set v --data ../shared/data \\
           --json docs/results/scene_shiftrate_v.json
+      .venv/bin/python bench/scene_gate.py --what full --set w --data ../shared/data \\
+          --json docs/results/scene_full_w.json
 """
 
 from __future__ import annotations
@@ -102,11 +107,19 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": TRUST_RATE}),
         "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
     },
+    "full": {
+        "cold, as shipped": (True, {"shift_rate_full": False}),
+        "cold, 70% once the ring is full": (True, {"shift_rate_full": True}),
+        "primed, as shipped": (True, {"shift_rate_full": False}),
+        "primed, 70% once the ring is full": (True, {"shift_rate_full": True}),
+    },
 }
 # Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
-PRIMED = {"primed (a recording)": PRIME_FRAMES} | {
-    m: PRIME_FRAMES for what in ("subtle", "shiftrate") for m in MODES[what]
-}
+PRIMED = (
+    {"primed (a recording)": PRIME_FRAMES}
+    | {m: PRIME_FRAMES for what in ("subtle", "shiftrate") for m in MODES[what]}
+    | {m: PRIME_FRAMES for m in MODES["full"] if m.startswith("primed")}
+)
 
 
 def flags(
@@ -241,6 +254,27 @@ def recording_rule(parts: dict, clean: dict, what: str) -> dict[str, bool]:
     }
 
 
+def full_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set W's rule (decisions.md, 2026-11-27): waiting for a full ring flags no clean frame more, cold or
+    primed, anywhere, and finds at most one fewer of the 60 corrupted L515 frames either way."""
+    moving, still = parts["d435"], parts["l515"]
+    cold, cold_full, primed, primed_full = MODES["full"]
+    items = {}
+    for name, old, new in (("cold", cold, cold_full), ("primed", primed, primed_full)):
+        items[f"{name} l515: clean flags <= shipped's, recall >= shipped's - 0.02, precision >= 0.95"] = bool(
+            still[new]["clean_flagged"] <= still[old]["clean_flagged"]
+            and still[new]["recall"] >= still[old]["recall"] - 0.02
+            and still[new]["precision"] >= 0.95
+        )
+        items[f"{name} d435: clean flags <= shipped's"] = (
+            moving[new]["clean_flagged"] <= moving[old]["clean_flagged"]
+        )
+        items[f"{name} clean sequences: no flagged frame gained"] = all(
+            c[new] <= c[old] for c in clean.values()
+        )
+    return items
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -257,7 +291,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN or args.what in ("prime", *RECORDING_GAIN):
+    if args.what in GAIN or args.what in ("prime", "full", *RECORDING_GAIN):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -306,6 +340,9 @@ def main() -> None:
         result["prime_frames"] = PRIME_FRAMES
     elif args.what in RECORDING_GAIN:
         result["rule"] = recording_rule(result["parts"], clean, args.what)
+        result["prime_frames"] = PRIME_FRAMES
+    elif args.what == "full":
+        result["rule"] = full_rule(result["parts"], clean)
         result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}

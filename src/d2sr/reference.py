@@ -237,6 +237,7 @@ class SceneReference:
         reliable_fill: bool = True,
         subtle_shifts: bool = False,
         shift_rate: float = SHIFT_RATE,
+        shift_rate_full: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -256,7 +257,8 @@ class SceneReference:
         depth, not the ``MOTION_ABS`` + ``MOTION_REL`` a moving object needs. It found one or two more frames
         on development sets G, H and M but none on sealed set U (decisions.md, 2026-11-27).
         ``shift_rate``: shifted windows are worked out over the pixels that returned in at least this share
-        of the clean frames [``SHIFT_RATE``; ``TRUST_RATE``, the steady ones, before sealed set V].
+        of the clean frames [``SHIFT_RATE``; ``TRUST_RATE``, the steady ones, before sealed set V];
+        ``shift_rate_full``: only once the ring holds ``frames`` clean frames, the steady ones before.
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -287,6 +289,7 @@ class SceneReference:
             rare_near,
         )
         self.reliable_fill, self.subtle_shifts, self.shift_rate = reliable_fill, subtle_shifts, shift_rate
+        self.shift_rate_full = shift_rate_full
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -482,7 +485,8 @@ class SceneReference:
         a surface read a few centimetres off, within each pixel's tolerance but not the window's."""
         s = self._stats
         assert s is not None
-        steady = (metres > 0) & self._shift_px
+        px = self._steady if self.shift_rate_full and self.count < self.size else self._shift_px
+        steady = (metres > 0) & px
         diff = np.subtract(metres, s.nz_median, dtype=np.float32)
         diff *= steady  # 0 (or -0, the same to every use below) off the steady returns
         clipped = np.clip(diff, -SHIFT_CAP, SHIFT_CAP)  # one far-off pixel cannot shift a window
