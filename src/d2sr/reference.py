@@ -237,7 +237,7 @@ class SceneReference:
         reliable_fill: bool = True,
         subtle_shifts: bool = False,
         shift_rate: float = SHIFT_RATE,
-        shift_rate_full: bool = False,
+        shift_rate_full: bool = True,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -258,7 +258,8 @@ class SceneReference:
         on development sets G, H and M but none on sealed set U (decisions.md, 2026-11-27).
         ``shift_rate``: shifted windows are worked out over the pixels that returned in at least this share
         of the clean frames [``SHIFT_RATE``; ``TRUST_RATE``, the steady ones, before sealed set V];
-        ``shift_rate_full``: only once the ring holds ``frames`` clean frames, the steady ones before.
+        ``shift_rate_full``: only once the ring holds ``frames`` clean frames, the steady ones before (sealed
+        set W, decisions.md, 2026-11-27: on development set D's live start it kept 2 clean frames unflagged).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
