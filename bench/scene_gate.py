@@ -21,6 +21,8 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what subtle`` (set U): a subtle shift explained by the frame before as a moving object is
   (``SceneReference(subtle_shifts=False)``) or only within ``SHIFT_M`` of its depth (``True``), each
   sequence primed as a recording; likewise.
+* ``--what still`` (set X): each sequence primed, the scene kept whatever it saw (as shipped) or only if
+  the sensor held still over the frames ahead (``SensorLoop(prime_still=True)``); likewise.
 * ``--what full`` (set W): shifted windows counting pixels that return 70% of the time from the start (as
   shipped) or only once the ring holds its clean frames (``SceneReference(shift_rate_full=True)``), each
   sequence cold and primed; likewise.
@@ -49,6 +51,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_shiftrate_v.json
       .venv/bin/python bench/scene_gate.py --what full --set w --data ../shared/data \\
           --json docs/results/scene_full_w.json
+      .venv/bin/python bench/scene_gate.py --what still --set x --data ../shared/data \\
+          --json docs/results/scene_still_x.json
 """
 
 from __future__ import annotations
@@ -107,6 +111,10 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": TRUST_RATE}),
         "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
     },
+    "still": {
+        "primed, any scene kept": (True, {}),
+        "primed, a settled scene only": (True, {}),
+    },
     "full": {
         "cold, as shipped": (True, {"shift_rate_full": False}),
         "cold, 70% once the ring is full": (True, {"shift_rate_full": True}),
@@ -119,16 +127,30 @@ PRIMED = (
     {"primed (a recording)": PRIME_FRAMES}
     | {m: PRIME_FRAMES for what in ("subtle", "shiftrate") for m in MODES[what]}
     | {m: PRIME_FRAMES for m in MODES["full"] if m.startswith("primed")}
+    | {m: PRIME_FRAMES for m in MODES["still"]}
 )
+# Modes whose loop keeps a primed scene only if the sensor held still (``SensorLoop.prime_still``).
+PRIME_STILL = {"primed, a settled scene only"}
 
 
 def flags(
-    net: Backend, frames: list[np.ndarray], scale: float, scene: bool, settings: dict, prime: int = 0
+    net: Backend,
+    frames: list[np.ndarray],
+    scale: float,
+    scene: bool,
+    settings: dict,
+    prime: int = 0,
+    still: bool = False,
 ) -> np.ndarray:
     """The loop's flag on each frame, in order, from a cold start (``settings``: the scene reference's), or
-    primed on the first ``prime`` frames (``SensorLoop.primed``)."""
+    primed on the first ``prime`` frames (``SensorLoop.primed``; ``still``: ``SensorLoop.prime_still``)."""
     lp = SensorLoop(
-        net, make_controller("static", 30, 30), repair="none", scene=scene, scene_options=settings
+        net,
+        make_controller("static", 30, 30),
+        repair="none",
+        scene=scene,
+        scene_options=settings,
+        prime_still=still,
     )
     caps = (Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
     return np.array([lp.process(c).flagged for c in lp.primed(caps, prime)])
@@ -275,6 +297,25 @@ def full_rule(parts: dict, clean: dict) -> dict[str, bool]:
     return items
 
 
+def still_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set X's rule (decisions.md, 2026-11-27): keeping a primed scene only where the sensor held still flags
+    no clean frame more, and costs the moving D435 and the still L515s at most one frame of recall."""
+    moving, still = parts["d435"], parts["l515"]
+    old, new = MODES["still"]
+    return {
+        "1 d435: clean flags <= any scene's, recall >= any scene's - 0.02": bool(
+            moving[new]["clean_flagged"] <= moving[old]["clean_flagged"]
+            and moving[new]["recall"] >= moving[old]["recall"] - 0.02
+        ),
+        "2 l515: clean flags <= any scene's, recall >= any scene's - 0.02, precision >= 0.95": bool(
+            still[new]["clean_flagged"] <= still[old]["clean_flagged"]
+            and still[new]["recall"] >= still[old]["recall"] - 0.02
+            and still[new]["precision"] >= 0.95
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[new] <= c[old] for c in clean.values()),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -291,7 +332,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN or args.what in ("prime", "full", *RECORDING_GAIN):
+    if args.what in GAIN or args.what in ("prime", "full", "still", *RECORDING_GAIN):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -314,7 +355,10 @@ def main() -> None:
         )
         result["parts"][part] = {
             mode: rates(
-                np.concatenate([flags(net, s, scale, scene, st, PRIMED.get(mode, 0)) for s in bad]), hit
+                np.concatenate(
+                    [flags(net, s, scale, scene, st, PRIMED.get(mode, 0), mode in PRIME_STILL) for s in bad]
+                ),
+                hit,
             )
             for mode, (scene, st) in modes.items()
         }
@@ -325,7 +369,7 @@ def main() -> None:
     else:
         clean = {
             n: {
-                mode: int(flags(net, fr, scale, scene, st, PRIMED.get(mode, 0)).sum())
+                mode: int(flags(net, fr, scale, scene, st, PRIMED.get(mode, 0), mode in PRIME_STILL).sum())
                 for mode, (scene, st) in modes.items()
             }
             for n, (fr, scale) in whole.items()
@@ -343,6 +387,9 @@ def main() -> None:
         result["prime_frames"] = PRIME_FRAMES
     elif args.what == "full":
         result["rule"] = full_rule(result["parts"], clean)
+        result["prime_frames"] = PRIME_FRAMES
+    elif args.what == "still":
+        result["rule"] = still_rule(result["parts"], clean)
         result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}

@@ -319,6 +319,12 @@ class SceneReference:
         return len(self._clean) >= STILL_MIN and _quantile(self._clean, STILL_Q) <= self.still_share
 
     @property
+    def settled(self) -> bool:
+        """Warm, still, and not resting or restarted since its gate last opened: a scene the sensor held
+        still for (what ``SensorLoop.prime`` keeps)."""
+        return self.ready and self.still and self._resting == 0 and self._naps == 0
+
+    @property
     def shape(self) -> tuple[int, ...] | None:
         """The frames' shape (None before the first)."""
         return None if self._ring is None else self._ring.shape[1:]

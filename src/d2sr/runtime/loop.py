@@ -147,6 +147,9 @@ class SensorLoop:
     # model's repair. On since it held sealed set N (docs/research/decisions.md, 2026-11-27); it had failed
     # G and H under ``repair="all"`` before the guard left lone returns alone.
     scene_repair: bool = True
+    # True: ``prime`` keeps the scene only if the sensor held still over the frames ahead (sealed set X,
+    # docs/research/decisions.md, 2026-11-27).
+    prime_still: bool = False
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
@@ -240,7 +243,8 @@ class SensorLoop:
         first frames are judged against a scene too, not by the detector alone as a live sensor's are. They
         are judged as ``decide`` judges them, from the last to the second, so the scene ends where the
         recording starts; the first is left out, as it would explain its own deviations. Nothing else
-        changes: no result, no flag for the controller, no frame the models remember."""
+        changes: no result, no flag for the controller, no frame the models remember. With ``prime_still``,
+        a scene that is not settled at the end (``SceneReference.settled``: the sensor moved) is dropped."""
         if not self.scene or len(captures) < 2:
             return
         kept = (self.repair, self._last, self._last_clean, self._unjudged)
@@ -250,6 +254,8 @@ class SensorLoop:
                 self.decide(replace(cap, counted=False))
         finally:
             self.repair, self._last, self._last_clean, self._unjudged = kept
+        if self.prime_still and self._reference is not None and not self._reference.settled:
+            self._reference = None  # the sensor moved over the frames ahead: start cold, as a live one does
 
     def primed(self, captures: Iterable[Capture], frames: int = PRIME_FRAMES) -> Iterator[Capture]:
         """``captures`` as they come, once the first ``frames`` of them have primed the scene (``prime``;
