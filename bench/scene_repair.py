@@ -116,6 +116,7 @@ def repaired(
     for frames in views:
         p = pipeline(scale, mode)
         if primed:
+            p.loop.prime_still = False  # as every primed mode here was judged, before set X
             p.prime(frames[:PRIME_FRAMES])
         out += [p.process(f).depth for f in frames]
     return out

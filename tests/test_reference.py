@@ -757,3 +757,25 @@ def test_shifted_windows_are_worked_out_over_pixels_that_return_70_percent_of_th
     assert shifted[TRUST_RATE] < 0.01 <= 0.08 < shifted[SHIFT_RATE], shifted
     with pytest.raises(ConfigError):
         SceneReference(SCALE, shift_rate=0)
+
+
+def test_a_primed_scene_is_kept_only_where_the_sensor_held_still():
+    """``SensorLoop.prime`` keeps the scene of a sensor that held still over the frames ahead; that of a
+    camera whose view keeps changing is dropped (``SceneReference.settled``), so the recording starts cold
+    as a live sensor does, unless ``prime_still=False``."""
+    rng = np.random.default_rng(13)
+    still = [_scene(rng) for _ in range(20)]
+    moving = [np.roll(_scene(rng), 9 * i, axis=1) for i in range(20)]  # the view pans 9 px a frame
+
+    def primed(frames: list[np.ndarray], keep: bool = True) -> SensorLoop:
+        loop = SensorLoop(
+            FakeNet(), make_controller("static", 30, 30), repair="none", scene=True, prime_still=keep
+        )
+        loop.prime([Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)])
+        return loop
+
+    kept = primed(still)._reference
+    assert kept is not None and kept.settled
+    assert primed(moving)._reference is None
+    dropped = primed(moving, keep=False)._reference
+    assert dropped is not None and not dropped.settled

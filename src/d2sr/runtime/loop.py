@@ -148,8 +148,8 @@ class SensorLoop:
     # G and H under ``repair="all"`` before the guard left lone returns alone.
     scene_repair: bool = True
     # True: ``prime`` keeps the scene only if the sensor held still over the frames ahead (sealed set X,
-    # docs/research/decisions.md, 2026-11-27).
-    prime_still: bool = False
+    # docs/research/decisions.md, 2026-11-27: priming had flagged clean frames of a moving camera).
+    prime_still: bool = True
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
