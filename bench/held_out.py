@@ -59,6 +59,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -1221,6 +1222,18 @@ STATUS = {
     "held; decisions.md); open since",
     "x": "development: sealed until 2026-11-27, when it judged keeping a primed scene only where the sensor "
     "held still (it held; decisions.md); open since",
+}
+# The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
+# repair): one place, so both benches run the same modes.
+JUDGED: dict[str, dict[str, dict[str, Any]]] = {
+    "subtle": {
+        "subtle shifts explained as motion": {"subtle_shifts": False},
+        "subtle shifts explained within SHIFT_M": {"subtle_shifts": True},
+    },
+    "shiftrate": {
+        "shifted windows over pixels returning 90% of the time": {"shift_rate": 0.9},
+        "shifted windows over pixels returning 70% of the time": {"shift_rate": 0.7},
+    },
 }
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (

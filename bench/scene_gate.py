@@ -73,7 +73,7 @@ from d2sr.frames import Frame
 from d2sr.reference import STILL_FRAMES, STILL_MIN, STILL_Q, STILL_SHARE, TRUST_RATE, SceneReference
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
-from held_out import KINDS, SETS, clean_sequences, every_other, outside_set, set_data
+from held_out import JUDGED, KINDS, SETS, clean_sequences, every_other, outside_set, set_data
 
 # Per --what: each mode's name, whether the loop judges the scene, and the SceneReference settings. Settings
 # that came after a set was judged are pinned as they were then, so each run reproduces its set's result.
@@ -103,14 +103,8 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "far-off over every return": (True, {"far_thin": True, **BEFORE_V}),
     },
     "prime": {"cold (a live sensor)": (True, {**BEFORE_V}), "primed (a recording)": (True, {**BEFORE_V})},
-    "subtle": {
-        "subtle shifts explained as motion": (True, {"subtle_shifts": False, **BEFORE_V}),
-        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True, **BEFORE_V}),
-    },
-    "shiftrate": {
-        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": TRUST_RATE}),
-        "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
-    },
+    "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
+    "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
     "still": {
         "primed, any scene kept": (True, {}),
         "primed, a settled scene only": (True, {}),

@@ -53,7 +53,17 @@ from d2sr.errors import D2SRError
 from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline
-from held_out import KINDS, SEALED, SETS, clean_sequences, every_other, outside_set, set_data, used_models
+from held_out import (
+    JUDGED,
+    KINDS,
+    SEALED,
+    SETS,
+    clean_sequences,
+    every_other,
+    outside_set,
+    set_data,
+    used_models,
+)
 
 Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
 # What came after set O was judged (far-off flags, the seldom-returns keep, the sparser fill), off as it was
@@ -87,14 +97,8 @@ WHAT: dict[str, dict[str, Mode]] = {
         "cold (a live sensor)": (True, {**BEFORE_V}),
         "primed (d2sr recover on a recording)": (True, {**BEFORE_V}),
     },
-    "subtle": {
-        "subtle shifts explained as motion": (True, {"subtle_shifts": False, **BEFORE_V}),
-        "subtle shifts explained within SHIFT_M": (True, {"subtle_shifts": True, **BEFORE_V}),
-    },
-    "shiftrate": {
-        "shifted windows over pixels returning 90% of the time": (True, {"shift_rate": TRUST_RATE}),
-        "shifted windows over pixels returning 70% of the time": (True, {"shift_rate": 0.7}),
-    },
+    "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
+    "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
 }
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"]}
