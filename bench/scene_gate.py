@@ -58,8 +58,10 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -310,6 +312,16 @@ def still_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+# Per --what since set M: its set's rule, (parts, clean flags per sequence) -> items.
+RULES: dict[str, Callable[[dict, dict], dict[str, bool]]] = {
+    **{w: functools.partial(flag_rule, what=w) for w in GAIN},
+    "prime": prime_rule,
+    **{w: functools.partial(recording_rule, what=w) for w in RECORDING_GAIN},
+    "full": full_rule,
+    "still": still_rule,
+}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -326,7 +338,7 @@ def main() -> None:
     d435, l515 = whole["d435"][0], outside_set(args.data)
     # K and L were judged with each view seeded alike; since M, seeded as one sequence (no draw repeats across
     # the views), each view cold.
-    if args.what in GAIN or args.what in ("prime", "full", "still", *RECORDING_GAIN):
+    if args.what not in ("gate", "stripes"):
         bad = every_other(l515, 4000.0, args.which)
         views = [bad[:60], bad[60:]]
     else:  # each view seeded alike (how K and L were judged)
@@ -371,20 +383,10 @@ def main() -> None:
         result["clean_flagged"] = {
             n: {m: f"{v} of {len(whole[n][0])}" for m, v in c.items()} for n, c in clean.items()
         }
-    if args.what in GAIN:
-        result["rule"] = flag_rule(result["parts"], clean, args.what)
-    elif args.what == "prime":
-        result["rule"] = prime_rule(result["parts"], clean)
-        result["prime_frames"] = PRIME_FRAMES
-    elif args.what in RECORDING_GAIN:
-        result["rule"] = recording_rule(result["parts"], clean, args.what)
-        result["prime_frames"] = PRIME_FRAMES
-    elif args.what == "full":
-        result["rule"] = full_rule(result["parts"], clean)
-        result["prime_frames"] = PRIME_FRAMES
-    elif args.what == "still":
-        result["rule"] = still_rule(result["parts"], clean)
-        result["prime_frames"] = PRIME_FRAMES
+    if args.what in RULES:
+        result["rule"] = RULES[args.what](result["parts"], clean)
+        if any(m in PRIMED for m in modes):
+            result["prime_frames"] = PRIME_FRAMES
     elif args.what == "stripes":
         still = {n: fr for n, (fr, _) in whole.items() if n != "d435"}
         ms: dict[str, dict[str, float]] = {n: {} for n in still}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +48,13 @@ def _warm(ref: SceneReference, rng: np.random.Generator, n: int = 16) -> None:
     for _ in range(n):
         ref.evidence(f := _scene(rng))
         ref.add(f)
+
+
+def _show(loops: dict, frames: Iterable[np.ndarray]) -> None:
+    """Each frame, in order, to every one of ``loops`` (the clean frames their scenes learn from)."""
+    for f in frames:
+        for loop in loops.values():
+            loop.process(Capture(Frame("c", f), SCALE))
 
 
 def _loops(net: FakeNet, repair: str, settings: dict) -> dict:
@@ -374,10 +382,7 @@ def test_the_scene_repairs_a_return_where_it_returns_most_of_the_time():
     # None: as shipped
     loops = _loops(_NoRepair(), "flagged", {None: {}, TRUST_RATE: {"return_rate": TRUST_RATE}})
     rng = np.random.default_rng(8)
-    for _ in range(20):
-        f = scene(rng)
-        for loop in loops.values():
-            loop.process(Capture(Frame("c", f), SCALE))
+    _show(loops, (scene(rng) for _ in range(20)))
     truth = scene(rng)
     hit = truth.copy()
     patch = np.s_[40:70, 30:80]
@@ -452,10 +457,7 @@ def test_the_scene_keeps_a_seldom_seen_return_only_near_its_depth():
     loops = _loops(_Doubles(), "all", {near: {"rare_near": near} for near in (True, False)})
     assert SceneReference(SCALE).rare_near
     rng = np.random.default_rng(11)
-    for _ in range(20):
-        f = scene(rng)
-        for loop in loops.values():
-            loop.process(Capture(Frame("c", f), SCALE))
+    _show(loops, (scene(rng) for _ in range(20)))
     hit = scene(rng)
     hit[rare] = np.where(hit[rare] > 0, hit[rare], 0)
     far = np.zeros(hit.shape, bool)

@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, "bench")
-from d2sr.desync import make_controller
-from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
-from d2sr.runtime.loop import Capture, SensorLoop
 from held_out import SEALED, SETS, every_other, outside_set
+from scene_gate import flags as loop_flags, rates
 
 data = Path("../shared/data")
 net = open_backend(None, "onnx")
@@ -23,9 +21,7 @@ W = [int(x) for x in sys.argv[1:]] or [0, 32, 48]
 
 
 def flags(frames, w):
-    lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True)
-    caps = (Capture(Frame(f"{i}", f), 4000.0) for i, f in enumerate(frames))
-    return np.array([lp.process(c).flagged for c in lp.primed(caps, w)])
+    return loop_flags(net, frames, 4000.0, True, {}, w, still=True)
 
 
 print("set  " + "  ".join(f"W={w}: P / R / clean flagged".ljust(30) for w in W))
@@ -36,6 +32,5 @@ for s in sorted(set(SETS) - SEALED):
     cells = []
     for w in W:
         f = np.concatenate([flags(bad[a:a + 60], w) for a in (0, 60)])
-        tp = int((f & hit).sum())
-        cells.append(f"{tp / max(int(f.sum()), 1):.3f} / {tp / hit.sum():.3f} / {int((f & ~hit).sum())} of {int((~hit).sum())}")
+        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged} of {clean}".format(**rates(f, hit)))
     print(s, "   ", "  ".join(c.ljust(30) for c in cells), flush=True)

@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, "bench")
-from d2sr.desync import make_controller
-from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
-from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
+from scene_gate import flags as loop_flags, rates
 
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
@@ -23,13 +22,11 @@ d435 = seqs["d435"][0]
 
 
 def flags(frames, scale, still):
-    lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True, prime_still=still)
-    return np.array([lp.process(c).flagged for c in lp.primed(Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))])
+    return loop_flags(net, frames, scale, True, {}, PRIME_FRAMES, still)
 
 
 def cell(f, hit):
-    tp = int((f & hit).sum())
-    return f"{tp / max(f.sum(), 1):.3f} / {tp / hit.sum():.3f} / {int((f & ~hit).sum())}"
+    return "{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit))
 
 
 print("clean sequences flagged (any scene / settled only):", {n: tuple(int(flags(fr, s, st).sum()) for st in (False, True)) for n, (fr, s) in seqs.items()})

@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, "bench")
-from d2sr.desync import make_controller
-from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
-from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
+from scene_gate import flags as loop_flags, rates
 
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
@@ -22,10 +21,7 @@ RUNS = [(p, full) for p in (0, PRIME_FRAMES) for full in (False, True)]
 
 
 def flags(frames, scale, prime, full):
-    lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True,
-                    scene_options={"shift_rate_full": full})
-    caps = (Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
-    return np.array([lp.process(c).flagged for c in lp.primed(caps, prime)])
+    return loop_flags(net, frames, scale, True, {"shift_rate_full": full}, prime, still=True)
 
 
 names = [f"{'primed' if p else 'cold'}, {'full ring' if full else 'shipped'}" for p, full in RUNS]
@@ -39,6 +35,5 @@ for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     cells = []
     for p, full in RUNS:
         f = np.concatenate([flags(bad[:60], 4000.0, p, full), flags(bad[60:], 4000.0, p, full)])
-        tp = int((f & hit).sum())
-        cells.append(f"{tp / max(f.sum(), 1):.3f} / {tp / hit.sum():.3f} / {int((f & ~hit).sum())}")
+        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit)))
     print(f"| {s.upper()} | " + " | ".join(cells) + " |", flush=True)

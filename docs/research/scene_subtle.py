@@ -7,17 +7,15 @@ import sys
 from pathlib import Path
 import numpy as np
 sys.path.insert(0, "bench")
-from d2sr.desync import make_controller
-from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
-from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import every_other, outside_set, clean_sequences, SETS, SEALED
+from scene_gate import flags as loop_flags, rates
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
 L = outside_set(data)
 def flags(frames, scale, on):
-    lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True, scene_options={"subtle_shifts": on})
-    return np.array([lp.process(c).flagged for c in lp.primed(Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))])
+    return loop_flags(net, frames, scale, True, {"subtle_shifts": on}, PRIME_FRAMES, still=True)
 print("clean off/on", {n: (int(flags(fr, s, False).sum()), int(flags(fr, s, True).sum())) for n, (fr, s) in clean_sequences(data).items()})
 for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     bad = every_other(L, 4000.0, s)
@@ -25,6 +23,5 @@ for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     cells = []
     for on in (False, True):
         f = np.concatenate([flags(bad[:60], 4000.0, on), flags(bad[60:], 4000.0, on)])
-        tp = int((f & hit).sum())
-        cells.append(f"{tp/max(f.sum(),1):.3f} / {tp/hit.sum():.3f} / {int((f&~hit).sum())}")
+        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit)))
     print(f"| {s.upper()} | {cells[0]} | {cells[1]} |", flush=True)

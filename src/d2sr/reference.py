@@ -360,6 +360,7 @@ class SceneReference:
             self._stats = _stats(self._ring[: self.count], self.scale)
             self._labeller = Labeller(self._stats, tol_abs=self.tol[0], tol_rel=self.tol[1])
             self._steady = np.zeros(frame.shape, bool)
+            # At TRUST_RATE the shifted windows' pixels are the steady ones: the same array, kept once.
             self._shift_px = self._steady if self.shift_rate == TRUST_RATE else np.zeros(frame.shape, bool)
             self._far_lo = np.zeros(frame.shape, np.float32)
             self._far_hi = np.zeros(frame.shape, np.float32)
@@ -441,7 +442,7 @@ class SceneReference:
             fresh = _unexplained(metres, mask, before, subtle)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense
-            return fresh, _dense(fresh & deviates, known) if before is not None else 0.0
+            return fresh, _dense(fresh & deviates, known)
 
         # What explains the next frame's deviations: this one's, in patches (a moved object), not flicker;
         # their depths, -1 a dropout, written where they are (patches are few).

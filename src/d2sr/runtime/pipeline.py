@@ -340,12 +340,18 @@ class Pipeline:
         and ``d2sr recover`` do this with the first ``PRIME_FRAMES`` (``SensorLoop.prime``)."""
         caps = []
         for i, depth in enumerate(depths):
-            frame, scale = _as_frame(depth, self.depth_scale, f"prime frame {i}")
-            if not self._probed:
-                _probe(frame, scale, f"prime frame {i}")
-                self._probed = True
+            frame, scale = self._frame(depth, f"prime frame {i}")
             caps.append(Capture(Frame(f"prime{i:06d}", frame), scale))
         self.loop.prime(caps)
+
+    def _frame(self, depth: np.ndarray, name: str) -> tuple[np.ndarray, float]:
+        """``depth`` as the loop takes it (``_as_frame``); the first frame tells whether the scale makes
+        sense (``_probe``)."""
+        frame, scale = _as_frame(depth, self.depth_scale, name)
+        if not self._probed:
+            _probe(frame, scale, name)
+            self._probed = True
+        return frame, scale
 
     def decide(
         self,
@@ -363,11 +369,7 @@ class Pipeline:
             raise ConfigError("slot: the actuator's clock gives each frame its slot; pass none")
         arrival = time.monotonic() if arrival_s is None else arrival_s
         k = next(self._count)
-        name = f"frame {k}"
-        frame, scale = _as_frame(depth, self.depth_scale, name)
-        if not self._probed:  # the first frame tells whether the scale makes sense
-            _probe(frame, scale, name)
-            self._probed = True
+        frame, scale = self._frame(depth, f"frame {k}")
         cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot, pose=pose)
         decision = self.loop.decide(cap) if self.closed is None else self.closed.decide(cap, arrival)
         return Decided(depth, decision)
