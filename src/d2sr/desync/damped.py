@@ -1,4 +1,5 @@
-"""``"damped"``: d2sr's default controller. Decentralized: it sees only its own detections.
+"""``"damped"``: d2sr's default controller before ``robust`` (``d2sr.desync.DEFAULT_CONTROLLER``), kept as
+an option. Decentralized: it sees only its own detections.
 
 It keeps Algorithm 1's core, a push away from where interference falls in the window
 (``delta = hits in the first half - hits in the second half``), because that push balances a crowded
