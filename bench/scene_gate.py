@@ -23,6 +23,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
   sequence primed as a recording; likewise.
 * ``--what still`` (set X): each sequence primed, the scene kept whatever it saw (as shipped) or only if
   the sensor held still over the frames ahead (``SensorLoop(prime_still=True)``); likewise.
+* ``--what unvouched`` (set Y): each sequence primed, a detector's flag on a frame the scene finds quiet
+  dropped (as shipped) or kept where the scene cannot vouch for what the detector saw
+  (``SensorLoop(unvouched=True)``, with unet8's mask); likewise.
 * ``--what full`` (set W): shifted windows counting pixels that return 70% of the time from the start (as
   shipped) or only once the ring holds its clean frames (``SceneReference(shift_rate_full=True)``), each
   sequence cold and primed; likewise.
@@ -53,6 +56,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_full_w.json
       .venv/bin/python bench/scene_gate.py --what still --set x --data ../shared/data \\
           --json docs/results/scene_still_x.json
+      .venv/bin/python bench/scene_gate.py --what unvouched --set y --data ../shared/data \\
+          --json docs/results/scene_unvouched_y.json
 """
 
 from __future__ import annotations
@@ -68,7 +73,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import DETECTOR
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
 from d2sr.frames import Frame
@@ -111,6 +116,10 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "primed, any scene kept": (True, {}),
         "primed, a settled scene only": (True, {}),
     },
+    "unvouched": {
+        "primed, quiet flags dropped": (True, {}),
+        "primed, unvouched flags stand": (True, {}),
+    },
     "full": {
         "cold, as shipped": (True, {"shift_rate_full": False}),
         "cold, 70% once the ring is full": (True, {"shift_rate_full": True}),
@@ -124,9 +133,12 @@ PRIMED = (
     | {m: PRIME_FRAMES for what in ("subtle", "shiftrate") for m in MODES[what]}
     | {m: PRIME_FRAMES for m in MODES["full"] if m.startswith("primed")}
     | {m: PRIME_FRAMES for m in MODES["still"]}
+    | {m: PRIME_FRAMES for m in MODES["unvouched"]}
 )
 # Modes whose loop keeps a primed scene only if the sensor held still (``SensorLoop.prime_still``).
-PRIME_STILL = {"primed, a settled scene only"}
+PRIME_STILL = {"primed, a settled scene only", *MODES["unvouched"]}
+# Modes whose loop keeps a detector's flag the scene cannot vouch against (``SensorLoop.unvouched``).
+UNVOUCHED = {"primed, unvouched flags stand"}
 
 
 def flags(
@@ -137,9 +149,11 @@ def flags(
     settings: dict,
     prime: int = 0,
     still: bool = False,
+    unvouched: bool = False,
 ) -> np.ndarray:
     """The loop's flag on each frame, in order, from a cold start (``settings``: the scene reference's), or
-    primed on the first ``prime`` frames (``SensorLoop.primed``; ``still``: ``SensorLoop.prime_still``)."""
+    primed on the first ``prime`` frames (``SensorLoop.primed``; ``still``: ``SensorLoop.prime_still``;
+    ``unvouched``: ``SensorLoop.unvouched``, which needs a recovery model in ``net``)."""
     lp = SensorLoop(
         net,
         make_controller("static", 30, 30),
@@ -147,9 +161,15 @@ def flags(
         scene=scene,
         scene_options=settings,
         prime_still=still,
+        unvouched=unvouched,
     )
     caps = (Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
     return np.array([lp.process(c).flagged for c in lp.primed(caps, prime)])
+
+
+def _looped(mode: str) -> tuple[bool, bool]:
+    """The loop's own settings a mode runs with: (``prime_still``, ``unvouched``)."""
+    return mode in PRIME_STILL, mode in UNVOUCHED
 
 
 def rates(f: np.ndarray, hit: np.ndarray) -> dict:
@@ -312,6 +332,24 @@ def still_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def unvouched_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set Y's rule (decisions.md, 2026-11-27): keeping a detector's flag the scene cannot vouch against finds
+    more of Y's L515 frames at precision 0.95 or more, and flags no clean frame more anywhere."""
+    moving, still = parts["d435"], parts["l515"]
+    old, new = MODES["unvouched"]
+    return {
+        "1 l515: recall > quiet flags dropped, precision >= 0.95, clean flags <= quiet flags dropped": bool(
+            still[new]["recall"] > still[old]["recall"]
+            and still[new]["precision"] >= 0.95
+            and still[new]["clean_flagged"] <= still[old]["clean_flagged"]
+        ),
+        "2 d435: clean flags <= quiet flags dropped": bool(
+            moving[new]["clean_flagged"] <= moving[old]["clean_flagged"]
+        ),
+        "3 clean sequences: no flagged frame gained": all(c[new] <= c[old] for c in clean.values()),
+    }
+
+
 # Per --what since set M: its set's rule, (parts, clean flags per sequence) -> items.
 RULES: dict[str, Callable[[dict, dict], dict[str, bool]]] = {
     **{w: functools.partial(flag_rule, what=w) for w in GAIN},
@@ -319,6 +357,7 @@ RULES: dict[str, Callable[[dict, dict], dict[str, bool]]] = {
     **{w: functools.partial(recording_rule, what=w) for w in RECORDING_GAIN},
     "full": full_rule,
     "still": still_rule,
+    "unvouched": unvouched_rule,
 }
 
 
@@ -331,7 +370,8 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     try:
-        net = open_backend(None, "onnx")
+        # unvouched flags read the recovery model's mask: the detector and unet8 (the others, the detector)
+        net = open_backend(DEFAULT_RECOVERY if args.what == "unvouched" else None, "onnx")
         whole = clean_sequences(args.data)
     except D2SRError as exc:
         ap.error(str(exc))
@@ -362,7 +402,7 @@ def main() -> None:
         result["parts"][part] = {
             mode: rates(
                 np.concatenate(
-                    [flags(net, s, scale, scene, st, PRIMED.get(mode, 0), mode in PRIME_STILL) for s in bad]
+                    [flags(net, s, scale, scene, st, PRIMED.get(mode, 0), *_looped(mode)) for s in bad]
                 ),
                 hit,
             )
@@ -375,7 +415,7 @@ def main() -> None:
     else:
         clean = {
             n: {
-                mode: int(flags(net, fr, scale, scene, st, PRIMED.get(mode, 0), mode in PRIME_STILL).sum())
+                mode: int(flags(net, fr, scale, scene, st, PRIMED.get(mode, 0), *_looped(mode)).sum())
                 for mode, (scene, st) in modes.items()
             }
             for n, (fr, scale) in whole.items()

@@ -781,3 +781,54 @@ def test_a_primed_scene_is_kept_only_where_the_sensor_held_still():
     assert primed(moving)._reference is None
     dropped = primed(moving, keep=False)._reference
     assert dropped is not None and not dropped.settled
+
+
+class _Masks(FakeNet):
+    """FakeNet whose recovery mask covers ``self.region`` (a pair of slices) of every frame."""
+
+    mask_logit = 0.0
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.region: tuple[slice, slice] = (slice(0, 0), slice(0, 0))
+        self.masked = 0
+
+    def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        self.masked += 1
+        logit = np.full(metres.shape, -5.0, np.float32)
+        logit[(slice(None), *self.region)] = 5.0
+        return logit, metres
+
+
+def test_a_flag_the_scene_cannot_vouch_against_stands_with_unvouched():
+    """A frame that matches its scene but that the detector flags: the scene drops the flag, unless
+    (``unvouched``) the recovery model's mask covers ``UNVOUCHED_AREA`` of the known scene, at least half of
+    it where the scene seldom returns (here the top rows, which never return). Then the detector also scores
+    the frames the scene finds quiet, and the mask runs only on the ones it flags."""
+    rng = np.random.default_rng(7)
+    clean = [_scene(rng) for _ in range(12)]
+    nets = {u: _Masks() for u in (False, True)}
+    loops = {
+        u: SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True, unvouched=u)
+        for u, net in nets.items()
+    }
+    _show(loops, clean)
+    assert all(net.masked == 0 for net in nets.values())
+    scored = [loop.process(Capture(Frame("c", _scene(rng)), SCALE)).score for loop in loops.values()]
+    assert np.isnan(scored[0]) and scored[1] == 0.0  # quiet: decided alone, or still scored
+    unvouched_rows, wall, speck = (
+        (slice(0, 8), slice(0, 128)),
+        (slice(40, 60), slice(40, 60)),
+        (
+            slice(0, 4),
+            slice(0, 4),
+        ),
+    )
+    for region, stands in ((unvouched_rows, True), (wall, False), (speck, False)):
+        f = _scene(rng)
+        f[0, 0] = 1  # FakeNet flags it; the scene finds nothing
+        for u, net in nets.items():
+            net.region = region
+            res = loops[u].process(Capture(Frame("f", f.copy()), SCALE))
+            assert res.flagged == (u and stands), (region, u)
+    assert nets[False].masked == 0 and nets[True].masked == 3

@@ -162,6 +162,11 @@ class Evidence:
         return self._explained()[1]
 
     @property
+    def known(self) -> int:
+        """The pixels the reference has seen return: the base of every share here."""
+        return self._known
+
+    @property
     def usable(self) -> bool:
         """Evidence a verdict may rest on: the reference is warm and the sensor held still."""
         return self.ready and self.still
@@ -332,6 +337,11 @@ class SceneReference:
     @property
     def ready(self) -> bool:
         return self._labeller is not None
+
+    @property
+    def rates(self) -> np.ndarray | None:
+        """Per pixel, the share of the clean frames it returned in (None until warm)."""
+        return None if self._stats is None else self._stats.rate
 
     def _check(self, frame: np.ndarray) -> None:
         if frame.dtype != np.uint16 or frame.ndim != 2:

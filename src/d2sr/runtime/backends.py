@@ -49,6 +49,11 @@ class Backend(Protocol):
     threshold: float  # the detector's own probability threshold (stored with it; contract.THRESHOLD)
     passes: int  # recovery runs of the model per frame (contract.recover_passes)
 
+    @property
+    def mask_logit(self) -> float:
+        """The recovery mask's threshold on its logits (0 without a recovery model)."""
+        ...
+
     def scores(
         self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
     ) -> np.ndarray:
@@ -301,6 +306,10 @@ class Gated:
                 net, prev = self.temporal, previous[i : i + 1]
             outs.append(getattr(net, run)(x, prev))
         return np.concatenate([a for a, _ in outs]), np.concatenate([b for _, b in outs])
+
+    @property
+    def mask_logit(self) -> float:
+        return self.single.mask_logit
 
     def raw(self, metres: np.ndarray, previous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         return self._each("raw", metres, previous)

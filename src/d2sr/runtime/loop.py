@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
@@ -22,7 +22,7 @@ from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, Intrinsics, check_depth, to_metres
 from d2sr.moving_reference import MovingReference
-from d2sr.reference import EVIDENT, QUIET, Evidence, SceneReference
+from d2sr.reference import EVIDENT, QUIET, TRUST_RATE, Evidence, SceneReference
 from d2sr.runtime.backends import Backend
 from d2sr.synth.warp import Pose
 
@@ -30,10 +30,18 @@ REPAIR = ("flagged", "all", "none")
 # Frames a recording's loop judges ahead of its first to warm the scene (``SensorLoop.primed``): twice the
 # scene's ring, so that with every other frame interfered its 16 clean frames are all judged warm.
 PRIME_FRAMES = 32
+#: With ``SensorLoop.unvouched``: a detector's flag on a frame the scene finds quiet stands where the recovery
+#: model's mask covers this share of the known scene, at least ``UNVOUCHED_SHARE`` of it where the scene
+#: returns in under ``TRUST_RATE`` of its clean frames: pixels it cannot vouch for, so its quiet verdict
+#: says nothing of them. About twice the most any clean development frame's mask reached (0.0022, L515
+#: dev1; docs/research/decisions.md, 2026-11-27).
+UNVOUCHED_AREA, UNVOUCHED_SHARE = 0.005, 0.5
 
 __all__ = [
     "PRIME_FRAMES",
     "REPAIR",
+    "UNVOUCHED_AREA",
+    "UNVOUCHED_SHARE",
     "Capture",
     "Decision",
     "PeriodEnd",
@@ -154,6 +162,10 @@ class SensorLoop:
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
     exact_scores: bool = False
+    # True (with ``scene``; d2sr detect and d2sr recover on recordings, off live for its cost): a frame the
+    # scene finds quiet is still scored, and a flag on it stands where the scene cannot vouch for what the
+    # detector saw (``UNVOUCHED_AREA``): one pass of the recovery model's mask, only on such flags.
+    unvouched: bool = False
     period: int = 0
     _reference: SceneReference | None = None
     _moving: MovingReference | None = None
@@ -215,7 +227,7 @@ class SensorLoop:
         cut = None if self.exact_scores else self._cut
         still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
         units, ev = self._scene_evidence(raw, cap.scale, metres) if still else (None, None)
-        if ev is not None and _decides(ev) and not self.exact_scores:
+        if ev is not None and _decides(ev, self.unvouched) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.evident
         else:
@@ -224,7 +236,7 @@ class SensorLoop:
         if self.scene and self.moving_scene and judge and cap.pose is not None:
             flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
         elif ev is not None and units is not None:
-            flagged = self._weigh(units, flagged, ev)
+            flagged = self._weigh(units, flagged, ev, lambda: self._stands(metres, raw.shape, ev))
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
@@ -309,15 +321,36 @@ class SensorLoop:
         own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None
         return units, ref.evidence(units, own)
 
-    def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
+    def _weigh(
+        self, raw: np.ndarray, flagged: bool, ev: Evidence, stands: Callable[[], bool] | None = None
+    ) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
-        takes the frame if clean."""
+        takes the frame if clean. ``stands``: with ``unvouched``, whether a flag on a quiet frame stands
+        (``_stands``; None: a verdict decided before, which stands as it was)."""
         if ev.usable:
+            quiet_flag = flagged and ev.dense < QUIET and not ev.evident
             flagged = (flagged and ev.dense >= QUIET) or ev.evident
+            if quiet_flag and self.unvouched:
+                flagged = stands() if stands is not None else True
         if not flagged:
             assert self._reference is not None
             self._reference.add(raw)
         return flagged
+
+    def _stands(self, metres: np.ndarray, shape: tuple[int, ...], ev: Evidence) -> bool:
+        """A detector's flag on a frame the scene finds quiet stands: the recovery model's mask (one pass)
+        covers ``UNVOUCHED_AREA`` of the known scene, ``UNVOUCHED_SHARE`` of it where the scene cannot vouch
+        (returns under ``TRUST_RATE``)."""
+        ref = self._reference
+        if ref is None or ref.rates is None:
+            return False
+        net = getattr(self.backend, "single", self.backend)  # auto: its single-frame model
+        logit = net.raw(metres, self._last_clean if net.frames > 1 else None)[0]
+        mask = logit[0, : shape[0], : shape[1]] > net.mask_logit
+        seen = np.count_nonzero(mask)
+        if seen < UNVOUCHED_AREA * ev.known:
+            return False
+        return bool(np.count_nonzero(mask & (ref.rates < TRUST_RATE)) >= UNVOUCHED_SHARE * seen)
 
     def _against_moving(self, raw: np.ndarray, scale: float, flagged: bool, pose: Pose) -> bool:
         """A moving sensor's frame against its last clean frame seen from ``pose``: flagged where its depth
@@ -363,10 +396,11 @@ class SensorLoop:
         return new
 
 
-def _decides(ev: Evidence) -> bool:
+def _decides(ev: Evidence, unvouched: bool = False) -> bool:
     """The scene's evidence settles the verdict alone (``SensorLoop._weigh``): fresh deviations in patches
-    flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says."""
-    return ev.usable and (ev.dense < QUIET or ev.evident)
+    flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says
+    (not with ``unvouched``, where the detector's flag may still stand there)."""
+    return ev.usable and ((ev.dense < QUIET and not unvouched) or ev.evident)
 
 
 def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
