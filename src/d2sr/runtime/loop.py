@@ -162,9 +162,10 @@ class SensorLoop:
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
     exact_scores: bool = False
-    # True (with ``scene``; d2sr detect and d2sr recover on recordings, off live for its cost): a frame the
-    # scene finds quiet is still scored, and a flag on it stands where the scene cannot vouch for what the
-    # detector saw (``UNVOUCHED_AREA``): one pass of the recovery model's mask, only on such flags.
+    # True (with ``scene``; experimental, off): a frame the scene finds quiet is still scored, and a flag on
+    # it stands where the scene cannot vouch for what the detector saw (``UNVOUCHED_AREA``): one pass of the
+    # recovery model's mask, only on such flags. It found 4 more frames of development set I and none of
+    # sealed set Y (docs/research/decisions.md, 2026-11-27).
     unvouched: bool = False
     period: int = 0
     _reference: SceneReference | None = None
