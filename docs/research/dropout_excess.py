@@ -1,0 +1,74 @@
+"""A filled dropout where the scene often drops out, kept only where the frame drops out more than the scene's
+own flicker explains nearby (issue 42: clean pixels changed, "do no harm"): ``d2sr.Pipeline`` as shipped
+(flagged frames repaired, the scene's repair on) on both L515 views of each set (each a cold sequence of 60
+frames, every other one corrupted), and the same outputs with a filled dropout put back to no return, after
+the fact, where a usable scene says the pixel returns in under a given share of its clean frames (0.3-0.9),
+or in under 90% unless the dropouts in its WxW window exceed those the scene's return rates expect there (E,
+the sum of 1 - rate over the pixels the scene has seen return) by more than K x sqrt(E) + C. RMSE change and mask F1 over the corrupted frames; clean
+pixels changed over all frames. Development figures only. Run from the repository root:
+python docs/research/dropout_excess.py [SET ...]"""
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+sys.path.insert(0, "bench")
+import d2sr
+import d2sr.reference as reference
+from held_out import every_other, outside_set
+
+clean = outside_set(Path("../shared/data"))
+seen = {}
+shipped_evidence = reference.SceneReference.evidence
+
+
+def evidence(self, *a, **k):  # keep each frame's evidence and its reference's statistics
+    ev = shipped_evidence(self, *a, **k)
+    seen["ev"], seen["stats"] = ev, self._stats
+    return ev
+
+
+def excess(b, rate, w, k, c):
+    known = rate > 0
+    o = cv2.boxFilter(((b == 0) & known).astype(np.float32), -1, (w, w), normalize=False)
+    e = cv2.boxFilter(np.where(known, 1 - rate, 0).astype(np.float32), -1, (w, w), normalize=False)
+    return o - e > k * np.sqrt(e) + c
+
+
+reference.SceneReference.evidence = evidence
+# rule -> None (as shipped), or (the rate under which a filled dropout is put back, and the excess test's
+# W, K, C; W 0: no test)
+RULES = {"as shipped": None} | {f"rate < {t}": (t, 0, 0, 0) for t in (0.9, 0.7, 0.5, 0.3)} | {
+    f"excess W{w} K{k} C{c}": (0.9, w, k, c) for w in (9, 15) for k in (2, 3) for c in (2, 6)
+}
+for which in sys.argv[1:] or ["a", "b"]:
+    bad = every_other(clean, 4000.0, which)
+    sums = {rule: np.zeros(8) for rule in RULES}
+    for v in (0, 60):
+        pipe = d2sr.Pipeline(4000.0)
+        for b, c in zip(bad[v : v + 60], clean[v : v + 60], strict=True):
+            seen.clear()
+            r = pipe.process(b)
+            hit = b != c
+            ev, s = seen.get("ev"), seen.get("stats")
+            usable = ev is not None and ev.usable and s is not None
+            for rule, arg in RULES.items():
+                out, mask = r.depth.copy(), r.mask.copy()
+                if arg is not None and usable and (out != b).any():
+                    back = (b == 0) & (out != b) & (s.rate < arg[0])
+                    if arg[1]:
+                        back &= ~excess(b, s.rate, *arg[1:])
+                    out[back], mask = 0, mask & ~back
+                changed = (out != b) & ~hit
+                a = sums[rule]
+                a[5], a[6], a[7] = a[5] + changed.sum(), a[6] + (changed & (b == 0)).sum(), a[7] + (~hit).sum()
+                if hit.any():
+                    ok = c > 0
+                    a[0] += (((b.astype(float) - c) / 4000)[ok] ** 2).sum()
+                    a[1] += (((out.astype(float) - c) / 4000)[ok] ** 2).sum()
+                    a[2], a[3], a[4] = a[2] + (mask & hit).sum(), a[3] + (mask & ~hit).sum(), a[4] + (~mask & hit).sum()
+    for rule, a in sums.items():
+        p, rc = a[2] / (a[2] + a[3]), a[2] / (a[2] + a[4])
+        print(f"set {which} {rule:22s} RMSE {np.sqrt(a[1] / a[0]) - 1:+.1%}  mask F1 {2 * p * rc / (p + rc):.3f}  "
+              f"clean changed {a[5] / a[7]:.2%} (filled dropouts {a[6] / max(a[5], 1):.0%} of it)", flush=True)  # fmt: skip
