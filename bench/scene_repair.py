@@ -30,6 +30,10 @@ each sequence primed as a recording.
 ``--what prime``: the scene's repair as shipped, each sequence cold (a live sensor) or primed on its first
 ``PRIME_FRAMES`` frames, as ``d2sr recover`` repairs a recording (``Pipeline.prime``).
 
+``--what recording``: ``d2sr recover`` on a recording as shipped today (flagged frames repaired, the scene
+primed and kept only if the sensor held still, every setting as it is), with the scene's repair off (the
+model alone repairs) and on (as shipped): what the README's results table quotes.
+
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
 set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U) or ``--what
 shiftrate --set v`` (sealed set V), also whether the rule written for it held
@@ -37,6 +41,8 @@ shiftrate --set v`` (sealed set V), also whether the rule written for it held
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
+      .venv/bin/python bench/scene_repair.py --data ../shared/data --what recording --set a b c d e f g h i \\
+          --json docs/results/recover_recording.json
 """
 
 from __future__ import annotations
@@ -97,11 +103,14 @@ WHAT: dict[str, dict[str, Mode]] = {
         "cold (a live sensor)": (True, {**BEFORE_V}),
         "primed (d2sr recover on a recording)": (True, {**BEFORE_V}),
     },
+    "recording": {"the model's repair alone, primed": (False, {}), "as shipped, primed": (True, {})},
     "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
     "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
 }
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
-PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"]}
+PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"], *WHAT["recording"]}
+# Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.
+AS_SHIPPED = set(WHAT["recording"])
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -112,18 +121,24 @@ def pipeline(scale: float, mode: Mode) -> Pipeline:
 
 
 def repaired(
-    views: list[list[np.ndarray]], scale: float, mode: Mode, primed: bool = False
+    views: list[list[np.ndarray]], scale: float, mode: Mode, primed: bool = False, shipped: bool = False
 ) -> list[np.ndarray]:
     """Each view through a fresh Pipeline, in order (``primed``: its scene first learns from the view's
-    first ``PRIME_FRAMES``): the repaired frames, views joined."""
+    first ``PRIME_FRAMES``; ``shipped``: keeping it only if the sensor held still, as shipped since set X):
+    the repaired frames, views joined."""
     out = []
     for frames in views:
         p = pipeline(scale, mode)
         if primed:
-            p.loop.prime_still = False  # as every primed mode here was judged, before set X
+            p.loop.prime_still = shipped  # False: as the primed modes before set X were judged
             p.prime(frames[:PRIME_FRAMES])
         out += [p.process(f).depth for f in frames]
     return out
+
+
+def _primed(mode: str) -> tuple[bool, bool]:
+    """How a mode's Pipeline starts: (primed, keeping the primed scene only if the sensor held still)."""
+    return mode in PRIMED, mode in AS_SHIPPED
 
 
 def scored(
@@ -159,9 +174,28 @@ def scored(
     }
 
 
-def moved_5cm(frames: list[np.ndarray], scale: float, mode: Mode, primed: bool = False) -> float:
+def mean_worst(sets: dict) -> dict[str, dict[str, float]]:
+    """Per mode, over the sets' L515 parts: the RMSE change's mean and worst, and the most frames made worse
+    and clean pixels changed on any set."""
+    out = {}
+    for m in WHAT["recording"]:
+        rows = [s["l515"][m] for s in sets.values()]
+        change = [r["rmse_change"] for r in rows]
+        out[m] = {
+            "sets": len(rows),
+            "rmse_change_mean": round(float(np.mean(change)), 4),
+            "rmse_change_worst": max(change),
+            "frames_worse_most": max(r["frames_worse"] for r in rows),
+            "clean_changed_most": max(r["clean_changed"] for r in rows),
+        }
+    return out
+
+
+def moved_5cm(
+    frames: list[np.ndarray], scale: float, mode: Mode, primed: bool = False, shipped: bool = False
+) -> float:
     """The share of a clean sequence's valid pixels the Pipeline moves by more than 5 cm."""
-    out = repaired([frames], scale, mode, primed)
+    out = repaired([frames], scale, mode, primed, shipped)
     moved = sum(
         int(((f > 0) & (np.abs(o.astype(np.float64) - f) > 0.05 * scale)).sum())
         for f, o in zip(frames, out, strict=True)
@@ -262,11 +296,11 @@ def main() -> None:
             "kinds": list(KINDS[w]),
             "status": set_data(w)["status"],
             "l515": {
-                m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r, m in PRIMED), 4000.0, 2)
+                m: scored(bad, l515, repaired([bad[:60], bad[60:]], 4000.0, r, *_primed(m)), 4000.0, 2)
                 for m, r in modes.items()
             },
             "d435": {
-                m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r, m in PRIMED), 1000.0, 1)
+                m: scored(bad_d435, d435, repaired([bad_d435], 1000.0, r, *_primed(m)), 1000.0, 1)
                 for m, r in modes.items()
             },
         }
@@ -280,7 +314,7 @@ def main() -> None:
             flush=True,
         )
     clean = {
-        n: {m: moved_5cm(fr, s, r, m in PRIMED) for m, r in modes.items()} for n, (fr, s) in whole.items()
+        n: {m: moved_5cm(fr, s, r, *_primed(m)) for m, r in modes.items()} for n, (fr, s) in whole.items()
     }
     result["clean_moved_5cm"] = clean
     if args.what == "default" and "n" in sets:
@@ -295,6 +329,8 @@ def main() -> None:
         result["rule"] = o_rule(result["sets"]["u"], clean, "subtle")
     if args.what == "shiftrate" and "v" in sets:
         result["rule"] = v_rule(result["sets"]["v"], clean)
+    if args.what == "recording":
+        result["l515_mean_worst"] = mean_worst(result["sets"])
     data = {
         "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/held_out.py, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",
