@@ -118,6 +118,12 @@ def _outside(d: dict) -> str:
     )
 
 
+def _recording(d: dict) -> str:
+    mw = d["l515_mean_worst"]["as shipped, primed"]
+    change = " / ".join(_pct(mw[k], signed=True) for k in ("rmse_change_mean", "rmse_change_worst"))
+    return f"{change}; {mw['frames_worse_most']} ({mw['sets']} sets)"
+
+
 def _scene_flags(d: dict) -> str:
     mw = d["outside_mean_worst"]["detector + scene, primed (d2sr detect on a recording)"]
     p, r = mw["precision"], mw["recall"]
@@ -155,14 +161,21 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "RMSE change, outside interference sets (development): mean / worst",
+        "`d2sr recover` on recordings, outside sets: RMSE change mean / worst; most frames worse in a set",
+        "—",
+        "docs/results/recover_recording.json",
+        _recording,
+        "`bench/scene_repair.py --what recording`",
+    ),
+    Row(
+        "the models alone on every frame (`--all --no-scene`), outside sets: RMSE mean / worst",
         "—",
         "docs/results/outside_sets.json",
         _outside,
         "`make outside`",
     ),
     Row(
-        "detector + scene on recordings, outside sets (development): precision / recall, mean / worst",
+        "detector + scene on recordings, outside sets: precision / recall, mean / worst",
         "—",
         "docs/results/scene_reference.json",
         _scene_flags,
