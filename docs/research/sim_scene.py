@@ -3,7 +3,8 @@ observation: one still simulated L515 (``d2sr simulate``, 4 s at 30 frames a sec
 frames, with no people in the room and with two. The share of the known scene each frame deviates by, against
 a SceneReference that never restarts (``moved=1.0``, ungated), over the first frames; then the loop as shipped
 (``SensorLoop(scene=True)``) and with ``moved=1.0``: frames flagged and frames whose scene weighed the
-verdict. Run from the repository root: python docs/research/sim_scene.py"""
+verdict. Beside them, the real L515 sequences (dev0, dev1) against the same never-restarting scene.
+Run from the repository root: python docs/research/sim_scene.py"""
 import subprocess
 import sys
 import tempfile
@@ -18,6 +19,22 @@ from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 
 net = open_backend(None, "onnx")
+
+
+def shares(frames):
+    """Each frame's deviating share against a scene that never restarts (None before it is warm)."""
+    ref = SceneReference(4000.0, still_share=None, rest=0, moved=1.0)
+    out = []
+    for f in frames:
+        ref.evidence(f)
+        out.append(ref._judged)
+        ref.add(f)
+    return [s for s in out if s is not None]
+
+
+for view in ("dev0", "dev1"):
+    judged = shares([f.depth for f in open_frames(Path("../shared/data/l515") / view)])
+    print(f"L515 {view}: frames 4-19: {[round(s, 3) for s in judged[:16]]}; median after: {np.median(judged[16:]):.3f}")
 with tempfile.TemporaryDirectory() as tmp:
     for people in (0, 2):
         out = Path(tmp) / f"people{people}"
@@ -25,13 +42,7 @@ with tempfile.TemporaryDirectory() as tmp:
                         "--seconds", "4", "--active-frames", "30", "--people", str(people), "--seed", "3"],
                        check=True, capture_output=True)  # fmt: skip
         frames = [f.depth for f in open_frames(out / "sensor0" / "clean")]
-        ref = SceneReference(4000.0, still_share=None, rest=0, moved=1.0)
-        shares = []
-        for f in frames:
-            ref.evidence(f)
-            shares.append(ref._judged)
-            ref.add(f)
-        judged = [s for s in shares if s is not None]
+        judged = shares(frames)
         print(f"{people} people: deviating share, frames 4-19: {[round(s, 2) for s in judged[:16]]}; "
               f"median after: {np.median(judged[16:]):.3f}")
         for opts in ({}, {"moved": 1.0}):
