@@ -1153,7 +1153,8 @@ def haze_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     """Set Y (written and sealed 2026-11-27, before a detector's flag on a frame the scene finds quiet was
     kept where the scene cannot vouch for what the detector saw, to judge that: decisions.md). Another
     sensor's light where this one's own returns are weak. One of two models, chosen by the seed, neither in
-    ``d2sr.sim`` nor in sets A-X:
+    ``d2sr.sim``; far haze is in no set A-X, edge bleed is close to set O's flying edges (noticed after Y was
+    opened), with a wider window and more dropouts:
 
     * far haze: inside an ellipse (20-50% of the view), the returns beyond the 40th-70th percentile of its
       depths (the far, weak ones) are hit: 40-80% of them drop out, and 20-50% of those far pixels, with a
