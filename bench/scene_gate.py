@@ -26,6 +26,9 @@ runs it) under each mode, and whether the rule written for the set (docs/researc
 * ``--what unvouched`` (set Y): each sequence primed, a detector's flag on a frame the scene finds quiet
   dropped (as shipped) or kept where the scene cannot vouch for what the detector saw
   (``SensorLoop(unvouched=True)``, with unet8's mask); likewise.
+* ``--what off`` (set Z): off windows flagging frames off (as shipped) or on (``SceneReference(off_area=
+  OFF_AREA)``: a window most of whose pixels read over 2 cm off the scene either way), each sequence cold and
+  primed; likewise.
 * ``--what full`` (set W): shifted windows counting pixels that return 70% of the time from the start (as
   shipped) or only once the ring holds its clean frames (``SceneReference(shift_rate_full=True)``), each
   sequence cold and primed; likewise.
@@ -58,6 +61,8 @@ Run:  .venv/bin/python bench/scene_gate.py --what gate --set k --data ../shared/
           --json docs/results/scene_still_x.json
       .venv/bin/python bench/scene_gate.py --what unvouched --set y --data ../shared/data \\
           --json docs/results/scene_unvouched_y.json
+      .venv/bin/python bench/scene_gate.py --what off --set z --data ../shared/data \\
+          --json docs/results/scene_off_z.json
 """
 
 from __future__ import annotations
@@ -77,7 +82,15 @@ from d2sr.contract import DEFAULT_RECOVERY, DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
 from d2sr.frames import Frame
-from d2sr.reference import STILL_FRAMES, STILL_MIN, STILL_Q, STILL_SHARE, TRUST_RATE, SceneReference
+from d2sr.reference import (
+    OFF_AREA,
+    STILL_FRAMES,
+    STILL_MIN,
+    STILL_Q,
+    STILL_SHARE,
+    TRUST_RATE,
+    SceneReference,
+)
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
 from held_out import JUDGED, KINDS, SETS, clean_sequences, every_other, outside_set, set_data
@@ -120,6 +133,12 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "primed, quiet flags dropped": (True, {}),
         "primed, unvouched flags stand": (True, {}),
     },
+    "off": {
+        "cold, as shipped": (True, {}),
+        "cold, off windows flag": (True, {"off_area": OFF_AREA}),
+        "primed, as shipped": (True, {}),
+        "primed, off windows flag": (True, {"off_area": OFF_AREA}),
+    },
     "full": {
         "cold, as shipped": (True, {"shift_rate_full": False}),
         "cold, 70% once the ring is full": (True, {"shift_rate_full": True}),
@@ -134,9 +153,10 @@ PRIMED = (
     | {m: PRIME_FRAMES for m in MODES["full"] if m.startswith("primed")}
     | {m: PRIME_FRAMES for m in MODES["still"]}
     | {m: PRIME_FRAMES for m in MODES["unvouched"]}
+    | {m: PRIME_FRAMES for m in MODES["off"] if m.startswith("primed")}
 )
 # Modes whose loop keeps a primed scene only if the sensor held still (``SensorLoop.prime_still``).
-PRIME_STILL = {"primed, a settled scene only", *MODES["unvouched"]}
+PRIME_STILL = {"primed, a settled scene only", *MODES["unvouched"], *MODES["off"]}
 # Modes whose loop keeps a detector's flag the scene cannot vouch against (``SensorLoop.unvouched``).
 UNVOUCHED = {"primed, unvouched flags stand"}
 
@@ -350,6 +370,29 @@ def unvouched_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def off_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set Z's rule (decisions.md, 2026-11-27): off windows find at least 0.05 more of Z's primed L515 frames
+    at precision 0.95 or more, and flag no clean frame more, cold or primed, anywhere."""
+    moving, still = parts["d435"], parts["l515"]
+    cold, cold_off, primed, primed_off = MODES["off"]
+    items = {
+        "1 primed l515: recall >= shipped's + 0.05": bool(
+            still[primed_off]["recall"] >= still[primed]["recall"] + 0.05
+        )
+    }
+    for name, old, new in (("cold", cold, cold_off), ("primed", primed, primed_off)):
+        items[f"2 {name} l515: clean flags <= shipped's, precision >= 0.95"] = bool(
+            still[new]["clean_flagged"] <= still[old]["clean_flagged"] and still[new]["precision"] >= 0.95
+        )
+        items[f"3 {name} d435: clean flags <= shipped's"] = bool(
+            moving[new]["clean_flagged"] <= moving[old]["clean_flagged"]
+        )
+        items[f"4 {name} clean sequences: no flagged frame gained"] = all(
+            c[new] <= c[old] for c in clean.values()
+        )
+    return items
+
+
 # Per --what since set M: its set's rule, (parts, clean flags per sequence) -> items.
 RULES: dict[str, Callable[[dict, dict], dict[str, bool]]] = {
     **{w: functools.partial(flag_rule, what=w) for w in GAIN},
@@ -358,6 +401,7 @@ RULES: dict[str, Callable[[dict, dict], dict[str, bool]]] = {
     "full": full_rule,
     "still": still_rule,
     "unvouched": unvouched_rule,
+    "off": off_rule,
 }
 
 

@@ -49,6 +49,7 @@ __all__ = [
     "EVIDENT",
     "FAR_AREA",
     "MOTION_PX",
+    "OFF_AREA",
     "QUIET",
     "SHIFT_AREA",
     "STILL_SHARE",
@@ -88,6 +89,12 @@ SHIFT_CAP = 3 * SHIFT_M
 #: recall from 0.35 / 0.20 to 0.85 / 0.83 and sealed set M's from 0.17 to 0.70, with no clean frame flagged
 #: more (docs/research/decisions.md, 2026-11-27).
 SHIFT_AREA = 0.01
+#: A window (``SHIFT_PX``) of the shifted windows' pixels at least half of which read more than ``OFF_M``
+#: (m) off the scene's median, either way, is off as a whole: a surface rippled or blotched a few
+#: centimetres, whose signed mean a shifted window does not see (set O's blotches, T-V). With ``off_area``,
+#: fresh such windows over ``OFF_AREA`` of the known scene flag a frame: twice the most any clean
+#: development frame reached (0.00049). Experimental, off (docs/research/decisions.md, 2026-11-27).
+OFF_M, OFF_AREA = 0.02, 0.001
 #: A return read this far (m, and share of the range) beyond its pixel's clean range, where the scene
 #: returns at least ``RANGE_RATE`` of the time, is far off: the sensor's own flicker does not do that (on
 #: clean development frames at most 0.0005 of the scene, fresh; interference's thin lines and dots, which
@@ -146,6 +153,10 @@ class Evidence:
     _fresh: tuple[np.ndarray, float] | None = field(default=None, init=False, repr=False)
     _shift: np.ndarray | None = field(default=None, repr=False)  # bool: the shifted windows' pixels
     _known: int = field(default=1, repr=False)  # pixels the reference has seen return (the shares' base)
+    off: float = 0.0  # share of the known scene in off windows (``OFF_M``; with ``SceneReference.off_area``)
+    off_area: float | None = None  # fresh off windows over this share of the scene flag it (None: never)
+    _off: np.ndarray | None = field(default=None, repr=False)  # bool: the off windows' pixels
+    _before: np.ndarray | None = field(default=None, repr=False)  # the frame before's deviations (fresh_off)
     far: float = 0.0  # share of the known scene read far off (``FAR_ABS``, ``FAR_REL``)
     far_area: float | None = None  # fresh far-off returns over this share of the scene flag it (None: never)
     _far: np.ndarray | None = field(default=None, repr=False)  # bool: the returns read far off
@@ -179,6 +190,13 @@ class Evidence:
         return float(np.count_nonzero(self.fresh & self._shift)) / self._known
 
     @functools.cached_property
+    def fresh_off(self) -> float:
+        """The share of the known scene in off windows that nothing moving explains."""
+        if self._off is None or not self.off:
+            return 0.0
+        return float(np.count_nonzero(_unexplained(self.metres, self._off, self._before))) / self._known
+
+    @functools.cached_property
     def fresh_far(self) -> float:
         """The share of the known scene read far off, not explained by something that moved."""
         if self._far is None or not self.far:
@@ -196,8 +214,10 @@ class Evidence:
             return False
         if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
             return True
-        area, far = self.shift_area, self.far_area
+        area, far, off = self.shift_area, self.far_area, self.off_area
         if area is not None and self.shifted >= area and self.fresh_shifted >= area:
+            return True
+        if off is not None and self.off >= off and self.fresh_off >= off:
             return True
         return far is not None and self.far >= far and self.fresh_far >= far
 
@@ -243,6 +263,7 @@ class SceneReference:
         subtle_shifts: bool = False,
         shift_rate: float = SHIFT_RATE,
         shift_rate_full: bool = True,
+        off_area: float | None = None,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -265,6 +286,9 @@ class SceneReference:
         of the clean frames [``SHIFT_RATE``; ``TRUST_RATE``, the steady ones, before sealed set V];
         ``shift_rate_full``: only once the ring holds ``frames`` clean frames, the steady ones before (sealed
         set W, decisions.md, 2026-11-27: on development set D's live start it kept 2 clean frames unflagged).
+        ``off_area`` (experimental, off): fresh off windows (``OFF_M``) covering this share of
+        the scene flag a frame (``OFF_AREA`` is the one measured). They only flag: the repair does not read
+        them.
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -287,6 +311,9 @@ class SceneReference:
             raise ConfigError(f"return_rate must be in (0, 1], got {return_rate}")
         if far_area is not None and not 0 < far_area <= 1:
             raise ConfigError(f"far_area must be in (0, 1], got {far_area}")
+        if off_area is not None and not 0 < off_area <= 1:
+            raise ConfigError(f"off_area must be in (0, 1], got {off_area}")
+        self.off_area = off_area
         self.still_share, self.rest, self.shift_area = still_share, rest, shift_area
         self.return_rate, self.far_area, self.far_thin, self.rare_near = (
             return_rate,
@@ -437,7 +464,7 @@ class SceneReference:
         if still:
             self._naps = 0
         self._judged = share
-        shift = self._shifted(metres)
+        shift, off_px = self._shifted(metres)
         mask = deviates | shift
         near = _neighbours(deviates)
         dense = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference in patches
@@ -467,6 +494,7 @@ class SceneReference:
         if lasting.any():
             self._take(frame, lasting)
         shifted = float(np.count_nonzero(shift)) / known if self.shift_area is not None else 0.0
+        off = float(np.count_nonzero(off_px)) / known if off_px is not None else 0.0
         far_off = None
         if self.far_area is not None:  # over every return, or among the density-filtered deviations
             far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
@@ -490,6 +518,10 @@ class SceneReference:
             shifted=shifted,
             shift_area=self.shift_area,
             _shift=shift,
+            off=off,
+            off_area=self.off_area,
+            _off=off_px,
+            _before=before,
             _known=known,
             far=far,
             far_area=self.far_area,
@@ -497,10 +529,11 @@ class SceneReference:
             _far_fresh=far_fresh,
         )
 
-    def _shifted(self, metres: np.ndarray) -> np.ndarray:
+    def _shifted(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Pixels returning in ``shift_rate`` of the clean frames (``SHIFT_RATE``) in a ``SHIFT_PX`` window of
         them whose mean difference from the scene is beyond ``SHIFT_M``, themselves that far off the same way:
-        a surface read a few centimetres off, within each pixel's tolerance but not the window's."""
+        a surface read a few centimetres off, within each pixel's tolerance but not the window's. With
+        ``off_area``, also the off windows' pixels (``OFF_M``; else None)."""
         s = self._stats
         assert s is not None
         px = self._steady if self.shift_rate_full and self.count < self.size else self._shift_px
@@ -512,14 +545,23 @@ class SceneReference:
         total = cv2.blur(clipped, (SHIFT_PX, SHIFT_PX))
         # Only a steady pixel that reads that far off itself, amid at least half steady ones, can be shifted:
         # the window's mean is worked out there alone (its share as cv2.blur gives it, from the count).
-        own = steady & (np.abs(diff) > SHIFT_M) & (count >= count_from(0.5, SHIFT_PX))
+        amid = count >= count_from(0.5, SHIFT_PX)
+        own = steady & (np.abs(diff) > SHIFT_M) & amid
         at = np.flatnonzero(own)
         n = blur_shares(SHIFT_PX)[count.ravel()[at]]
         mean = total.ravel()[at] / np.maximum(n, np.float32(1e-6))
         out = np.zeros(metres.shape, bool)
         # The window reads off, and the pixel itself as far and the same way (not merely next to it).
         out.ravel()[at] = (np.abs(mean) > SHIFT_M) & (diff.ravel()[at] * mean > 0)
-        return out
+        if self.off_area is None or self.count < self.size:
+            return out, None
+        # Off windows, against the median of a full ring only (a young scene's medians wander by centimetres):
+        # at least half the window's steady pixels read beyond OFF_M either way, the pixel itself too (counted
+        # in integers: a float share costs more than the window sums).
+        far = np.abs(diff) > OFF_M  # only steady pixels have a difference
+        n_far = cv2.boxFilter(far.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
+        off = far & amid & (n_far >= ((count + 1) >> 1))
+        return out, off
 
     def repair(self, ev: Evidence) -> SceneRepair:
         """What the scene knows of ``ev``'s frame. Where the reference is trusted (``TRUST_RATE``,
