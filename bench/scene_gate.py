@@ -134,9 +134,9 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "primed, unvouched flags stand": (True, {}),
     },
     "off": {
-        "cold, as shipped": (True, {}),
+        "cold, as shipped": (True, {"off_area": None}),
         "cold, off windows flag": (True, {"off_area": OFF_AREA}),
-        "primed, as shipped": (True, {}),
+        "primed, as shipped": (True, {"off_area": None}),
         "primed, off windows flag": (True, {"off_area": OFF_AREA}),
     },
     "full": {
@@ -146,6 +146,12 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "primed, 70% once the ring is full": (True, {"shift_rate_full": True}),
     },
 }
+# Off windows flag frames since set Z: every mode judged before it runs without them, as it was judged.
+BEFORE_Z: dict[str, Any] = {"off_area": None}
+for _what, _modes in MODES.items():
+    if _what != "off":
+        for _m, (_scene, _st) in _modes.items():
+            _modes[_m] = (_scene, {**BEFORE_Z, **_st})
 # Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
 PRIMED = (
     {"primed (a recording)": PRIME_FRAMES}

@@ -11,7 +11,16 @@ import pytest
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
-from d2sr.reference import EVIDENT, QUIET, SHIFT_PX, SHIFT_RATE, STILL_SHARE, TRUST_RATE, SceneReference
+from d2sr.reference import (
+    EVIDENT,
+    OFF_AREA,
+    QUIET,
+    SHIFT_PX,
+    SHIFT_RATE,
+    STILL_SHARE,
+    TRUST_RATE,
+    SceneReference,
+)
 from d2sr.runtime.loop import Capture, SensorLoop
 from test_runtime import FakeNet
 
@@ -83,6 +92,34 @@ def test_a_patch_shifted_a_few_centimetres_is_evidence_and_the_scene_is_not():
     assert ev.dense > 0.08
 
 
+def test_a_surface_rippled_both_ways_is_evident_through_its_off_windows():
+    """Alternate rows 2.2 cm nearer and farther: most pixels within their own tolerance and the windows'
+    signed mean about right, so neither the deviations nor the shifted windows make it evident; most of each
+    window reads over ``OFF_M`` off, so the off windows do, once the ring is full (``off_area=None``: they
+    never flag). A clean frame has none."""
+    rng = np.random.default_rng(5)
+    refs = {area: SceneReference(SCALE, off_area=area) for area in (OFF_AREA, None)}
+    young = SceneReference(SCALE)
+    for _ in range(16):
+        f = _scene(rng)
+        for ref in (*refs.values(), young):
+            ref.evidence(f)
+            ref.add(f)
+        if young.count == 8:
+            young.reset()  # its ring stays short of full
+    clean = _scene(rng)
+    assert all(ref.evidence(clean).off < OFF_AREA for ref in refs.values())
+    hit = _scene(rng)
+    patch = np.s_[40:70, 30:80]
+    sign = np.where(np.arange(30) % 2 == 0, -1, 1)[:, None]
+    hit[patch] = np.where(hit[patch] > 0, hit[patch] + sign * int(0.022 * SCALE), 0)
+    on, off = (refs[a].evidence(hit.copy()) for a in (OFF_AREA, None))
+    assert on.fresh_dense < EVIDENT and on.fresh_shifted < 0.01  # nothing else makes it evident
+    assert on.fresh_off > 20 * OFF_AREA and on.evident
+    assert off.off == 0.0 and not off.evident
+    assert young.evidence(hit.copy()).off == 0.0  # not against a ring short of its 16 frames
+
+
 def test_a_surface_read_a_little_off_as_a_whole_is_evidence():
     """2 cm nearer (set G's median shift) is mostly inside each pixel's tolerance at 2-3 m, but a window's
     mean is 2 cm off: the shifted windows are fresh evidence, and a repaired frame takes the scene's depth
@@ -132,7 +169,7 @@ def test_fresh_shifted_windows_flag_a_frame_only_with_shift_area():
     patch = np.s_[40:70, 30:80]
     for area in (None, 0.01):
         rng = np.random.default_rng(3)
-        ref = SceneReference(SCALE, shift_area=area)
+        ref = SceneReference(SCALE, shift_area=area, off_area=None)  # the shifted windows alone
         _warm(ref, rng)
         for _ in range(20):
             ev = ref.evidence(f := _scene(rng))

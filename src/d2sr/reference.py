@@ -10,6 +10,9 @@ in clusters) and what share of the scene they cover.
 - A surface read a little off as a whole: a window of steady pixels whose mean reads more than ``SHIFT_M`` off
   deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G); fresh such
   windows over ``SHIFT_AREA`` of the scene flag the frame (judged on sealed set M).
+- A surface rippled or blotched a few centimetres both ways, whose window mean stays about right: a window
+  at least half of whose steady pixels read more than ``OFF_M`` off the scene, either way, is off; fresh off
+  windows over ``OFF_AREA`` of the scene flag the frame (judged on sealed set Z).
 - Thin lines and dots that never deviate densely: a return read far beyond its pixel's clean range
   (``FAR_ABS``, ``FAR_REL``), which the sensor's own flicker does not do; fresh such returns over ``FAR_AREA``
   of the scene flag the frame (judged on sealed set P).
@@ -91,9 +94,10 @@ SHIFT_CAP = 3 * SHIFT_M
 SHIFT_AREA = 0.01
 #: A window (``SHIFT_PX``) of the shifted windows' pixels at least half of which read more than ``OFF_M``
 #: (m) off the scene's median, either way, is off as a whole: a surface rippled or blotched a few
-#: centimetres, whose signed mean a shifted window does not see (set O's blotches, T-V). With ``off_area``,
-#: fresh such windows over ``OFF_AREA`` of the known scene flag a frame: twice the most any clean
-#: development frame reached (0.00049). Experimental, off (docs/research/decisions.md, 2026-11-27).
+#: centimetres, whose signed mean a shifted window does not see (set O's blotches, T-V). Fresh such windows
+#: over ``OFF_AREA`` of the known scene flag a frame: twice the most any clean development frame reached
+#: (0.00049). It lifted sealed set Z's recall on recordings from 0.28 to 0.65, and development sets O, T, U
+#: and V's by 0.10-0.18, with no clean frame flagged more (docs/research/decisions.md, 2026-11-27).
 OFF_M, OFF_AREA = 0.02, 0.001
 #: A return read this far (m, and share of the range) beyond its pixel's clean range, where the scene
 #: returns at least ``RANGE_RATE`` of the time, is far off: the sensor's own flicker does not do that (on
@@ -207,7 +211,8 @@ class Evidence:
 
     @property
     def evident(self) -> bool:
-        """``fresh_dense`` reaches ``EVIDENT``, or fresh shifted windows cover ``shift_area``: interfered,
+        """``fresh_dense`` reaches ``EVIDENT``, or fresh shifted windows cover ``shift_area`` (or off windows
+        ``off_area``, or far-off returns ``far_area``): interfered,
         whatever a detector says (only when ``usable``). Each fresh share is at most its whole one, so a
         frame whose whole shares are below the marks is not worked out."""
         if not self.usable:
@@ -263,7 +268,7 @@ class SceneReference:
         subtle_shifts: bool = False,
         shift_rate: float = SHIFT_RATE,
         shift_rate_full: bool = True,
-        off_area: float | None = None,
+        off_area: float | None = OFF_AREA,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -286,9 +291,8 @@ class SceneReference:
         of the clean frames [``SHIFT_RATE``; ``TRUST_RATE``, the steady ones, before sealed set V];
         ``shift_rate_full``: only once the ring holds ``frames`` clean frames, the steady ones before (sealed
         set W, decisions.md, 2026-11-27: on development set D's live start it kept 2 clean frames unflagged).
-        ``off_area`` (experimental, off): fresh off windows (``OFF_M``) covering this share of
-        the scene flag a frame (``OFF_AREA`` is the one measured). They only flag: the repair does not read
-        them.
+        ``off_area``: fresh off windows (``OFF_M``) covering this share of the scene flag a frame
+        (``OFF_AREA``, since sealed set Z; None: never). They only flag: the repair does not read them.
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
