@@ -1332,6 +1332,22 @@ JUDGED: dict[str, dict[str, dict[str, Any]]] = {
         "shifted windows over pixels returning 70% of the time": {"shift_rate": 0.7},
     },
 }
+# Off windows flag frames since set Z (decisions.md, 2026-11-27): what the measurements before it ran without.
+BEFORE_Z: dict[str, Any] = {"off_area": None}
+
+
+def pinned(
+    table: dict[str, dict[str, tuple[bool, dict[str, Any]]]], pins: dict[str, Any], keep: set[str]
+) -> dict[str, dict[str, tuple[bool, dict[str, Any]]]]:
+    """A benchmark's modes (--what -> mode -> (switch, SceneReference settings)) with ``pins`` under every
+    mode's own settings but those of ``keep``: the measurements made before a default changed run as they
+    were made."""
+    return {
+        what: modes if what in keep else {m: (on, {**pins, **st}) for m, (on, st) in modes.items()}
+        for what, modes in table.items()
+    }
+
+
 # Said on every result that uses the real L515 frames (issue 45).
 CALIBRATION = (
     "the simulator's L515 noise model, which generated the models' training data, was fitted to the same "

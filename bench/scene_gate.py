@@ -93,7 +93,17 @@ from d2sr.reference import (
 )
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
-from held_out import JUDGED, KINDS, SETS, clean_sequences, every_other, outside_set, set_data
+from held_out import (
+    BEFORE_Z,
+    JUDGED,
+    KINDS,
+    SETS,
+    clean_sequences,
+    every_other,
+    outside_set,
+    pinned,
+    set_data,
+)
 
 # Per --what: each mode's name, whether the loop judges the scene, and the SceneReference settings. Settings
 # that came after a set was judged are pinned as they were then, so each run reproduces its set's result.
@@ -146,12 +156,7 @@ MODES: dict[str, dict[str, tuple[bool, dict[str, Any]]]] = {
         "primed, 70% once the ring is full": (True, {"shift_rate_full": True}),
     },
 }
-# Off windows flag frames since set Z: every mode judged before it runs without them, as it was judged.
-BEFORE_Z: dict[str, Any] = {"off_area": None}
-for _what, _modes in MODES.items():
-    if _what != "off":
-        for _m, (_scene, _st) in _modes.items():
-            _modes[_m] = (_scene, {**BEFORE_Z, **_st})
+MODES = pinned(MODES, BEFORE_Z, keep={"off"})  # every --what judged before set Z, without off windows
 # Modes whose loop first primes the scene on this many frames ahead (``SensorLoop.primed``).
 PRIMED = (
     {"primed (a recording)": PRIME_FRAMES}
@@ -206,6 +211,11 @@ def rates(f: np.ndarray, hit: np.ndarray) -> dict:
         "clean_flagged": int((f & ~hit).sum()),
         "clean": int((~hit).sum()),
     }
+
+
+def cell(f: np.ndarray, hit: np.ndarray) -> str:
+    """``rates`` as a table cell: precision / recall / clean frames flagged."""
+    return "{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit))
 
 
 def cost(frames: list[np.ndarray], settings: dict) -> float:

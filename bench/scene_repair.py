@@ -60,6 +60,7 @@ from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline
 from held_out import (
+    BEFORE_Z,
     JUDGED,
     KINDS,
     SEALED,
@@ -67,6 +68,7 @@ from held_out import (
     clean_sequences,
     every_other,
     outside_set,
+    pinned,
     set_data,
     used_models,
 )
@@ -107,13 +109,8 @@ WHAT: dict[str, dict[str, Mode]] = {
     "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
     "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
 }
-# Off windows flag frames since set Z: every mode judged before it runs without them, as it was judged
-# (``--what recording`` runs as shipped today).
-BEFORE_Z: dict[str, Any] = {"off_area": None}
-for _what, _modes in WHAT.items():
-    if _what != "recording":
-        for _m, (_on, _st) in _modes.items():
-            _modes[_m] = (_on, {**BEFORE_Z, **_st})
+# Every --what judged before set Z, without off windows (``--what recording`` runs as shipped today).
+WHAT = pinned(WHAT, BEFORE_Z, keep={"recording"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"], *WHAT["recording"]}
 # Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.

@@ -53,10 +53,27 @@ def _patched_recording(tmp_path: Path) -> Path:
     return rec
 
 
+def _wall(rng: np.random.Generator, flicker: bool = False) -> np.ndarray:
+    """A flat wall at 2.5 m, 5 mm of range noise, the top rows never returning; ``flicker``: a part of it
+    drops out a fifth of the time."""
+    z = 2.5 + rng.normal(0, 0.005, (96, 128))
+    z[:8] = 0
+    if flicker:
+        z[20:80, 30:100][rng.random((60, 70)) < 0.2] = 0
+    return np.rint(z * SCALE).astype(np.uint16)
+
+
+def _learn(refs: Iterable[SceneReference], frames: Iterable[np.ndarray]) -> None:
+    """Each clean frame, in order, judged by every reference and taken into it."""
+    refs = list(refs)
+    for f in frames:
+        for ref in refs:
+            ref.evidence(f)
+            ref.add(f)
+
+
 def _warm(ref: SceneReference, rng: np.random.Generator, n: int = 16) -> None:
-    for _ in range(n):
-        ref.evidence(f := _scene(rng))
-        ref.add(f)
+    _learn([ref], (_scene(rng) for _ in range(n)))
 
 
 def _show(loops: dict, frames: Iterable[np.ndarray]) -> None:
@@ -100,13 +117,10 @@ def test_a_surface_rippled_both_ways_is_evident_through_its_off_windows():
     rng = np.random.default_rng(5)
     refs = {area: SceneReference(SCALE, off_area=area) for area in (OFF_AREA, None)}
     young = SceneReference(SCALE)
-    for _ in range(16):
-        f = _scene(rng)
-        for ref in (*refs.values(), young):
-            ref.evidence(f)
-            ref.add(f)
-        if young.count == 8:
-            young.reset()  # its ring stays short of full
+    frames = [_scene(rng) for _ in range(16)]
+    _learn(refs.values(), frames)
+    _learn([young], frames[8:])  # warm, its ring short of full
+    assert young.ready and young.count < young.size
     clean = _scene(rng)
     assert all(ref.evidence(clean).off < OFF_AREA for ref in refs.values())
     hit = _scene(rng)
@@ -448,11 +462,7 @@ def test_reliable_fill_repairs_sparser_patches_only_where_the_scene_nearly_alway
 
     refs = {k: SceneReference(SCALE, reliable_fill=k) for k in (False, True)}
     rng = np.random.default_rng(11)
-    for _ in range(16):
-        f = scene(rng)
-        for ref in refs.values():
-            ref.evidence(f)
-            ref.add(f)
+    _learn(refs.values(), (scene(rng) for _ in range(16)))
     clean = scene(rng)
     for ref in refs.values():
         assert not ref.repair(ref.evidence(clean)).fill.any()
@@ -745,21 +755,13 @@ def test_subtle_shifts_are_explained_only_by_a_deviation_near_their_own_depth():
     where the frame before's deviations nearby (the patch and the wall's flicker around it) span its depth
     to within ``SHIFT_M``, so much more of it is fresh."""
     rng = np.random.default_rng(11)
-
-    def wall() -> np.ndarray:
-        z = 2.5 + rng.normal(0, 0.005, (96, 128))
-        z[:8] = 0
-        return np.rint(z * SCALE).astype(np.uint16)
-
-    clean, before, now = [wall() for _ in range(16)], wall(), wall()
+    clean, before, now = [_wall(rng) for _ in range(16)], _wall(rng), _wall(rng)
     before[30:50, 40:60] -= int(0.08 * SCALE)  # the frame before: a patch 8 cm near
     now[30:70, 40:90] -= int(0.02 * SCALE)  # now: the wall 2 cm near, over and beside it
     evs = {}
     for on in (False, True):
         ref = SceneReference(SCALE, subtle_shifts=on)
-        for f in clean:
-            ref.evidence(f)
-            ref.add(f)
+        _learn([ref], clean)
         ref.evidence(before)
         evs[on] = ref.evidence(now)
     shifted = evs[True].shifted
@@ -776,21 +778,12 @@ def test_shifted_windows_are_worked_out_over_pixels_that_return_70_percent_of_th
     windows as shipped (``SHIFT_RATE``: pixels returning 70% of the time), not over steady pixels alone
     (``TRUST_RATE``, as before sealed set V)."""
     rng = np.random.default_rng(12)
-
-    def wall() -> np.ndarray:
-        z = 2.5 + rng.normal(0, 0.005, (96, 128))
-        z[:8] = 0
-        z[20:80, 30:100][rng.random((60, 70)) < 0.2] = 0  # this part of the wall flickers
-        return np.rint(z * SCALE).astype(np.uint16)
-
-    clean, now = [wall() for _ in range(16)], wall()
+    clean, now = [_wall(rng, flicker=True) for _ in range(16)], _wall(rng, flicker=True)
     now[30:70, 40:90] = np.where(now[30:70, 40:90] > 0, now[30:70, 40:90] - int(0.03 * SCALE), 0)
     shifted = {}
     for rate in (TRUST_RATE, SHIFT_RATE):
         ref = SceneReference(SCALE, shift_rate=rate)
-        for f in clean:
-            ref.evidence(f)
-            ref.add(f)
+        _learn([ref], clean)
         shifted[rate] = ref.evidence(now).shifted
     assert SceneReference(SCALE).shift_rate == SHIFT_RATE < TRUST_RATE
     assert shifted[TRUST_RATE] < 0.01 <= 0.08 < shifted[SHIFT_RATE], shifted

@@ -4,11 +4,17 @@
 dropout put back to no return, after the fact, where a usable scene says (1) the pixel returns in under 90%
 of its clean frames, or (2) that and it is not among the frame's deviations from the scene. The share of the
 changed clean pixels that are filled dropouts; RMSE change and mask F1 over the corrupted frames; clean
-pixels changed over all frames. Development figures only. Run from the repository root:
-python docs/research/dropout_fills.py [SET ...]"""
+pixels changed over all frames. Development figures only.
+
+With ``--excess``, more rules: put back where the scene returns in under 70%, 50% or 30% of its clean
+frames; or under 90% unless the dropouts in the pixel's WxW window exceed those the scene's return rates
+expect there (E, the sum of 1 - rate over the pixels the scene has seen return) by more than K x sqrt(E) + C.
+
+Run from the repository root: python docs/research/dropout_fills.py [--excess] [SET ...]"""
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 sys.path.insert(0, "bench")
@@ -27,9 +33,37 @@ def evidence(self, *a, **k):  # keep each frame's evidence and its reference's s
     return ev
 
 
+def excess(b, rate, w, k, c):
+    """Pixels whose WxW window drops out more than the scene's return rates expect (K sqrt(E) + C more)."""
+    known = rate > 0
+    o = cv2.boxFilter(((b == 0) & known).astype(np.float32), -1, (w, w), normalize=False)
+    e = cv2.boxFilter(np.where(known, 1 - rate, 0).astype(np.float32), -1, (w, w), normalize=False)
+    return o - e > k * np.sqrt(e) + c
+
+
+def under(t, keep_deviating=False, window=None):
+    """Rule: a filled dropout back where the scene returns under ``t`` (not where the frame deviates from
+    the scene, with ``keep_deviating``; not where dropouts are in excess, with ``window`` = (W, K, C))."""
+
+    def back(b, out, ev, s):
+        mask = (b == 0) & (out != b) & (s.rate < t)
+        if keep_deviating:
+            mask &= ~ev.mask
+        if window is not None:
+            mask &= ~excess(b, s.rate, *window)
+        return mask
+
+    return back
+
+
 reference.SceneReference.evidence = evidence
-RULES = ("as shipped", "rate < 0.9", "rate < 0.9, not deviating")
-for which in sys.argv[1:] or ["a", "b"]:
+args = [a for a in sys.argv[1:] if a != "--excess"]
+RULES = {"as shipped": None, "rate < 0.9": under(0.9), "rate < 0.9, not deviating": under(0.9, True)}
+if "--excess" in sys.argv:
+    RULES |= {f"rate < {t}": under(t) for t in (0.7, 0.5, 0.3)} | {
+        f"excess W{w} K{k} C{c}": under(0.9, window=(w, k, c)) for w in (9, 15) for k in (2, 3) for c in (2, 6)
+    }
+for which in args or ["a", "b"]:
     bad = every_other(clean, 4000.0, which)
     sums = {rule: np.zeros(8) for rule in RULES}
     for v in (0, 60):
@@ -40,12 +74,10 @@ for which in sys.argv[1:] or ["a", "b"]:
             hit = b != c
             ev, s = seen.get("ev"), seen.get("stats")
             usable = ev is not None and ev.usable and s is not None
-            for rule in RULES:
+            for rule, back_of in RULES.items():
                 out, mask = r.depth.copy(), r.mask.copy()
-                if rule != "as shipped" and usable:
-                    back = (b == 0) & (out != b) & (s.rate < 0.9)
-                    if rule.endswith("not deviating"):
-                        back &= ~ev.mask
+                if back_of is not None and usable:
+                    back = back_of(b, out, ev, s)
                     out[back], mask = 0, mask & ~back
                 changed = (out != b) & ~hit
                 a = sums[rule]

@@ -15,7 +15,7 @@ from d2sr.reference import OFF_AREA
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
-from scene_gate import flags as loop_flags, rates
+from scene_gate import cell, flags as loop_flags
 
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
@@ -27,10 +27,6 @@ MODES = {"shipped": {}, "off": {"off_area": OFF_AREA}}
 
 def flags(frames, scale, mode, prime=PRIME_FRAMES):
     return loop_flags(net, frames, scale, True, MODES[mode], prime, True)
-
-
-def cell(f, hit):
-    return "{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit))
 
 
 for n, (fr, s) in seqs.items():

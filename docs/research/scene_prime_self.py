@@ -16,7 +16,7 @@ from d2sr.labels import stack_stats
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, SensorLoop
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
-from scene_gate import flags as loop_flags, rates
+from scene_gate import cell, flags as loop_flags
 
 TAKE_OUT = [False]
 tag = [None]
@@ -79,5 +79,5 @@ for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     cells = []
     for out in (False, True):
         f = np.concatenate([flags(bad[:60], 4000.0, out), flags(bad[60:], 4000.0, out)])
-        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit)))
+        cells.append(cell(f, hit))
     print(f"| {s.upper()} | " + " | ".join(cells) + " |", flush=True)

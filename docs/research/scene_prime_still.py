@@ -12,7 +12,7 @@ sys.path.insert(0, "bench")
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
-from scene_gate import flags as loop_flags, rates
+from scene_gate import cell, flags as loop_flags
 
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
@@ -23,10 +23,6 @@ d435 = seqs["d435"][0]
 
 def flags(frames, scale, still):
     return loop_flags(net, frames, scale, True, {}, PRIME_FRAMES, still)
-
-
-def cell(f, hit):
-    return "{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit))
 
 
 print("clean sequences flagged (any scene / settled only):", {n: tuple(int(flags(fr, s, st).sum()) for st in (False, True)) for n, (fr, s) in seqs.items()})

@@ -12,7 +12,7 @@ sys.path.insert(0, "bench")
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
-from scene_gate import flags as loop_flags, rates
+from scene_gate import cell, flags as loop_flags
 
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
@@ -35,5 +35,5 @@ for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     cells = []
     for p, full in RUNS:
         f = np.concatenate([flags(bad[:60], 4000.0, p, full), flags(bad[60:], 4000.0, p, full)])
-        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit)))
+        cells.append(cell(f, hit))
     print(f"| {s.upper()} | " + " | ".join(cells) + " |", flush=True)

@@ -10,7 +10,7 @@ sys.path.insert(0, "bench")
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import every_other, outside_set, clean_sequences, SETS, SEALED
-from scene_gate import flags as loop_flags, rates
+from scene_gate import cell, flags as loop_flags
 net = open_backend(None, "onnx")
 data = Path("../shared/data")
 L = outside_set(data)
@@ -23,5 +23,5 @@ for s in sys.argv[1:] or sorted(set(SETS) - SEALED):
     cells = []
     for on in (False, True):
         f = np.concatenate([flags(bad[:60], 4000.0, on), flags(bad[60:], 4000.0, on)])
-        cells.append("{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit)))
+        cells.append(cell(f, hit))
     print(f"| {s.upper()} | {cells[0]} | {cells[1]} |", flush=True)

@@ -10,12 +10,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, "bench")
-from d2sr.desync import make_controller
-from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
-from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
+from d2sr.runtime.loop import PRIME_FRAMES
 from held_out import SEALED, SETS, clean_sequences, every_other, outside_set
-from scene_gate import rates
+from scene_gate import cell, flags as loop_flags
 
 net = open_backend("unet8", "onnx")
 data = Path("../shared/data")
@@ -23,13 +21,7 @@ L = outside_set(data)
 
 
 def flags(frames, scale, unvouched):
-    lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True, unvouched=unvouched)
-    caps = (Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
-    return np.array([lp.process(c).flagged for c in lp.primed(caps, PRIME_FRAMES)])
-
-
-def cell(f, hit):
-    return "{precision:.3f} / {recall:.3f} / {clean_flagged}".format(**rates(f, hit))
+    return loop_flags(net, frames, scale, True, {}, PRIME_FRAMES, True, unvouched)
 
 
 print("clean sequences flagged (shipped, unvouched):")

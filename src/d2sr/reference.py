@@ -160,13 +160,13 @@ class Evidence:
     off: float = 0.0  # share of the known scene in off windows (``OFF_M``; with ``SceneReference.off_area``)
     off_area: float | None = None  # fresh off windows over this share of the scene flag it (None: never)
     _off: np.ndarray | None = field(default=None, repr=False)  # bool: the off windows' pixels
-    _before: np.ndarray | None = field(default=None, repr=False)  # the frame before's deviations (fresh_off)
     far: float = 0.0  # share of the known scene read far off (``FAR_ABS``, ``FAR_REL``)
     far_area: float | None = None  # fresh far-off returns over this share of the scene flag it (None: never)
     _far: np.ndarray | None = field(default=None, repr=False)  # bool: the returns read far off
-    # With ``far_thin``: the fresh share of ``_far``, worked out against the frame before on its own
-    # (thin far-off returns need not be among ``mask``'s deviations).
-    _far_fresh: Callable[[], float] | None = field(default=None, repr=False)
+    # With ``far_thin``: ``_far``'s fresh share is worked out against the frame before on its own (thin
+    # far-off returns need not be among ``mask``'s deviations), as the off windows' always is.
+    _far_thin: bool = field(default=False, repr=False)
+    _before: np.ndarray | None = field(default=None, repr=False)  # the frame before's deviations
 
     @property
     def fresh(self) -> np.ndarray:
@@ -198,16 +198,21 @@ class Evidence:
         """The share of the known scene in off windows that nothing moving explains."""
         if self._off is None or not self.off:
             return 0.0
-        return float(np.count_nonzero(_unexplained(self.metres, self._off, self._before))) / self._known
+        return self._fresh_alone(self._off)
 
     @functools.cached_property
     def fresh_far(self) -> float:
         """The share of the known scene read far off, not explained by something that moved."""
         if self._far is None or not self.far:
             return 0.0
-        if self._far_fresh is not None:
-            return self._far_fresh()
+        if self._far_thin:
+            return self._fresh_alone(self._far)
         return float(np.count_nonzero(self.fresh & self._far)) / self._known
+
+    def _fresh_alone(self, pixels: np.ndarray) -> float:
+        """The share of the known scene in ``pixels`` (bool) that nothing moving explains, worked out against
+        the frame before on their own, not among ``mask``."""
+        return float(np.count_nonzero(_unexplained(self.metres, pixels, self._before))) / self._known
 
     @property
     def evident(self) -> bool:
@@ -505,12 +510,6 @@ class SceneReference:
             if not self.far_thin:
                 far_off &= deviates
         far = float(np.count_nonzero(far_off)) / known if far_off is not None else 0.0
-        far_fresh = None
-        if far_off is not None and self.far_thin:
-
-            def far_fresh() -> float:  # thin far-off returns need not be among ``mask``: on their own
-                return float(np.count_nonzero(_unexplained(metres, far_off, before))) / known
-
         return Evidence(
             mask,
             share,
@@ -525,12 +524,12 @@ class SceneReference:
             off=off,
             off_area=self.off_area,
             _off=off_px,
-            _before=before,
             _known=known,
             far=far,
             far_area=self.far_area,
             _far=far_off,
-            _far_fresh=far_fresh,
+            _far_thin=self.far_thin,
+            _before=before,
         )
 
     def _shifted(self, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -550,7 +549,8 @@ class SceneReference:
         # Only a steady pixel that reads that far off itself, amid at least half steady ones, can be shifted:
         # the window's mean is worked out there alone (its share as cv2.blur gives it, from the count).
         amid = count >= count_from(0.5, SHIFT_PX)
-        own = steady & (np.abs(diff) > SHIFT_M) & amid
+        size = np.abs(diff)  # 0 off the steady returns
+        own = steady & (size > SHIFT_M) & amid
         at = np.flatnonzero(own)
         n = blur_shares(SHIFT_PX)[count.ravel()[at]]
         mean = total.ravel()[at] / np.maximum(n, np.float32(1e-6))
@@ -562,7 +562,7 @@ class SceneReference:
         # Off windows, against the median of a full ring only (a young scene's medians wander by centimetres):
         # at least half the window's steady pixels read beyond OFF_M either way, the pixel itself too (counted
         # in integers: a float share costs more than the window sums).
-        far = np.abs(diff) > OFF_M  # only steady pixels have a difference
+        far = size > OFF_M
         n_far = cv2.boxFilter(far.view(np.uint8), -1, (SHIFT_PX, SHIFT_PX), normalize=False)
         off = far & amid & (n_far >= ((count + 1) >> 1))
         return out, off

@@ -329,10 +329,11 @@ class SensorLoop:
         takes the frame if clean. ``stands``: with ``unvouched``, whether a flag on a quiet frame stands
         (``_stands``; None: a verdict decided before, which stands as it was)."""
         if ev.usable:
-            quiet_flag = flagged and ev.dense < QUIET and not ev.evident
-            flagged = (flagged and ev.dense >= QUIET) or ev.evident
-            if quiet_flag and self.unvouched:
-                flagged = stands() if stands is not None else True
+            evident = ev.evident
+            kept = flagged and ev.dense >= QUIET  # a flag on a quiet frame is a false alarm, or unvouched
+            if flagged and not kept and not evident and self.unvouched:
+                kept = stands() if stands is not None else True
+            flagged = kept or evident
         if not flagged:
             assert self._reference is not None
             self._reference.add(raw)
