@@ -95,6 +95,7 @@ SALTS = {
     "x": 0x8D3,
     "y": 0x3B9,
     "z": 0xA52,
+    "aa": 0x6A1,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -123,6 +124,7 @@ KINDS = {
     "x": ("block crosstalk", "ring dropout"),
     "y": ("far haze", "edge bleed"),
     "z": ("row interleave", "ripple"),
+    "aa": ("late echoes", "pile-up band"),
 }
 
 
@@ -1238,6 +1240,51 @@ def ripple_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarra
     return _written(frame, new, where, scale)
 
 
+def echo_grain_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set AA (written and sealed 2026-11-27, before the scene's repair took its depth for every fresh far-off
+    return of a frame they flag, to judge that: decisions.md). One of two models, chosen by the seed, neither
+    in ``d2sr.sim`` nor in sets A-Z:
+
+    * late echoes: inside an ellipse (10-40% of the view), grains of 2-6 px (5-25% of its returns) read
+      another pulse's later echo: their own depth plus 0.2-1.5 m (one draw per grain, +-1%), farther than the
+      surface, where every set before reads too near or blends; 0-10% of the ellipse's returns drop out;
+    * pile-up band: the returns between two percentiles of the view's depths (a band of 20-40% of them,
+      starting at the 0th-30th percentile: the nearest, strongest) read 3-15% too near (a pulsed sensor's
+      walk error when another's light piles up on strong returns), with 1% of noise, and 5-20% of them drop
+      out.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.3% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "aa")
+    echoes = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    has = d > 0
+    for _ in range(20):
+        if echoes:
+            region = _ellipse(rng, y, x, 0.10, 0.40) < 1
+            grain = int(rng.integers(2, 7))
+            gh, gw = -(-h // grain), -(-w // grain)
+            cells = rng.random((gh, gw)) < rng.uniform(0.05, 0.25)
+            late = rng.uniform(0.2, 1.5, (gh, gw))
+            up = np.ones((grain, grain))
+            hit = np.kron(cells, up)[:h, :w] > 0
+            extra = np.kron(late, up)[:h, :w] * (1 + rng.uniform(-0.01, 0.01, (h, w)))
+            drop = region & has & (rng.random((h, w)) < rng.uniform(0.0, 0.10))
+            new = np.where(region & has & hit, d + extra, np.where(drop, 0.0, d))
+        else:
+            valid = d[has]
+            start = rng.uniform(0, 30)
+            lo, hi = np.percentile(valid, [start, start + rng.uniform(20, 40)]) if valid.size else (0.0, 0.0)
+            band = has & (d >= lo) & (d <= hi)
+            near = d * (1 - rng.uniform(0.03, 0.15)) * (1 + rng.normal(0, 0.01, (h, w)))
+            drop = band & (rng.random((h, w)) < rng.uniform(0.05, 0.20))
+            new = np.where(drop, 0.0, np.where(band, near, d))
+        where = (np.abs(new - d) > 0.02) & (has | (new > 0))
+        if where.sum() >= 0.003 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -1264,13 +1311,14 @@ SETS = {
     "x": block_interference,
     "y": haze_interference,
     "z": ripple_interference,
+    "aa": echo_grain_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"aa"}
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z"}
+OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -1319,6 +1367,8 @@ STATUS = {
     "vouch against (it failed; decisions.md); open since",
     "z": "development: sealed until 2026-11-27, when it judged off windows flagging frames (it held; "
     "decisions.md); open since",
+    "aa": "sealed: written 2026-11-27 to judge the scene's repair filling every fresh far-off return of a "
+    "frame they flag (decisions.md)",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.

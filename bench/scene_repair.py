@@ -30,14 +30,18 @@ each sequence primed as a recording.
 ``--what prime``: the scene's repair as shipped, each sequence cold (a live sensor) or primed on its first
 ``PRIME_FRAMES`` frames, as ``d2sr recover`` repairs a recording (``Pipeline.prime``).
 
+``--what farfill``: the scene's repair taking its depth for fresh far-off returns only among the deviations in
+patches (as shipped until 2026-11-27), or for each of them where they alone flag the frame
+(``SceneReference(far_fill=True)``), each on a live sensor (cold) and on a recording (primed, as shipped).
+
 ``--what recording``: ``d2sr recover`` on a recording as shipped today (flagged frames repaired, the scene
 primed and kept only if the sensor held still, every setting as it is), with the scene's repair off (the
 model alone repairs) and on (as shipped): what the README's results table quotes.
 
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
-set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U) or ``--what
-shiftrate --set v`` (sealed set V), also whether the rule written for it held
-(docs/research/decisions.md, 2026-11-27).
+set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U), ``--what
+shiftrate --set v`` (sealed set V) or ``--what farfill --set aa`` (sealed set AA), also whether the rule
+written for it held (docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
@@ -58,7 +62,7 @@ from d2sr.contract import AUTO_RECOVERY
 from d2sr.errors import D2SRError
 from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.loop import PRIME_FRAMES
-from d2sr.runtime.pipeline import Pipeline
+from d2sr.runtime.pipeline import Pipeline, Repaired
 from held_out import (
     BEFORE_Z,
     JUDGED,
@@ -86,6 +90,8 @@ BEFORE_FAR: dict[str, Any] = {
 BEFORE_S: dict[str, Any] = {"reliable_fill": False, "shift_rate": TRUST_RATE}
 # What came after set U was judged (shifted windows over pixels returning 70% of the time), as it was then.
 BEFORE_V: dict[str, Any] = {"shift_rate": TRUST_RATE}
+# ``--what farfill`` runs each setting on a live sensor and on a recording.
+FAR_WHEN = ("cold (a live sensor)", "primed (d2sr recover on a recording)")
 # Per --what: each mode's name and settings.
 WHAT: dict[str, dict[str, Mode]] = {
     "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
@@ -108,13 +114,23 @@ WHAT: dict[str, dict[str, Mode]] = {
     "recording": {"the model's repair alone, primed": (False, {}), "as shipped, primed": (True, {})},
     "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
     "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
+    "farfill": {
+        f"far-off returns filled in patches only, {when}": (True, {"far_fill": False}) for when in FAR_WHEN
+    }
+    | {f"each fresh far-off return filled, {when}": (True, {"far_fill": True}) for when in FAR_WHEN},
 }
-# Every --what judged before set Z, without off windows (``--what recording`` runs as shipped today).
-WHAT = pinned(WHAT, BEFORE_Z, keep={"recording"})
+# Every --what judged before set Z, without off windows (``--what recording`` and later run as shipped today).
+WHAT = pinned(WHAT, BEFORE_Z, keep={"recording", "farfill"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
-PRIMED = {"primed (d2sr recover on a recording)", *WHAT["subtle"], *WHAT["shiftrate"], *WHAT["recording"]}
+PRIMED = {
+    "primed (d2sr recover on a recording)",
+    *WHAT["subtle"],
+    *WHAT["shiftrate"],
+    *WHAT["recording"],
+    *(m for m in WHAT["farfill"] if m.endswith(FAR_WHEN[1])),
+}
 # Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.
-AS_SHIPPED = set(WHAT["recording"])
+AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"])
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -126,7 +142,7 @@ def pipeline(scale: float, mode: Mode) -> Pipeline:
 
 def repaired(
     views: list[list[np.ndarray]], scale: float, mode: Mode, primed: bool = False, shipped: bool = False
-) -> list[np.ndarray]:
+) -> list[Repaired]:
     """Each view through a fresh Pipeline, in order (``primed``: its scene first learns from the view's
     first ``PRIME_FRAMES``; ``shipped``: keeping it only if the sensor held still, as shipped since set X):
     the repaired frames, views joined."""
@@ -136,7 +152,7 @@ def repaired(
         if primed:
             p.loop.prime_still = shipped  # False: as the primed modes before set X were judged
             p.prime(frames[:PRIME_FRAMES])
-        out += [p.process(f).depth for f in frames]
+        out += [p.process(f) for f in frames]
     return out
 
 
@@ -146,14 +162,17 @@ def _primed(mode: str) -> tuple[bool, bool]:
 
 
 def scored(
-    bad: list[np.ndarray], clean: list[np.ndarray], out: list[np.ndarray], scale: float, views: int
+    bad: list[np.ndarray], clean: list[np.ndarray], out: list[Repaired], scale: float, views: int
 ) -> dict:
-    """The figures of one mode on a set (``views``: equal parts of the sequence, each a view)."""
+    """The figures of one mode on a set (``views``: equal parts of the sequence, each a view). The mask's F1
+    (pixels repaired against pixels the corruption changed, over the corrupted frames) is reported since set
+    AA; the results before it lack it."""
     e_in = e_out = 0.0
-    worse = hits = moved = back = changed = pixels = 0
+    worse = hits = moved = back = changed = pixels = tp = fp = fn = 0
     per = len(bad) // views
     view = np.zeros((views, 2))
-    for i, (b, c, o) in enumerate(zip(bad, clean, out, strict=True)):
+    for i, (b, c, r) in enumerate(zip(bad, clean, out, strict=True)):
+        o = r.depth
         c64, o64 = c.astype(np.float64), o.astype(np.float64)
         ok = c > 0
         a = float((((b - c64) / scale)[ok] ** 2).sum())
@@ -166,6 +185,11 @@ def scored(
             far = ok & (b > 0) & (np.abs(b - c64) > 0.02 * scale)
             moved += int(far.sum())
             back += int((far & (np.abs(o64 - c64) <= 0.01 * scale)).sum())
+            tp, fp, fn = (
+                tp + int((r.mask & true).sum()),
+                fp + int((r.mask & ~true).sum()),
+                fn + int((~r.mask & true).sum()),
+            )
         changed += int(((o != b) & ~true).sum())
         pixels += int((~true).sum())
     return {
@@ -175,6 +199,7 @@ def scored(
         "rmse_change_per_view": [round(float(np.sqrt(z / max(a, 1e-12)) - 1), 4) for a, z in view],
         "moved_2cm_put_back": round(back / max(moved, 1), 4),
         "clean_changed": round(changed / max(pixels, 1), 5),
+        "mask_f1": round(2 * tp / max(2 * tp + fp + fn, 1), 4),
     }
 
 
@@ -201,7 +226,7 @@ def moved_5cm(
     """The share of a clean sequence's valid pixels the Pipeline moves by more than 5 cm."""
     out = repaired([frames], scale, mode, primed, shipped)
     moved = sum(
-        int(((f > 0) & (np.abs(o.astype(np.float64) - f) > 0.05 * scale)).sum())
+        int(((f > 0) & (np.abs(o.depth.astype(np.float64) - f) > 0.05 * scale)).sum())
         for f, o in zip(frames, out, strict=True)
     )
     return round(moved / max(sum(int((f > 0).sum()) for f in frames), 1), 6)
@@ -272,6 +297,40 @@ def v_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
+def aa_rule(parts: dict, clean: dict) -> dict[str, bool]:
+    """Set AA's rule (``--what farfill``, decisions.md, 2026-11-27): with every fresh far-off return of a
+    frame they flag filled, cold and primed alike, nothing is worse than with the fill in patches only; and
+    primed, more of the pixels moved by more than 2 cm are put back."""
+    out = {}
+    for when in FAR_WHEN:
+        old_name, new_name = (m for m in WHAT["farfill"] if m.endswith(when))
+        old, new = parts["l515"][old_name], parts["l515"][new_name]
+        d_old, d_new = parts["d435"][old_name], parts["d435"][new_name]
+        tag = when.split(" ")[0]
+        out |= {
+            f"1 {tag} l515: RMSE change, corrupted frames and each view, at most the old setting's + 0.005": (
+                _rmse_held(new, old)
+            ),
+            f"2 {tag} l515: frames made worse no more than the old setting's": new["frames_worse"]
+            <= old["frames_worse"],
+            f"3 {tag} l515: pixels moved > 2 cm put back, "
+            + ("more than" if tag == "primed" else "at least as many as")
+            + " the old setting's": (
+                new["moved_2cm_put_back"] > old["moved_2cm_put_back"]
+                if tag == "primed"
+                else new["moved_2cm_put_back"] >= old["moved_2cm_put_back"]
+            ),
+            f"4 {tag} l515: clean pixels changed at most the old setting's + 0.0005": new["clean_changed"]
+            <= old["clean_changed"] + 0.0005,
+            f"5 {tag} d435: RMSE change at most the old setting's + 0.005": d_new["rmse_change"]
+            <= d_old["rmse_change"] + 0.005,
+            f"6 {tag} clean sequences: valid pixels moved > 5 cm no more than the old setting's": all(
+                c[new_name] <= c[old_name] for c in clean.values()
+            ),
+        }
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
@@ -333,6 +392,8 @@ def main() -> None:
         result["rule"] = o_rule(result["sets"]["u"], clean, "subtle")
     if args.what == "shiftrate" and "v" in sets:
         result["rule"] = v_rule(result["sets"]["v"], clean)
+    if args.what == "farfill" and "aa" in sets:
+        result["rule"] = aa_rule(result["sets"]["aa"], clean)
     if args.what == "recording":
         result["l515_mean_worst"] = mean_worst(result["sets"])
     data = {

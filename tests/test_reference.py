@@ -483,6 +483,44 @@ def test_reliable_fill_repairs_sparser_patches_only_where_the_scene_nearly_alway
     assert on.fill[flicker][hit_f].mean() < 0.2 and off.fill[flicker][hit_f].mean() < 0.2
 
 
+def test_far_fill_takes_the_scene_for_far_off_returns_only_where_they_flag_the_frame():
+    """``far_fill``: scattered strokes one pixel wide read at half their depth, in a frame whose far-off
+    returns cover ``far_area`` of the scene, take the scene's depth (also where the scene returns only 70%
+    of the time), which the fill in patches never gives them; a few far-off returns alone (the sensor's own
+    flying returns) and a clean frame are left as they are."""
+    flicker = np.s_[40:70, 90:120]
+
+    def scene(rng: np.random.Generator) -> np.ndarray:
+        f = _scene(rng)
+        f[flicker] = np.where(rng.random(f[flicker].shape) < 0.3, 0, f[flicker])
+        return f
+
+    refs = {k: SceneReference(SCALE, far_fill=k) for k in (False, True)}
+    assert not SceneReference(SCALE).far_fill
+    rng = np.random.default_rng(12)
+    _learn(refs.values(), (scene(rng) for _ in range(16)))
+    for ref in refs.values():
+        assert not ref.repair(ref.evidence(scene(rng))).fill.any()
+    truth = scene(rng)
+    hit = truth.copy()
+    strokes = np.zeros(hit.shape, bool)
+    for y0 in range(12, 90, 7):
+        for x0 in range(3, 124, 9):
+            strokes[y0, x0 : x0 + 3] = True
+    strokes &= truth > 0
+    hit[strokes] = truth[strokes] // 2
+    off, on = (ref.repair(ref.evidence(hit)) for ref in refs.values())
+    assert off.fill[strokes].mean() < 0.1 and on.fill[strokes].mean() > 0.9
+    assert on.fill[flicker][strokes[flicker]].mean() > 0.9  # where the scene returns 70% of the time too
+    err = np.abs(on.depth[strokes & on.fill] - truth[strokes & on.fill] / SCALE)
+    assert np.median(err) < 0.01 and not on.fill[~strokes].any()
+    few = truth.copy()
+    few[50, 60:63] = truth[50, 60:63] // 2  # three flying returns: under ``far_area``
+    for ref in refs.values():
+        ev = ref.evidence(few)
+        assert not ev.far_evident and not ref.repair(ev).fill.any()
+
+
 class _Doubles(FakeNet):
     def recover(
         self, metres, previous=None

@@ -205,14 +205,27 @@ class Evidence:
         """The share of the known scene read far off, not explained by something that moved."""
         if self._far is None or not self.far:
             return 0.0
+        return float(np.count_nonzero(self.fresh_far_pixels)) / self._known
+
+    @functools.cached_property
+    def fresh_far_pixels(self) -> np.ndarray:
+        """bool: the returns read far off that nothing moving explains (``fresh_far``'s pixels)."""
+        if self._far is None or not self.far:
+            return np.zeros(self.mask.shape, bool)
         if self._far_thin:
-            return self._fresh_alone(self._far)
-        return float(np.count_nonzero(self.fresh & self._far)) / self._known
+            return _unexplained(self.metres, self._far, self._before)
+        return self.fresh & self._far
 
     def _fresh_alone(self, pixels: np.ndarray) -> float:
         """The share of the known scene in ``pixels`` (bool) that nothing moving explains, worked out against
         the frame before on their own, not among ``mask``."""
         return float(np.count_nonzero(_unexplained(self.metres, pixels, self._before))) / self._known
+
+    @property
+    def far_evident(self) -> bool:
+        """Fresh far-off returns alone cover ``far_area`` of the scene (one of the ways ``evident`` holds)."""
+        far = self.far_area
+        return self.usable and far is not None and self.far >= far and self.fresh_far >= far
 
     @property
     def evident(self) -> bool:
@@ -224,12 +237,12 @@ class Evidence:
             return False
         if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
             return True
-        area, far, off = self.shift_area, self.far_area, self.off_area
+        area, off = self.shift_area, self.off_area
         if area is not None and self.shifted >= area and self.fresh_shifted >= area:
             return True
         if off is not None and self.off >= off and self.fresh_off >= off:
             return True
-        return far is not None and self.far >= far and self.fresh_far >= far
+        return self.far_evident
 
     def _explained(self) -> tuple[np.ndarray, float]:
         if self._fresh is None:
@@ -274,6 +287,7 @@ class SceneReference:
         shift_rate: float = SHIFT_RATE,
         shift_rate_full: bool = True,
         off_area: float | None = OFF_AREA,
+        far_fill: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -298,6 +312,9 @@ class SceneReference:
         set W, decisions.md, 2026-11-27: on development set D's live start it kept 2 clean frames unflagged).
         ``off_area``: fresh off windows (``OFF_M``) covering this share of the scene flag a frame
         (``OFF_AREA``, since sealed set Z; None: never). They only flag: the repair does not read them.
+        ``far_fill``: where a frame's fresh far-off returns alone cover ``far_area`` of the scene
+        (``Evidence.far_evident``: more than the sensor's own flying returns ever do), the repair takes the
+        scene's depth for each of them, not only for deviations in patches (decisions.md, 2026-11-27).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -331,7 +348,7 @@ class SceneReference:
             rare_near,
         )
         self.reliable_fill, self.subtle_shifts, self.shift_rate = reliable_fill, subtle_shifts, shift_rate
-        self.shift_rate_full = shift_rate_full
+        self.shift_rate_full, self.far_fill = shift_rate_full, far_fill
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -572,8 +589,9 @@ class SceneReference:
         ``TRUST_ABS``, ``TRUST_REL``), its own depth for the fresh deviations in patches (``fill``). Outside
         the deviations in patches, which are the model's to repair, a returning pixel that reads within the
         range the scene has seen it at, or where the scene seldom returns (``RANGE_RATE``), is left as it is
-        (``keep``): the scene finds no interference there, and a model's guess could only do harm. Nothing
-        when not usable."""
+        (``keep``): the scene finds no interference there, and a model's guess could only do harm. With
+        ``far_fill``, also its depth for each fresh far-off return of a frame they flag. Nothing when not
+        usable."""
         s = self._stats
         shape = ev.mask.shape
         if s is None or not ev.usable:
@@ -590,6 +608,10 @@ class SceneReference:
         if self.reliable_fill:  # where the scene nearly always returns (steady), sparser patches too
             patches |= (near >= QUARTER) & self._steady
         where = ev.fresh & patches & trusted
+        if self.far_fill and ev.far_evident:
+            # Each return read far beyond where the scene returns half the time or more, in a frame that has
+            # more such returns than the sensor's own flicker makes: interference, whatever its neighbours.
+            where |= ev.fresh_far_pixels & (s.nz_median > 0)
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
         seldom = s.rate < RANGE_RATE
