@@ -1315,7 +1315,7 @@ SETS = {
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = {"aa"}
+SEALED: set[str] = set()
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa"}
@@ -1367,8 +1367,8 @@ STATUS = {
     "vouch against (it failed; decisions.md); open since",
     "z": "development: sealed until 2026-11-27, when it judged off windows flagging frames (it held; "
     "decisions.md); open since",
-    "aa": "sealed: written 2026-11-27 to judge the scene's repair filling every fresh far-off return of a "
-    "frame they flag (decisions.md)",
+    "aa": "development: sealed until 2026-11-27, when it judged the scene's repair filling every fresh "
+    "far-off return of a frame they flag (it held; decisions.md); open since",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.
@@ -1384,6 +1384,9 @@ JUDGED: dict[str, dict[str, dict[str, Any]]] = {
 }
 # Off windows flag frames since set Z (decisions.md, 2026-11-27): what the measurements before it ran without.
 BEFORE_Z: dict[str, Any] = {"off_area": None}
+# The scene's repair fills every fresh far-off return of a frame they flag since set AA (decisions.md,
+# 2026-11-27): what the repair measurements before it ran without.
+BEFORE_AA: dict[str, Any] = {"far_fill": False}
 
 
 def pinned(

@@ -64,6 +64,7 @@ from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline, Repaired
 from held_out import (
+    BEFORE_AA,
     BEFORE_Z,
     JUDGED,
     KINDS,
@@ -121,6 +122,8 @@ WHAT: dict[str, dict[str, Mode]] = {
 }
 # Every --what judged before set Z, without off windows (``--what recording`` and later run as shipped today).
 WHAT = pinned(WHAT, BEFORE_Z, keep={"recording", "farfill"})
+# And every --what judged before set AA, with far-off returns filled only in patches.
+WHAT = pinned(WHAT, BEFORE_AA, keep={"recording", "farfill"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",

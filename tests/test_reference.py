@@ -460,7 +460,8 @@ def test_reliable_fill_repairs_sparser_patches_only_where_the_scene_nearly_alway
         f[flicker] = np.where(rng.random(f[flicker].shape) < 0.3, 0, f[flicker])
         return f
 
-    refs = {k: SceneReference(SCALE, reliable_fill=k) for k in (False, True)}
+    # far_fill off: a return read 10% near is far off, and that fill would take it whatever the patches.
+    refs = {k: SceneReference(SCALE, reliable_fill=k, far_fill=False) for k in (False, True)}
     rng = np.random.default_rng(11)
     _learn(refs.values(), (scene(rng) for _ in range(16)))
     clean = scene(rng)
@@ -484,10 +485,10 @@ def test_reliable_fill_repairs_sparser_patches_only_where_the_scene_nearly_alway
 
 
 def test_far_fill_takes_the_scene_for_far_off_returns_only_where_they_flag_the_frame():
-    """``far_fill``: scattered strokes one pixel wide read at half their depth, in a frame whose far-off
-    returns cover ``far_area`` of the scene, take the scene's depth (also where the scene returns only 70%
-    of the time), which the fill in patches never gives them; a few far-off returns alone (the sensor's own
-    flying returns) and a clean frame are left as they are."""
+    """``far_fill`` (shipped): scattered strokes one pixel wide read at half their depth, in a frame whose
+    far-off returns cover ``far_area`` of the scene, take the scene's depth (also where the scene returns
+    only 70% of the time), which the fill in patches never gives them; a few far-off returns alone (the
+    sensor's own flying returns) and a clean frame are left as they are."""
     flicker = np.s_[40:70, 90:120]
 
     def scene(rng: np.random.Generator) -> np.ndarray:
@@ -496,7 +497,7 @@ def test_far_fill_takes_the_scene_for_far_off_returns_only_where_they_flag_the_f
         return f
 
     refs = {k: SceneReference(SCALE, far_fill=k) for k in (False, True)}
-    assert not SceneReference(SCALE).far_fill
+    assert SceneReference(SCALE).far_fill
     rng = np.random.default_rng(12)
     _learn(refs.values(), (scene(rng) for _ in range(16)))
     for ref in refs.values():
