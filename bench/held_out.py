@@ -96,6 +96,7 @@ SALTS = {
     "y": 0x3B9,
     "z": 0xA52,
     "aa": 0x6A1,
+    "ab": 0x2B8,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -125,6 +126,7 @@ KINDS = {
     "y": ("far haze", "edge bleed"),
     "z": ("row interleave", "ripple"),
     "aa": ("late echoes", "pile-up band"),
+    "ab": ("range folding", "pulse curtains"),
 }
 
 
@@ -1285,6 +1287,50 @@ def echo_grain_interference(frame: np.ndarray, scale: float, seed: int) -> np.nd
     return _written(frame, new, where, scale)
 
 
+def fold_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set AB (written and sealed 2026-11-27, before the scene's repair took its depth for far-off returns in
+    patches where it seldom returns, to judge that: decisions.md). One of two models, chosen by the seed,
+    neither in ``d2sr.sim`` nor in sets A-AA:
+
+    * range folding: another pulsed sensor's pulse train sets an unambiguous range R (the 50th-90th
+      percentile of the view's depths); inside an ellipse (20-50% of the view), 30-80% of the returns beyond
+      R read d - R (+-1%), the rest of them there drop out with a chance of 0-30%;
+    * pulse curtains: 1-3 vertical bands, each 5-40 px wide, where the other sensor's pulses arrive at a
+      fixed delay: 20-60% of the band's pixels, with a return or without, read one depth of 0.5-3 m (+-1%),
+      and 5-15% of its returns drop out.
+
+    Pixels that change by more than 2 cm count, with their dropouts; a draw that changes under 0.3% of the
+    returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "ab")
+    folding = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    has = d > 0
+    for _ in range(20):
+        if folding:
+            region = _ellipse(rng, y, x, 0.20, 0.50) < 1
+            valid = d[has]
+            far_range = np.percentile(valid, rng.uniform(50, 90)) if valid.size else np.inf
+            beyond = region & has & (d > far_range)
+            folded = beyond & (rng.random((h, w)) < rng.uniform(0.3, 0.8))
+            drop = beyond & ~folded & (rng.random((h, w)) < rng.uniform(0.0, 0.3))
+            near = (d - far_range) * (1 + rng.uniform(-0.01, 0.01, (h, w)))
+            new = np.where(folded, near, np.where(drop, 0.0, d))
+        else:
+            band = np.zeros((h, w), bool)
+            for _b in range(int(rng.integers(1, 4))):
+                width = int(rng.integers(5, 41))
+                x0 = int(rng.integers(0, max(w - width, 1)))
+                band[:, x0 : x0 + width] = True
+            depth = rng.uniform(0.5, 3.0)
+            hit = band & (rng.random((h, w)) < rng.uniform(0.2, 0.6))
+            drop = band & has & ~hit & (rng.random((h, w)) < rng.uniform(0.05, 0.15))
+            new = np.where(hit, depth * (1 + rng.uniform(-0.01, 0.01, (h, w))), np.where(drop, 0.0, d))
+        where = (np.abs(new - d) > 0.02) & (has | (new > 0))
+        if where.sum() >= 0.003 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -1312,13 +1358,14 @@ SETS = {
     "y": haze_interference,
     "z": ripple_interference,
     "aa": echo_grain_interference,
+    "ab": fold_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"ab"}
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa"}
+OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa", "ab"}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -1369,6 +1416,8 @@ STATUS = {
     "decisions.md); open since",
     "aa": "development: sealed until 2026-11-27, when it judged the scene's repair filling every fresh "
     "far-off return of a frame they flag (it held; decisions.md); open since",
+    "ab": "sealed: written 2026-11-27 to judge the scene's repair filling far-off returns in patches where "
+    "it seldom returns (decisions.md)",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.
@@ -1387,6 +1436,11 @@ BEFORE_Z: dict[str, Any] = {"off_area": None}
 # The scene's repair fills every fresh far-off return of a frame they flag since set AA (decisions.md,
 # 2026-11-27): what the repair measurements before it ran without.
 BEFORE_AA: dict[str, Any] = {"far_fill": False}
+# The scene settings set AB judges (bench/scene_repair.py --what rarefill).
+RARE_FILL: dict[str, dict[str, Any]] = {
+    "far-off returns filled where the scene returns half the time": {"rare_fill": False},
+    "and in patches where it seldom returns": {"rare_fill": True},
+}
 
 
 def pinned(

@@ -34,14 +34,17 @@ each sequence primed as a recording.
 patches (as shipped until 2026-11-27), or for each of them where they alone flag the frame
 (``SceneReference(far_fill=True)``), each on a live sensor (cold) and on a recording (primed, as shipped).
 
+``--what rarefill``: the same, with far-off returns filled where the scene returns half the time or more (as
+shipped) or also in patches where it seldom returns (``SceneReference(rare_fill=True)``).
+
 ``--what recording``: ``d2sr recover`` on a recording as shipped today (flagged frames repaired, the scene
 primed and kept only if the sensor held still, every setting as it is), with the scene's repair off (the
 model alone repairs) and on (as shipped): what the README's results table quotes.
 
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
 set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U), ``--what
-shiftrate --set v`` (sealed set V) or ``--what farfill --set aa`` (sealed set AA), also whether the rule
-written for it held (docs/research/decisions.md, 2026-11-27).
+shiftrate --set v`` (sealed set V), ``--what farfill --set aa`` (sealed set AA) or ``--what rarefill --set
+ab`` (sealed set AB), also whether the rule written for it held (docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
@@ -68,6 +71,7 @@ from held_out import (
     BEFORE_Z,
     JUDGED,
     KINDS,
+    RARE_FILL,
     SEALED,
     SETS,
     clean_sequences,
@@ -119,21 +123,25 @@ WHAT: dict[str, dict[str, Mode]] = {
         f"far-off returns filled in patches only, {when}": (True, {"far_fill": False}) for when in FAR_WHEN
     }
     | {f"each fresh far-off return filled, {when}": (True, {"far_fill": True}) for when in FAR_WHEN},
+    "rarefill": {f"{m}, {when}": (True, st) for m, st in RARE_FILL.items() for when in FAR_WHEN},
 }
 # Every --what judged before set Z, without off windows (``--what recording`` and later run as shipped today).
-WHAT = pinned(WHAT, BEFORE_Z, keep={"recording", "farfill"})
+# Each --what takes the settings of its own time; ``recording`` runs as shipped today, and the later ones
+# name theirs.
+LATER = {"recording", "farfill", "rarefill"}
+WHAT = pinned(WHAT, BEFORE_Z, keep=LATER)
 # And every --what judged before set AA, with far-off returns filled only in patches.
-WHAT = pinned(WHAT, BEFORE_AA, keep={"recording", "farfill"})
+WHAT = pinned(WHAT, BEFORE_AA, keep=LATER)
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",
     *WHAT["subtle"],
     *WHAT["shiftrate"],
     *WHAT["recording"],
-    *(m for m in WHAT["farfill"] if m.endswith(FAR_WHEN[1])),
+    *(m for w in ("farfill", "rarefill") for m in WHAT[w] if m.endswith(FAR_WHEN[1])),
 }
 # Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.
-AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"])
+AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"]) | set(WHAT["rarefill"])
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -300,13 +308,14 @@ def v_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
-def aa_rule(parts: dict, clean: dict) -> dict[str, bool]:
+def aa_rule(parts: dict, clean: dict, what: str = "farfill") -> dict[str, bool]:
     """Set AA's rule (``--what farfill``, decisions.md, 2026-11-27): with every fresh far-off return of a
     frame they flag filled, cold and primed alike, nothing is worse than with the fill in patches only; and
-    primed, more of the pixels moved by more than 2 cm are put back."""
+    primed, more of the pixels moved by more than 2 cm are put back. Set AB's (``--what rarefill``) is the
+    same, for the fill where the scene seldom returns."""
     out = {}
     for when in FAR_WHEN:
-        old_name, new_name = (m for m in WHAT["farfill"] if m.endswith(when))
+        old_name, new_name = (m for m in WHAT[what] if m.endswith(when))
         old, new = parts["l515"][old_name], parts["l515"][new_name]
         d_old, d_new = parts["d435"][old_name], parts["d435"][new_name]
         tag = when.split(" ")[0]
@@ -397,6 +406,8 @@ def main() -> None:
         result["rule"] = v_rule(result["sets"]["v"], clean)
     if args.what == "farfill" and "aa" in sets:
         result["rule"] = aa_rule(result["sets"]["aa"], clean)
+    if args.what == "rarefill" and "ab" in sets:
+        result["rule"] = aa_rule(result["sets"]["ab"], clean, "rarefill")
     if args.what == "recording":
         result["l515_mean_worst"] = mean_worst(result["sets"])
     data = {

@@ -522,6 +522,45 @@ def test_far_fill_takes_the_scene_for_far_off_returns_only_where_they_flag_the_f
         assert not ev.far_evident and not ref.repair(ev).fill.any()
 
 
+def test_rare_fill_takes_the_scene_for_far_off_patches_where_it_seldom_returns():
+    """``rare_fill``: in a frame whose far-off returns flag it, a patch read at half its depth where the scene
+    returns only a third of the time takes the scene's depth, as neither ``far_fill`` nor the fill in
+    patches gives it; a few stray returns there read metres off (the sensor's own) are left as they are."""
+    seldom = np.s_[40:80, 60:120]
+
+    def scene(rng: np.random.Generator) -> np.ndarray:
+        f = _scene(rng)
+        f[seldom] = np.where(rng.random(f[seldom].shape) < 2 / 3, 0, f[seldom])
+        return f
+
+    refs = {k: SceneReference(SCALE, rare_fill=k) for k in (False, True)}
+    rng = np.random.default_rng(13)
+    _learn(refs.values(), (scene(rng) for _ in range(16)))
+    truth = scene(rng)
+    hit = truth.copy()
+    hit[12:30:6, 10:50] //= 2  # strokes where the scene always returns: the frame's far-off evidence
+    patch = np.zeros(hit.shape, bool)
+    patch[45:65, 70:95] = True
+    patch &= truth > 0
+    hit[patch] = truth[patch] // 2
+    stray = np.zeros(hit.shape, bool)
+    stray[75, 110:112] = True
+    stray &= truth > 0
+    hit[stray] = truth[stray] // 3
+    off, on = (ref.repair(ref.evidence(hit)) for ref in refs.values())
+    # far_fill takes the few pixels of the patch that happened to return in half the scene's frames; a
+    # quarter of a 9x9 neighbourhood where a third returns asks for nearly all of it: the patch's inside
+    inside = np.zeros_like(patch)
+    inside[49:61, 74:91] = True
+    inside &= patch
+    assert off.fill[patch].mean() < 0.25 and on.fill[inside].mean() > 0.9 and on.fill[patch].mean() > 0.5
+    err = np.abs(on.depth[patch & on.fill] - truth[patch & on.fill] / SCALE)
+    assert np.median(err) < 0.01
+    assert not on.fill[stray].any()
+    for ref in refs.values():  # a clean frame: nothing
+        assert not ref.repair(ref.evidence(scene(rng))).fill.any()
+
+
 class _Doubles(FakeNet):
     def recover(
         self, metres, previous=None

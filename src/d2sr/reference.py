@@ -289,6 +289,7 @@ class SceneReference:
         shift_rate_full: bool = True,
         off_area: float | None = OFF_AREA,
         far_fill: bool = True,
+        rare_fill: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -318,6 +319,11 @@ class SceneReference:
         scene's depth for each of them, not only for deviations in patches: on sealed set AA it put back
         more (51% -> 58% of the pixels moved by more than 2 cm, as a recording) and made no frame worse
         (decisions.md, 2026-11-27).
+        ``rare_fill``: in such a frame, also a fresh return where the scene returned in under ``RANGE_RATE``
+        of its clean frames but at least once, read beyond ``FAR_ABS`` + ``FAR_REL`` of the depth it returned
+        at, amid at least a quarter (``QUARTER``) of such returns and fresh far-off ones in its 9x9
+        neighbourhood, takes the scene's depth: the sensor's own returns there can lie metres off too, but
+        alone or a few together (decisions.md, 2026-11-27).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -351,7 +357,7 @@ class SceneReference:
             rare_near,
         )
         self.reliable_fill, self.subtle_shifts, self.shift_rate = reliable_fill, subtle_shifts, shift_rate
-        self.shift_rate_full, self.far_fill = shift_rate_full, far_fill
+        self.shift_rate_full, self.far_fill, self.rare_fill = shift_rate_full, far_fill, rare_fill
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -593,8 +599,8 @@ class SceneReference:
         the deviations in patches, which are the model's to repair, a returning pixel that reads within the
         range the scene has seen it at, or where the scene seldom returns (``RANGE_RATE``), is left as it is
         (``keep``): the scene finds no interference there, and a model's guess could only do harm. With
-        ``far_fill``, also its depth for each fresh far-off return of a frame they flag. Nothing when not
-        usable."""
+        ``far_fill``, also its depth for each fresh far-off return of a frame they flag (with ``rare_fill``,
+        for such returns in patches where it seldom returns too). Nothing when not usable."""
         s = self._stats
         shape = ev.mask.shape
         if s is None or not ev.usable:
@@ -611,15 +617,24 @@ class SceneReference:
         if self.reliable_fill:  # where the scene nearly always returns (steady), sparser patches too
             patches |= (near >= QUARTER) & self._steady
         where = ev.fresh & patches & trusted
-        if self.far_fill and ev.far_evident:
+        far_frame = ev.far_evident and (self.far_fill or self.rare_fill)
+        if far_frame and self.far_fill:
             # Each return read far beyond where the scene returns half the time or more, in a frame that has
             # more such returns than the sensor's own flicker makes: interference, whatever its neighbours.
             where |= ev.fresh_far_pixels & (s.nz_median > 0)
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
         seldom = s.rate < RANGE_RATE
+        far_from_seen = np.abs(m - s.nz_median) > FAR_ABS + FAR_REL * s.nz_median
         if self.rare_near:  # where it seldom returns, only a return near the depth it did return at
-            seldom &= (s.rate == 0) | (np.abs(m - s.nz_median) <= FAR_ABS + FAR_REL * s.nz_median)
+            seldom &= (s.rate == 0) | ~far_from_seen
+        if far_frame and self.rare_fill:
+            # Where it seldom returns but did, a fresh return far from that depth, amid a quarter of such
+            # returns and far-off ones: the sensor's own stray returns there come alone or a few together.
+            rare = (m > 0) & (s.rate > 0) & (s.rate < RANGE_RATE) & far_from_seen
+            rare = _unexplained(m, rare, ev._before)
+            rare &= _neighbours(rare | ev.fresh_far_pixels) >= QUARTER
+            where |= rare
         keep = (m > 0) & ~ev.mask & (seldom | within)
         return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
 
