@@ -1362,7 +1362,7 @@ SETS = {
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = {"ab"}
+SEALED: set[str] = set()
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa", "ab"}
@@ -1416,8 +1416,8 @@ STATUS = {
     "decisions.md); open since",
     "aa": "development: sealed until 2026-11-27, when it judged the scene's repair filling every fresh "
     "far-off return of a frame they flag (it held; decisions.md); open since",
-    "ab": "sealed: written 2026-11-27 to judge the scene's repair filling far-off returns in patches where "
-    "it seldom returns (decisions.md)",
+    "ab": "development: sealed until 2026-11-27, when it judged the scene's repair filling far-off returns in "
+    "patches where it seldom returns (it held; decisions.md); open since",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.
@@ -1436,7 +1436,10 @@ BEFORE_Z: dict[str, Any] = {"off_area": None}
 # The scene's repair fills every fresh far-off return of a frame they flag since set AA (decisions.md,
 # 2026-11-27): what the repair measurements before it ran without.
 BEFORE_AA: dict[str, Any] = {"far_fill": False}
-# The scene settings set AB judges (bench/scene_repair.py --what rarefill).
+# Far-off patches where the scene seldom returns are filled too since set AB (decisions.md, 2026-11-27): what
+# the repair measurements before it ran without.
+BEFORE_AB: dict[str, Any] = {"rare_fill": False}
+# The scene settings set AB judged (bench/scene_repair.py --what rarefill).
 RARE_FILL: dict[str, dict[str, Any]] = {
     "far-off returns filled where the scene returns half the time": {"rare_fill": False},
     "and in patches where it seldom returns": {"rare_fill": True},

@@ -68,6 +68,7 @@ from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline, Repaired
 from held_out import (
     BEFORE_AA,
+    BEFORE_AB,
     BEFORE_Z,
     JUDGED,
     KINDS,
@@ -132,6 +133,9 @@ LATER = {"recording", "farfill", "rarefill"}
 WHAT = pinned(WHAT, BEFORE_Z, keep=LATER)
 # And every --what judged before set AA, with far-off returns filled only in patches.
 WHAT = pinned(WHAT, BEFORE_AA, keep=LATER)
+# And every --what judged before set AB (farfill too), with far-off returns filled only where the scene
+# returns half the time.
+WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",
