@@ -1416,8 +1416,8 @@ STATUS = {
     "decisions.md); open since",
     "aa": "development: sealed until 2026-11-27, when it judged the scene's repair filling every fresh "
     "far-off return of a frame they flag (it held; decisions.md); open since",
-    "ab": "development: sealed until 2026-11-27, when it judged the scene's repair filling far-off returns in "
-    "patches where it seldom returns (it held; decisions.md); open since",
+    "ab": "development: sealed until 2026-11-27, when it judged the scene's repair filling far-off returns "
+    "in patches where it seldom returns (it held; decisions.md); open since",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.

@@ -523,9 +523,9 @@ def test_far_fill_takes_the_scene_for_far_off_returns_only_where_they_flag_the_f
 
 
 def test_rare_fill_takes_the_scene_for_far_off_patches_where_it_seldom_returns():
-    """``rare_fill`` (shipped): in a frame whose far-off returns flag it, a patch read at half its depth where the scene
-    returns only a third of the time takes the scene's depth, as neither ``far_fill`` nor the fill in
-    patches gives it; a few stray returns there read metres off (the sensor's own) are left as they are."""
+    """``rare_fill`` (shipped): in a frame whose far-off returns flag it, a patch read at half its depth where
+    the scene returns only a third of the time takes the scene's depth, as neither ``far_fill`` nor the fill
+    in patches gives it; a few stray returns there read metres off (the sensor's own) are left as they are."""
     seldom = np.s_[40:80, 60:120]
 
     def scene(rng: np.random.Generator) -> np.ndarray:
