@@ -1433,17 +1433,6 @@ JUDGED: dict[str, dict[str, dict[str, Any]]] = {
 }
 # Off windows flag frames since set Z (decisions.md, 2026-11-27): what the measurements before it ran without.
 BEFORE_Z: dict[str, Any] = {"off_area": None}
-# The scene's repair fills every fresh far-off return of a frame they flag since set AA (decisions.md,
-# 2026-11-27): what the repair measurements before it ran without.
-BEFORE_AA: dict[str, Any] = {"far_fill": False}
-# Far-off patches where the scene seldom returns are filled too since set AB (decisions.md, 2026-11-27): what
-# the repair measurements before it ran without.
-BEFORE_AB: dict[str, Any] = {"rare_fill": False}
-# The scene settings set AB judged (bench/scene_repair.py --what rarefill).
-RARE_FILL: dict[str, dict[str, Any]] = {
-    "far-off returns filled where the scene returns half the time": {"rare_fill": False},
-    "and in patches where it seldom returns": {"rare_fill": True},
-}
 
 
 def pinned(

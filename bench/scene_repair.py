@@ -55,6 +55,8 @@ Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what retur
 from __future__ import annotations
 
 import argparse
+import functools
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -67,12 +69,9 @@ from d2sr.reference import RANGE_RATE, TRUST_RATE
 from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline, Repaired
 from held_out import (
-    BEFORE_AA,
-    BEFORE_AB,
     BEFORE_Z,
     JUDGED,
     KINDS,
-    RARE_FILL,
     SEALED,
     SETS,
     clean_sequences,
@@ -96,8 +95,18 @@ BEFORE_FAR: dict[str, Any] = {
 BEFORE_S: dict[str, Any] = {"reliable_fill": False, "shift_rate": TRUST_RATE}
 # What came after set U was judged (shifted windows over pixels returning 70% of the time), as it was then.
 BEFORE_V: dict[str, Any] = {"shift_rate": TRUST_RATE}
-# ``--what farfill`` runs each setting on a live sensor and on a recording.
+# The repair's defaults since sets AA and AB (decisions.md, 2026-11-27), off in what was judged before them.
+BEFORE_AA: dict[str, Any] = {"far_fill": False}
+BEFORE_AB: dict[str, Any] = {"rare_fill": False}
+# ``--what farfill`` and ``rarefill`` run each setting on a live sensor and on a recording.
 FAR_WHEN = ("cold (a live sensor)", "primed (d2sr recover on a recording)")
+
+
+def _cold_and_primed(settings: dict[str, dict[str, Any]]) -> dict[str, Mode]:
+    """Each of ``settings`` (name -> SceneReference settings), the scene's repair on, per ``FAR_WHEN``."""
+    return {f"{m}, {when}": (True, st) for m, st in settings.items() for when in FAR_WHEN}
+
+
 # Per --what: each mode's name and settings.
 WHAT: dict[str, dict[str, Mode]] = {
     "default": {"scene repair off": (False, {}), "scene repair on": (True, {})},
@@ -120,21 +129,22 @@ WHAT: dict[str, dict[str, Mode]] = {
     "recording": {"the model's repair alone, primed": (False, {}), "as shipped, primed": (True, {})},
     "subtle": {m: (True, {**st, **BEFORE_V}) for m, st in JUDGED["subtle"].items()},
     "shiftrate": {m: (True, st) for m, st in JUDGED["shiftrate"].items()},
-    "farfill": {
-        f"far-off returns filled in patches only, {when}": (True, {"far_fill": False}) for when in FAR_WHEN
-    }
-    | {f"each fresh far-off return filled, {when}": (True, {"far_fill": True}) for when in FAR_WHEN},
-    "rarefill": {f"{m}, {when}": (True, st) for m, st in RARE_FILL.items() for when in FAR_WHEN},
+    "farfill": _cold_and_primed(
+        {
+            "far-off returns filled in patches only": {"far_fill": False},
+            "each fresh far-off return filled": {"far_fill": True},
+        }
+    ),
+    "rarefill": _cold_and_primed(
+        {
+            "far-off returns filled where the scene returns half the time": {"rare_fill": False},
+            "and in patches where it seldom returns": {"rare_fill": True},
+        }
+    ),
 }
-# Every --what judged before set Z, without off windows (``--what recording`` and later run as shipped today).
-# Each --what takes the settings of its own time; ``recording`` runs as shipped today, and the later ones
-# name theirs.
-LATER = {"recording", "farfill", "rarefill"}
-WHAT = pinned(WHAT, BEFORE_Z, keep=LATER)
-# And every --what judged before set AA, with far-off returns filled only in patches.
-WHAT = pinned(WHAT, BEFORE_AA, keep=LATER)
-# And every --what judged before set AB (farfill too), with far-off returns filled only where the scene
-# returns half the time.
+# Each --what runs with the defaults of the time it was judged (``recording``: as shipped today): off windows
+# and the far-off fills off before sets Z and AA, the fill where the scene seldom returns before AB.
+WHAT = pinned(WHAT, BEFORE_Z | BEFORE_AA, keep={"recording", "farfill", "rarefill"})
 WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
@@ -312,7 +322,7 @@ def v_rule(parts: dict, clean: dict) -> dict[str, bool]:
     }
 
 
-def aa_rule(parts: dict, clean: dict, what: str = "farfill") -> dict[str, bool]:
+def fill_rule(parts: dict, clean: dict, what: str = "farfill") -> dict[str, bool]:
     """Set AA's rule (``--what farfill``, decisions.md, 2026-11-27): with every fresh far-off return of a
     frame they flag filled, cold and primed alike, nothing is worse than with the fill in patches only; and
     primed, more of the pixels moved by more than 2 cm are put back. Set AB's (``--what rarefill``) is the
@@ -345,6 +355,19 @@ def aa_rule(parts: dict, clean: dict, what: str = "farfill") -> dict[str, bool]:
             ),
         }
     return out
+
+
+# Per --what, the sealed set it was written to judge and that set's rule (decisions.md, 2026-11-27).
+RULES: dict[str, tuple[str, Callable[[dict, dict], dict[str, bool]]]] = {
+    "default": ("n", n_rule),
+    "returns": ("o", o_rule),
+    "rare": ("r", functools.partial(o_rule, what="rare")),
+    "reliable": ("s", functools.partial(o_rule, what="reliable")),
+    "subtle": ("u", functools.partial(o_rule, what="subtle")),
+    "shiftrate": ("v", v_rule),
+    "farfill": ("aa", fill_rule),
+    "rarefill": ("ab", functools.partial(fill_rule, what="rarefill")),
+}
 
 
 def main() -> None:
@@ -396,22 +419,9 @@ def main() -> None:
         n: {m: moved_5cm(fr, s, r, *_primed(m)) for m, r in modes.items()} for n, (fr, s) in whole.items()
     }
     result["clean_moved_5cm"] = clean
-    if args.what == "default" and "n" in sets:
-        result["rule"] = n_rule(result["sets"]["n"], clean)
-    if args.what == "returns" and "o" in sets:
-        result["rule"] = o_rule(result["sets"]["o"], clean)
-    if args.what == "rare" and "r" in sets:
-        result["rule"] = o_rule(result["sets"]["r"], clean, "rare")
-    if args.what == "reliable" and "s" in sets:
-        result["rule"] = o_rule(result["sets"]["s"], clean, "reliable")
-    if args.what == "subtle" and "u" in sets:
-        result["rule"] = o_rule(result["sets"]["u"], clean, "subtle")
-    if args.what == "shiftrate" and "v" in sets:
-        result["rule"] = v_rule(result["sets"]["v"], clean)
-    if args.what == "farfill" and "aa" in sets:
-        result["rule"] = aa_rule(result["sets"]["aa"], clean)
-    if args.what == "rarefill" and "ab" in sets:
-        result["rule"] = aa_rule(result["sets"]["ab"], clean, "rarefill")
+    if args.what in RULES and RULES[args.what][0] in sets:
+        judged, rule = RULES[args.what]
+        result["rule"] = rule(result["sets"][judged], clean)
     if args.what == "recording":
         result["l515_mean_worst"] = mean_worst(result["sets"])
     data = {

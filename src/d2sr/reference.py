@@ -618,11 +618,11 @@ class SceneReference:
         if self.reliable_fill:  # where the scene nearly always returns (steady), sparser patches too
             patches |= (near >= QUARTER) & self._steady
         where = ev.fresh & patches & trusted
-        far_frame = ev.far_evident and (self.far_fill or self.rare_fill)
+        far_frame = (self.far_fill or self.rare_fill) and ev.far_evident
         if far_frame and self.far_fill:
-            # Each return read far beyond where the scene returns half the time or more, in a frame that has
-            # more such returns than the sensor's own flicker makes: interference, whatever its neighbours.
-            where |= ev.fresh_far_pixels & (s.nz_median > 0)
+            # Each return read far beyond where the scene returns half the time or more (so it has a depth
+            # there), in a frame with more such returns than the sensor's own flicker makes: interference.
+            where |= ev.fresh_far_pixels
         tol = self.tol[0] + self.tol[1] * s.nz_median
         within = (m >= s.lo - tol) & (m <= s.hi + tol)
         seldom = s.rate < RANGE_RATE
