@@ -97,6 +97,7 @@ SALTS = {
     "z": 0xA52,
     "aa": 0x6A1,
     "ab": 0x2B8,
+    "ac": 0x4C6,
 }
 # Each set's two models; a frame's first random draw (< 0.5: the first) picks one (``kind``).
 KINDS = {
@@ -127,6 +128,7 @@ KINDS = {
     "z": ("row interleave", "ripple"),
     "aa": ("late echoes", "pile-up band"),
     "ab": ("range folding", "pulse curtains"),
+    "ac": ("bright object", "wiggle bands"),
 }
 
 
@@ -1331,6 +1333,60 @@ def fold_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
     return _written(frame, new, where, scale)
 
 
+def shifted_surface_interference(frame: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Set AC (written and sealed 2026-11-27, before the scene's repair gave a shifted surface's returns their
+    own depth less their window's offset, to judge that: decisions.md). Two more ways another
+    continuous-wave time-of-flight camera reads whole surfaces a few centimetres off, with no dropouts, one
+    chosen by the seed, neither in ``d2sr.sim`` nor in sets A-AB:
+
+    * bright object: the other camera's light comes back strongest from one object, grown from a returning
+      pixel over neighbours whose depth steps by under 2% (within an ellipse of 15-45% of the view): it
+      reads 2-5 cm off (nearer on three frames in four), tilted across it by up to a third of that, with
+      2-6 mm of extra noise;
+    * wiggle bands: where the views overlap (a half-plane of the view with a returning pixel inside, its
+      edge softened over 10-40 px), the two modulations beat into a cyclic error that follows range: every
+      return reads off by 2-5 cm times the sine of its depth over a period of 0.5-1.5 m, so the bands
+      follow the scene's iso-depth lines.
+
+    Pixels that move by more than 5 mm count (the sensor's own noise at a few metres); a draw that moves
+    under 1% of the returns is drawn again."""
+    rng, h, w, d = _start(frame, scale, seed, "ac")
+    bright = rng.random() < 0.5  # the first draw picks the model (``kind``)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    has = d > 0
+    new, where = d, np.zeros((h, w), bool)
+    for _ in range(20):
+        region = _ellipse(rng, y, x, 0.15, 0.45) < 1 if bright else np.ones((h, w), bool)
+        ys, xs = np.nonzero(has & region)
+        at = int(rng.integers(0, max(len(ys), 1)))
+        px, py = (int(xs[at]), int(ys[at])) if len(ys) else (w // 2, h // 2)
+        size = rng.uniform(0.02, 0.05) * (-1.0 if rng.random() < 0.75 else 1.0)
+        if bright:
+            grown = np.zeros((h + 2, w + 2), np.uint8)
+            step = float(0.02 * max(d[py, px], 0.1))
+            depth = np.where(has & region, d, 0.0).astype(np.float32)
+            flags = 4 | cv2.FLOODFILL_MASK_ONLY | (1 << 8)
+            cv2.floodFill(depth, grown, (px, py), 0, step, step, flags)
+            obj = (grown[1:-1, 1:-1] > 0) & has & region
+            ang = rng.uniform(0, 2 * np.pi)
+            across = (x - px) * np.cos(ang) + (y - py) * np.sin(ang)
+            span = max(float(np.abs(across[obj]).max()) if obj.any() else 1.0, 1.0)
+            tilt = 1 + rng.uniform(-1 / 3, 1 / 3) * across / span
+            noise = rng.normal(0, rng.uniform(0.002, 0.006), (h, w))
+            new = np.where(obj, d + size * tilt + noise, d)
+        else:
+            a2 = rng.uniform(0, 2 * np.pi)
+            side = (x - px) * np.cos(a2) + (y - py) * np.sin(a2) + rng.uniform(0.1, 0.6) * max(h, w)
+            weight = np.clip(side / rng.uniform(10, 40), 0.0, 1.0)
+            period = rng.uniform(0.5, 1.5)
+            cyclic = np.sin(2 * np.pi * d / period + rng.uniform(0, 2 * np.pi))
+            new = np.where(has, d + size * weight * cyclic, d)
+        where = has & (np.abs(new - d) > 0.005)
+        if where.sum() >= 0.01 * max(int(np.count_nonzero(d)), 1):
+            break
+    return _written(frame, new, where, scale)
+
+
 SETS = {
     "a": outside_interference,
     "b": crosstalk_interference,
@@ -1359,13 +1415,17 @@ SETS = {
     "z": ripple_interference,
     "aa": echo_grain_interference,
     "ab": fold_interference,
+    "ac": shifted_surface_interference,
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = set()
+SEALED: set[str] = {"ac"}
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
-OWN: set[str] = {"k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z", "aa", "ab"}
+OWN: set[str] = {
+    *("k", "l", "m", "n", "o", "p", "q", "r", "s", "t", "u", "v", "w", "x", "y", "z"),
+    *("aa", "ab", "ac"),
+}
 # What each set has been used for (docs/research/decisions.md). A set that chose or judged anything is a
 # development set; a set is held out only while sealed, until the one measurement it was written for.
 STATUS = {
@@ -1418,6 +1478,8 @@ STATUS = {
     "far-off return of a frame they flag (it held; decisions.md); open since",
     "ab": "development: sealed until 2026-11-27, when it judged the scene's repair filling far-off returns "
     "in patches where it seldom returns (it held; decisions.md); open since",
+    "ac": "sealed: written 2026-11-27 to judge the scene's repair giving a shifted surface's returns their "
+    "own depth less their window's offset (decisions.md)",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.

@@ -37,14 +37,19 @@ patches (as shipped until 2026-11-27), or for each of them where they alone flag
 ``--what rarefill``: the same, with far-off returns filled where the scene returns half the time or more (as
 shipped) or also in patches where it seldom returns (``SceneReference(rare_fill=True)``).
 
+``--what offset``: the scene's repair with the returns of a surface shifted as a whole filled with the scene's
+median where it trusts it and kept elsewhere (as shipped), or each given its own depth less its window's mean
+offset (``SceneReference(offset_fill=True)``), on a live sensor and on a recording.
+
 ``--what recording``: ``d2sr recover`` on a recording as shipped today (flagged frames repaired, the scene
 primed and kept only if the sensor held still, every setting as it is), with the scene's repair off (the
 model alone repairs) and on (as shipped): what the README's results table quotes.
 
 With ``--set n`` (sealed set N), ``--what returns --set o`` (sealed set O), ``--what rare --set r`` (sealed
 set R), ``--what reliable --set s`` (sealed set S), ``--what subtle --set u`` (sealed set U), ``--what
-shiftrate --set v`` (sealed set V), ``--what farfill --set aa`` (sealed set AA) or ``--what rarefill --set
-ab`` (sealed set AB), also whether the rule written for it held (docs/research/decisions.md, 2026-11-27).
+shiftrate --set v`` (sealed set V), ``--what farfill --set aa`` (sealed set AA), ``--what rarefill --set
+ab`` (sealed set AB) or ``--what offset --set ac`` (sealed set AC), also whether the rule written for it held
+(docs/research/decisions.md, 2026-11-27).
 
 Run:  .venv/bin/python bench/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
@@ -141,21 +146,27 @@ WHAT: dict[str, dict[str, Mode]] = {
             "and in patches where it seldom returns": {"rare_fill": True},
         }
     ),
+    "offset": _cold_and_primed(
+        {
+            "shifted surfaces filled with the scene's median": {"offset_fill": False},
+            "with their own depth less their window's offset": {"offset_fill": True},
+        }
+    ),
 }
 # Each --what runs with the defaults of the time it was judged (``recording``: as shipped today): off windows
 # and the far-off fills off before sets Z and AA, the fill where the scene seldom returns before AB.
-WHAT = pinned(WHAT, BEFORE_Z | BEFORE_AA, keep={"recording", "farfill", "rarefill"})
-WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill"})
+WHAT = pinned(WHAT, BEFORE_Z | BEFORE_AA, keep={"recording", "farfill", "rarefill", "offset"})
+WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill", "offset"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",
     *WHAT["subtle"],
     *WHAT["shiftrate"],
     *WHAT["recording"],
-    *(m for w in ("farfill", "rarefill") for m in WHAT[w] if m.endswith(FAR_WHEN[1])),
+    *(m for w in ("farfill", "rarefill", "offset") for m in WHAT[w] if m.endswith(FAR_WHEN[1])),
 }
 # Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.
-AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"]) | set(WHAT["rarefill"])
+AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"]) | set(WHAT["rarefill"]) | set(WHAT["offset"])
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
@@ -325,8 +336,8 @@ def v_rule(parts: dict, clean: dict) -> dict[str, bool]:
 def fill_rule(parts: dict, clean: dict, what: str = "farfill") -> dict[str, bool]:
     """Set AA's rule (``--what farfill``, decisions.md, 2026-11-27): with every fresh far-off return of a
     frame they flag filled, cold and primed alike, nothing is worse than with the fill in patches only; and
-    primed, more of the pixels moved by more than 2 cm are put back. Set AB's (``--what rarefill``) is the
-    same, for the fill where the scene seldom returns."""
+    primed, more of the pixels moved by more than 2 cm are put back. Set AB's (``--what rarefill``) and AC's
+    (``--what offset``) are the same, for the fill where the scene seldom returns and for shifted surfaces."""
     out = {}
     for when in FAR_WHEN:
         old_name, new_name = (m for m in WHAT[what] if m.endswith(when))
@@ -367,6 +378,7 @@ RULES: dict[str, tuple[str, Callable[[dict, dict], dict[str, bool]]]] = {
     "shiftrate": ("v", v_rule),
     "farfill": ("aa", fill_rule),
     "rarefill": ("ab", functools.partial(fill_rule, what="rarefill")),
+    "offset": ("ac", functools.partial(fill_rule, what="offset")),
 }
 
 

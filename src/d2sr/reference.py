@@ -88,6 +88,10 @@ SHIFT_RATE = 0.7
 #: A shifted pixel read within this of the scene (the clip ``_shifted`` puts on one pixel's part in a window)
 #: is a subtle shift, for ``SceneReference(subtle_shifts=True)``.
 SHIFT_CAP = 3 * SHIFT_M
+#: The most a surface shifted as a whole reads off for ``SceneReference(offset_fill=True)`` to take its
+#: window's offset over the scene's own depth: a CW-ToF camera's light shifts a surface 2-5 cm (issue 42).
+#: Beyond it, the shifts of sets A, B and C vary within a window and the scene's median puts back more.
+OFFSET_CAP = 0.05
 #: A frame whose fresh shifted windows (``Evidence.fresh_shifted``) cover this share of the known scene is
 #: interfered: about twice the most any clean development frame reached (0.0043). It lifted sets G and H's
 #: recall from 0.35 / 0.20 to 0.85 / 0.83 and sealed set M's from 0.17 to 0.70, with no clean frame flagged
@@ -229,6 +233,12 @@ class Evidence:
         return self.usable and far is not None and self.far >= far and self.fresh_far >= far
 
     @property
+    def shift_evident(self) -> bool:
+        """Fresh shifted windows alone cover ``shift_area`` of the scene (a way ``evident`` holds)."""
+        area = self.shift_area
+        return self.usable and area is not None and self.shifted >= area and self.fresh_shifted >= area
+
+    @property
     def evident(self) -> bool:
         """``fresh_dense`` reaches ``EVIDENT``, or fresh shifted windows cover ``shift_area`` (or off windows
         ``off_area``, or far-off returns ``far_area``): interfered,
@@ -238,9 +248,9 @@ class Evidence:
             return False
         if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
             return True
-        area, off = self.shift_area, self.off_area
-        if area is not None and self.shifted >= area and self.fresh_shifted >= area:
+        if self.shift_evident:
             return True
+        off = self.off_area
         if off is not None and self.off >= off and self.fresh_off >= off:
             return True
         return self.far_evident
@@ -290,6 +300,7 @@ class SceneReference:
         off_area: float | None = OFF_AREA,
         far_fill: bool = True,
         rare_fill: bool = True,
+        offset_fill: bool = False,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -325,6 +336,13 @@ class SceneReference:
         neighbourhood, takes the scene's depth: the sensor's own returns there can lie metres off too, but
         alone or a few together. On sealed set AB it put back more (45% -> 49% of the pixels moved by more
         than 2 cm, as a recording) and made no frame worse (decisions.md, 2026-11-27).
+        ``offset_fill`` (off, experimental): in a frame whose fresh shifted windows flag it
+        (``Evidence.shift_evident``), a return amid a surface shifted as a whole (``SHIFT_PX`` windows whose
+        fresh shifted pixels are a quarter of the window and half of its returns) that reads off the same
+        way, by at least half their mean offset, takes its own depth less that offset: where the scene would
+        keep it, and where the scene's fill would write its median if their offsets agree (spread at most
+        ``SHIFT_M``) and the offset is at most ``OFFSET_CAP``. Each pixel keeps its own reading, so noisy
+        pixels come back within their noise, not at the median's distance from it.
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
@@ -359,6 +377,7 @@ class SceneReference:
         )
         self.reliable_fill, self.subtle_shifts, self.shift_rate = reliable_fill, subtle_shifts, shift_rate
         self.shift_rate_full, self.far_fill, self.rare_fill = shift_rate_full, far_fill, rare_fill
+        self.offset_fill = offset_fill
         self._naps = 0  # restarts because the view changed since the gate was last open
         self.scale = float(depth_scale)
         self.size, self.warm, self.stripes = frames, warm, stripes
@@ -637,7 +656,12 @@ class SceneReference:
             rare &= _neighbours(rare | ev.fresh_far_pixels) >= QUARTER
             where |= rare
         keep = (m > 0) & ~ev.mask & (seldom | within)
-        return SceneRepair(where, np.where(where, s.nz_median, 0).astype(np.float32), keep)
+        depth = np.where(where, s.nz_median, 0).astype(np.float32)
+        if self.offset_fill and ev.shift_evident:
+            at, by = _offsets(ev, s, where)
+            where, keep = where | at, keep & ~at
+            depth[at] = m[at] - by[at]
+        return SceneRepair(where, depth, keep)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
@@ -651,6 +675,27 @@ class SceneReference:
         s.mean_err[where] = 0
         self._streak[where] = 0
         self._limits()
+
+
+def _offsets(ev: Evidence, s: CleanStats, filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(bool: returns of a surface shifted as a whole, float32: their window's mean offset in metres) for
+    ``SceneReference(offset_fill=True)``. A window's mean over a hundred-odd pixels is known to a few
+    millimetres where each pixel's own noise spans centimetres. ``filled``: where the scene's fill writes
+    its median; there only an agreeing offset within ``OFFSET_CAP`` replaces it."""
+    m = ev.metres
+    has = (m > 0) & (s.rate >= RANGE_RATE) & (s.nz_median > 0)
+    diff = np.where(has, m - s.nz_median, np.float32(0)).astype(np.float32)
+    shifted = ev.fresh & ev._shift if ev._shift is not None else np.zeros(m.shape, bool)
+    k = (SHIFT_PX, SHIFT_PX)
+    n = cv2.boxFilter(shifted.view(np.uint8), cv2.CV_32F, k, normalize=False)  # at most 225
+    within = cv2.boxFilter(has.view(np.uint8), cv2.CV_32F, k, normalize=False)
+    part = np.where(shifted, diff, np.float32(0))
+    mean = cv2.boxFilter(part, -1, k, normalize=False) / np.maximum(n, np.float32(1))
+    spread = cv2.boxFilter(part * part, -1, k, normalize=False) / np.maximum(n, np.float32(1)) - mean * mean
+    whole = (n >= np.float32(SHIFT_PX * SHIFT_PX / 4)) & (2 * n >= within)
+    alike = (diff * mean > 0) & (np.abs(diff) >= np.float32(0.5) * np.abs(mean))
+    agree = (np.abs(mean) <= OFFSET_CAP) & (spread <= np.float32(SHIFT_M * SHIFT_M))
+    return has & whole & alike & (~filled | agree), mean
 
 
 def _quantile(values: deque[float], q: float) -> float:
