@@ -1419,7 +1419,7 @@ SETS = {
 }
 # Sets only an explicit --set runs (D-I were, each until the decision it was written for;
 # docs/research/decisions.md).
-SEALED: set[str] = {"ac"}
+SEALED: set[str] = set()
 # Sets written for one measurement of their own (K-S: settings of the scene, on the D435 too), which the
 # scripts that go over every set leave out: their results would be new files no summary reads.
 OWN: set[str] = {
@@ -1478,8 +1478,8 @@ STATUS = {
     "far-off return of a frame they flag (it held; decisions.md); open since",
     "ab": "development: sealed until 2026-11-27, when it judged the scene's repair filling far-off returns "
     "in patches where it seldom returns (it held; decisions.md); open since",
-    "ac": "sealed: written 2026-11-27 to judge the scene's repair giving a shifted surface's returns their "
-    "own depth less their window's offset (decisions.md)",
+    "ac": "development: sealed until 2026-11-27, when it judged the scene's repair giving a shifted "
+    "surface's returns their own depth less their window's offset (it held; decisions.md); open since",
 }
 # The scene settings sets U and V judged, per mode name (bench/scene_gate.py's flags, bench/scene_repair.py's
 # repair): one place, so both benches run the same modes.

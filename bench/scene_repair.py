@@ -100,9 +100,10 @@ BEFORE_FAR: dict[str, Any] = {
 BEFORE_S: dict[str, Any] = {"reliable_fill": False, "shift_rate": TRUST_RATE}
 # What came after set U was judged (shifted windows over pixels returning 70% of the time), as it was then.
 BEFORE_V: dict[str, Any] = {"shift_rate": TRUST_RATE}
-# The repair's defaults since sets AA and AB (decisions.md, 2026-11-27), off in what was judged before them.
+# The repair's defaults since sets AA, AB and AC (decisions.md, 2026-11-27), off where judged before them.
 BEFORE_AA: dict[str, Any] = {"far_fill": False}
 BEFORE_AB: dict[str, Any] = {"rare_fill": False}
+BEFORE_AC: dict[str, Any] = {"offset_fill": False}
 # ``--what farfill`` and ``rarefill`` run each setting on a live sensor and on a recording.
 FAR_WHEN = ("cold (a live sensor)", "primed (d2sr recover on a recording)")
 
@@ -154,9 +155,11 @@ WHAT: dict[str, dict[str, Mode]] = {
     ),
 }
 # Each --what runs with the defaults of the time it was judged (``recording``: as shipped today): off windows
-# and the far-off fills off before sets Z and AA, the fill where the scene seldom returns before AB.
+# and the far-off fills off before sets Z and AA, the fill where the scene seldom returns before AB, and the
+# shifted surfaces' own depths before AC.
 WHAT = pinned(WHAT, BEFORE_Z | BEFORE_AA, keep={"recording", "farfill", "rarefill", "offset"})
 WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill", "offset"})
+WHAT = pinned(WHAT, BEFORE_AC, keep={"recording", "offset"})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",

@@ -300,7 +300,7 @@ class SceneReference:
         off_area: float | None = OFF_AREA,
         far_fill: bool = True,
         rare_fill: bool = True,
-        offset_fill: bool = False,
+        offset_fill: bool = True,
     ) -> None:
         """``still_share``: the stillness gate (``STILL_SHARE``); None: the sensor is taken to be still.
         ``rest``: frames the scene rests after a restart because the view changed (``REST``; 0: none).
@@ -336,13 +336,15 @@ class SceneReference:
         neighbourhood, takes the scene's depth: the sensor's own returns there can lie metres off too, but
         alone or a few together. On sealed set AB it put back more (45% -> 49% of the pixels moved by more
         than 2 cm, as a recording) and made no frame worse (decisions.md, 2026-11-27).
-        ``offset_fill`` (off, experimental): in a frame whose fresh shifted windows flag it
+        ``offset_fill``: in a frame whose fresh shifted windows flag it
         (``Evidence.shift_evident``), a return amid a surface shifted as a whole (``SHIFT_PX`` windows whose
         fresh shifted pixels are a quarter of the window and half of its returns) that reads off the same
         way, by at least half their mean offset, takes its own depth less that offset: where the scene would
         keep it, and where the scene's fill would write its median if their offsets agree (spread at most
         ``SHIFT_M``) and the offset is at most ``OFFSET_CAP``. Each pixel keeps its own reading, so noisy
-        pixels come back within their noise, not at the median's distance from it.
+        pixels come back within their noise, not at the median's distance from it. On sealed set AC
+        (CW-ToF shifts, no dropouts) it put back more (50% -> 60% of the pixels moved by more than 2 cm, as a
+        recording) and made no frame worse (decisions.md, 2026-11-27).
         ``return_rate``: a return the scene repairs needs to have returned in this share of the clean frames,
         at depths that agree (``TRUST_ABS``, ``TRUST_REL``) [``RANGE_RATE``: on sealed set O and every
         development set it put more back and made no frame worse than ``TRUST_RATE``,
