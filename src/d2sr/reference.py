@@ -686,14 +686,16 @@ def _offsets(ev: Evidence, s: CleanStats, filled: np.ndarray) -> tuple[np.ndarra
     its median; there only an agreeing offset within ``OFFSET_CAP`` replaces it."""
     m = ev.metres
     has = (m > 0) & (s.rate >= RANGE_RATE) & (s.nz_median > 0)
-    diff = np.where(has, m - s.nz_median, np.float32(0)).astype(np.float32)
+    diff = np.subtract(m, s.nz_median, dtype=np.float32)
+    diff *= has  # products, not np.where: a third of the time on scattered masks
     shifted = ev.fresh & ev._shift if ev._shift is not None else np.zeros(m.shape, bool)
     k = (SHIFT_PX, SHIFT_PX)
     n = cv2.boxFilter(shifted.view(np.uint8), cv2.CV_32F, k, normalize=False)  # at most 225
     within = cv2.boxFilter(has.view(np.uint8), cv2.CV_32F, k, normalize=False)
-    part = np.where(shifted, diff, np.float32(0))
-    mean = cv2.boxFilter(part, -1, k, normalize=False) / np.maximum(n, np.float32(1))
-    spread = cv2.boxFilter(part * part, -1, k, normalize=False) / np.maximum(n, np.float32(1)) - mean * mean
+    part = diff * shifted
+    count = np.maximum(n, np.float32(1))
+    mean = cv2.boxFilter(part, -1, k, normalize=False) / count
+    spread = cv2.boxFilter(part * part, -1, k, normalize=False) / count - mean * mean
     whole = (n >= np.float32(SHIFT_PX * SHIFT_PX / 4)) & (2 * n >= within)
     alike = (diff * mean > 0) & (np.abs(diff) >= np.float32(0.5) * np.abs(mean))
     agree = (np.abs(mean) <= OFFSET_CAP) & (spread <= np.float32(SHIFT_M * SHIFT_M))
