@@ -154,22 +154,23 @@ WHAT: dict[str, dict[str, Mode]] = {
         }
     ),
 }
+# The fills judged cold and primed (``_cold_and_primed``), in the order their sets judged them.
+FILLS = ("farfill", "rarefill", "offset")
 # Each --what runs with the defaults of the time it was judged (``recording``: as shipped today): off windows
 # and the far-off fills off before sets Z and AA, the fill where the scene seldom returns before AB, and the
 # shifted surfaces' own depths before AC.
-WHAT = pinned(WHAT, BEFORE_Z | BEFORE_AA, keep={"recording", "farfill", "rarefill", "offset"})
-WHAT = pinned(WHAT, BEFORE_AB, keep={"recording", "rarefill", "offset"})
-WHAT = pinned(WHAT, BEFORE_AC, keep={"recording", "offset"})
+for _i, _pins in enumerate((BEFORE_Z | BEFORE_AA, BEFORE_AB, BEFORE_AC)):
+    WHAT = pinned(WHAT, _pins, keep={"recording", *FILLS[_i:]})
 # Modes whose Pipeline first primes the scene on each sequence's first PRIME_FRAMES frames.
 PRIMED = {
     "primed (d2sr recover on a recording)",
     *WHAT["subtle"],
     *WHAT["shiftrate"],
     *WHAT["recording"],
-    *(m for w in ("farfill", "rarefill", "offset") for m in WHAT[w] if m.endswith(FAR_WHEN[1])),
+    *(m for w in FILLS for m in WHAT[w] if m.endswith(FAR_WHEN[1])),
 }
 # Primed modes run as shipped today; the others pin ``prime_still`` off, as they were judged before set X.
-AS_SHIPPED = set(WHAT["recording"]) | set(WHAT["farfill"]) | set(WHAT["rarefill"]) | set(WHAT["offset"])
+AS_SHIPPED = set(WHAT["recording"]).union(*(WHAT[w] for w in FILLS))
 
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:

@@ -9,7 +9,8 @@ in clusters) and what share of the scene they cover.
 
 - A surface read a little off as a whole: a window of steady pixels whose mean reads more than ``SHIFT_M`` off
   deviates, though each pixel may lie within its own noise (a CW-ToF camera's light, set G); fresh such
-  windows over ``SHIFT_AREA`` of the scene flag the frame (judged on sealed set M).
+  windows over ``SHIFT_AREA`` of the scene flag the frame (judged on sealed set M), and the repair then gives
+  each return of such a surface its own depth less the window's offset (sealed set AC).
 - A surface rippled or blotched a few centimetres both ways, whose window mean stays about right: a window
   at least half of whose steady pixels read more than ``OFF_M`` off the scene, either way, is off; fresh off
   windows over ``OFF_AREA`` of the scene flag the frame (judged on sealed set Z).
@@ -229,14 +230,17 @@ class Evidence:
     @property
     def far_evident(self) -> bool:
         """Fresh far-off returns alone cover ``far_area`` of the scene (one of the ways ``evident`` holds)."""
-        far = self.far_area
-        return self.usable and far is not None and self.far >= far and self.fresh_far >= far
+        return self._covers(self.far_area, self.far, lambda: self.fresh_far)
 
     @property
     def shift_evident(self) -> bool:
         """Fresh shifted windows alone cover ``shift_area`` of the scene (a way ``evident`` holds)."""
-        area = self.shift_area
-        return self.usable and area is not None and self.shifted >= area and self.fresh_shifted >= area
+        return self._covers(self.shift_area, self.shifted, lambda: self.fresh_shifted)
+
+    def _covers(self, area: float | None, whole: float, fresh: Callable[[], float]) -> bool:
+        """Usable, and one kind of evidence covers ``area`` of the scene, wholly and freshly; ``fresh`` is
+        worked out only when ``whole`` does (a fresh share is at most its whole one)."""
+        return self.usable and area is not None and whole >= area and fresh() >= area
 
     @property
     def evident(self) -> bool:
@@ -248,12 +252,11 @@ class Evidence:
             return False
         if self.dense >= EVIDENT and self.fresh_dense >= EVIDENT:
             return True
-        if self.shift_evident:
-            return True
-        off = self.off_area
-        if off is not None and self.off >= off and self.fresh_off >= off:
-            return True
-        return self.far_evident
+        return (
+            self.shift_evident
+            or self._covers(self.off_area, self.off, lambda: self.fresh_off)
+            or self.far_evident
+        )
 
     def _explained(self) -> tuple[np.ndarray, float]:
         if self._fresh is None:
@@ -688,7 +691,8 @@ def _offsets(ev: Evidence, s: CleanStats, filled: np.ndarray) -> tuple[np.ndarra
     has = (m > 0) & (s.rate >= RANGE_RATE) & (s.nz_median > 0)
     diff = np.subtract(m, s.nz_median, dtype=np.float32)
     diff *= has  # products, not np.where: a third of the time on scattered masks
-    shifted = ev.fresh & ev._shift if ev._shift is not None else np.zeros(m.shape, bool)
+    assert ev._shift is not None  # a shift-evident frame has shifted windows
+    shifted = ev.fresh & ev._shift
     k = (SHIFT_PX, SHIFT_PX)
     n = cv2.boxFilter(shifted.view(np.uint8), cv2.CV_32F, k, normalize=False)  # at most 225
     within = cv2.boxFilter(has.view(np.uint8), cv2.CV_32F, k, normalize=False)
