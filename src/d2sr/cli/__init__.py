@@ -3,9 +3,10 @@ one call into the pipeline below it. Every D2SRError becomes one line on stderr 
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import typer
 
@@ -95,22 +96,41 @@ EXTRAS = {
 
 
 def main() -> None:
-    """Console entry point: one-line errors with exit code 2 instead of tracebacks."""
+    """Console entry point: one-line errors with exit code 2 instead of tracebacks (``D2SR_TRACEBACK=1``
+    shows the traceback of an error d2sr did not foresee)."""
     try:
         app()
     except D2SRError as exc:
-        flush_warnings(show=False)
-        print(f"d2sr: error: {exc}", file=sys.stderr)
-        raise SystemExit(2) from None
+        _fail(str(exc))
     except ModuleNotFoundError as exc:
         top = (exc.name or "").split(".")[0]
         if top not in EXTRAS:
-            raise
+            _unforeseen(exc)
+        _fail(f"this command needs {top}, not installed: pip install 'd2sr[{EXTRAS[top]}]'")
+    except KeyboardInterrupt:
         flush_warnings(show=False)
-        print(
-            f"d2sr: error: this command needs {top}, not installed: pip install 'd2sr[{EXTRAS[top]}]'",
-            file=sys.stderr,
-        )
-        raise SystemExit(2) from None
+        print("d2sr: interrupted; nothing half-written was left at the output", file=sys.stderr)
+        raise SystemExit(130) from None
+    except OSError as exc:  # the system refused (no permission, a full disk, a device gone)
+        where = f"{exc.filename}: " if exc.filename else ""
+        _fail(f"{where}{exc.strerror or type(exc).__name__}")
+    except (SystemExit, typer.Exit, typer.Abort):
+        raise
+    except Exception as exc:
+        _unforeseen(exc)
     finally:
         flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited
+
+
+def _fail(line: str) -> NoReturn:
+    flush_warnings(show=False)
+    print(f"d2sr: error: {' '.join(line.split())}", file=sys.stderr)
+    raise SystemExit(2) from None
+
+
+def _unforeseen(exc: BaseException) -> NoReturn:
+    """An error no check foresaw: one line that says so (a traceback on request), still exit 2."""
+    if os.environ.get("D2SR_TRACEBACK"):
+        raise exc
+    what = str(exc).strip().splitlines()[0][:200] if str(exc).strip() else ""
+    _fail(f"{type(exc).__name__}{': ' + what if what else ''} (unforeseen; D2SR_TRACEBACK=1 shows where)")

@@ -6,6 +6,7 @@ metres with ``depth_scale == 1``) so that every format round-trips bit-exactly; 
 
 from __future__ import annotations
 
+import os
 import re
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
@@ -18,8 +19,10 @@ import numpy as np
 
 from d2sr.atomic import commit, discard, temp_for
 from d2sr.errors import InputError
+from d2sr.frames.encoded import MAX_PIXELS, check_size
 
 __all__ = [
+    "MAX_PIXELS",
     "PLAUSIBLE_M",
     "Frame",
     "Frames",
@@ -28,6 +31,8 @@ __all__ = [
     "Writer",
     "better_scale",
     "check_depth",
+    "check_name",
+    "check_names",
     "looks_like_intensity",
     "probe",
     "to_metres",
@@ -56,8 +61,8 @@ class Intrinsics:
     def from_dict(cls, d: dict[str, Any]) -> Intrinsics:
         try:
             return cls(int(d["width"]), int(d["height"]), *(float(d[k]) for k in ("fx", "fy", "px", "py")))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"intrinsics: missing or bad field {exc}") from None
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
+            raise InputError(f"intrinsics: missing or bad field {str(exc)[:60]}") from None
 
 
 @dataclass(frozen=True)
@@ -77,6 +82,7 @@ def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
     if depth.ndim != 2:
         shape = "x".join(map(str, depth.shape))
         raise InputError(f"{where}: depth must be a single-channel 2-D image, got shape {shape}")
+    check_size(depth.shape[0], depth.shape[1], where)
     if depth.dtype == np.float32:
         if not np.isfinite(depth).all():
             raise InputError(f"{where}: depth has NaN or infinite values")
@@ -85,6 +91,32 @@ def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
     elif depth.dtype != np.uint16:
         raise InputError(f"{where}: depth must be uint16 or float32, got {depth.dtype}")
     return depth
+
+
+MAX_NAME = 200  # bytes in a frame's name: with its extension and a temporary prefix, under 255
+
+
+def check_name(name: object, where: str) -> str:
+    """A frame's name as a file name in an output folder: any characters or bytes, but not empty, not a
+    path (no ``/``, ``\\`` or NUL, not ``.`` or ``..``) and not longer than ``MAX_NAME`` bytes."""
+    if not isinstance(name, str) or not name or name in (".", ".."):
+        raise InputError(f"{where}: a frame name must be a non-empty name, got {str(name)[:40]!r}")
+    if any(c in name for c in "/\\\x00"):
+        raise InputError(f"{where}: frame name {name[:60]!r} is a path, not a name")
+    if len(os.fsencode(name)) > MAX_NAME:
+        raise InputError(f"{where}: frame name {name[:40]!r}... is over {MAX_NAME} bytes")
+    return name
+
+
+def check_names(names: list[str], where: str) -> list[str]:
+    """``check_name`` for each, and no name twice (a second frame of a name would replace the first)."""
+    seen: set[str] = set()
+    for n in names:
+        check_name(n, where)
+        if n in seen:
+            raise InputError(f"{where}: two frames are named {n[:60]!r}; frame names must be unique")
+        seen.add(n)
+    return names
 
 
 def to_metres(depth: np.ndarray, depth_scale: float) -> np.ndarray:
@@ -110,7 +142,6 @@ KNOWN_SCALES = {
 TYPICAL_M = 2.5  # median depth of a typical indoor frame, metres
 MARGIN = 2.5  # how much closer to typical another scale must bring the median before we say so
 INTENSITY_GRADIENT = 0.02  # median relative step between neighbours: depth < 0.002, IR images ~ 0.05
-MAX_PIXELS = 4096 * 4096  # about 1.6 GB of working memory; larger frames are refused
 TRAINED_PIXELS = (
     64 * 64,
     1280 * 960,
@@ -275,18 +306,25 @@ class Writer(ABC):
         self.intrinsics = intrinsics
         self.count = 0
         self.shape: tuple[int, int] | None = None
+        self._names: set[str] = set()
         self._tmp: Path | None = temp_for(self.path, is_dir=self.is_dir)
 
     #: Whether the output is a folder (PNG) or a single file (npz, bags).
     is_dir = False
 
     def write(self, frame: Frame) -> None:
+        check_name(frame.name, str(self.path))
+        if frame.name in self._names:
+            raise InputError(
+                f"{self.path}: a second frame named {frame.name[:60]!r}; frame names must be unique"
+            )
         depth = check_depth(frame.depth, f"{self.path}: frame {frame.name}")
         if self.shape is None:
             self.shape = depth.shape
         elif depth.shape != self.shape:
             raise InputError(f"{self.path}: frame {frame.name} is {depth.shape}, earlier frames {self.shape}")
         self._write(frame)
+        self._names.add(frame.name)
         self.count += 1
 
     @abstractmethod

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from d2sr.errors import InputError
+from d2sr.frames.encoded import check_encoded, check_size
 
 __all__ = ["COLOUR_ENCODINGS", "PAIR_NS", "decode_colour"]
 
@@ -20,7 +21,9 @@ PAIR_NS = 10_000_000  # a colour and a depth frame whose stamps differ by less a
 def decode_colour(msg: Any, where: str, compressed: bool = False) -> np.ndarray:
     """The BGR (or grey) image of one colour message; an InputError saying why for one it cannot read."""
     if compressed:
-        img = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_UNCHANGED)
+        raw = bytes(msg.data)
+        check_encoded(raw, where, "PNG or JPEG")
+        img = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_UNCHANGED)
         if img is None or img.ndim not in (2, 3) or img.dtype != np.uint8:
             raise InputError(f"{where}: CompressedImage format {str(msg.format)!r} is not 8-bit colour")
         return img if img.ndim == 2 or img.shape[2] == 3 else cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
@@ -28,6 +31,7 @@ def decode_colour(msg: Any, where: str, compressed: bool = False) -> np.ndarray:
     if channels is None:
         raise InputError(f"{where}: colour encoding {str(msg.encoding)!r} is not bgr8, rgb8 or mono8")
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    check_size(h, w, where)
     data = np.asarray(msg.data, np.uint8)
     row = w * channels
     if step < row or data.size < step * h:

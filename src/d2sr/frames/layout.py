@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.frames.base import Intrinsics
+from d2sr.errors import InputError
+from d2sr.frames.base import Intrinsics, check_name
 from d2sr.frames.png import encode_png, write_meta
 
 __all__ = ["LABELS", "RECORDING", "REPAIRED", "RUN", "RUN_FILLED", "FrameFolder", "sensor_dir"]
@@ -39,18 +40,22 @@ class FrameFolder:
     def __init__(self, root: Path, streams: dict[str, str], create: bool = True) -> None:
         """``create=False``: a folder only read (nothing is made on disk)."""
         self.root, self.streams = Path(root), streams
+        self._written: set[str] = set()
         for sub in streams.values() if create else ():
             (self.root / sub).mkdir(parents=True, exist_ok=True)
 
     def path(self, stream: str, name: str) -> Path:
-        return self.root / self.streams[stream] / f"{name}.png"
+        return self.root / self.streams[stream] / f"{check_name(name, str(self.root))}.png"
 
     def has(self, name: str) -> bool:
         """Whether every stream holds frame ``name``."""
         return all(self.path(s, name).is_file() for s in self.streams)
 
     def write(self, name: str, **images: np.ndarray) -> None:
-        """One frame of each stream given (boolean masks become 0/255)."""
+        """One frame of each stream given (boolean masks become 0/255); a name is written once."""
+        if name in self._written:
+            raise InputError(f"{self.root}: a second frame named {name[:60]!r}; frame names must be unique")
+        self._written.add(name)
         for stream, img in images.items():
             if img.dtype == bool:
                 img = img.astype(np.uint8) * 255

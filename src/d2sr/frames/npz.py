@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.errors import InputError
-from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, check_scale
+from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, check_names, check_scale
 
 __all__ = ["NpzReader", "NpzWriter"]
 
@@ -36,7 +36,7 @@ class NpzReader(Reader):
                 intr = json.loads(str(z["intrinsics"])) if "intrinsics" in z.files else None
         except InputError:
             raise
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError, json.JSONDecodeError) as exc:
+        except (OSError, ValueError, TypeError, IndexError, zipfile.BadZipFile, EOFError, RecursionError) as exc:
             raise InputError(f"{self.path}: corrupt or truncated npz: {exc}") from None
         if self.depth.ndim == 2:
             self.depth = self.depth[None]
@@ -45,6 +45,9 @@ class NpzReader(Reader):
         check_depth(self.depth[0], str(self.path))
         if len(self.names) != len(self.depth) or len(self.stamps) != len(self.depth):
             raise InputError(f"{self.path}: names/timestamps_ns do not match the number of frames")
+        check_names(self.names, str(self.path))
+        if self.stamps.dtype.kind not in "iu":
+            raise InputError(f"{self.path}: timestamps_ns must be whole numbers, got {self.stamps.dtype}")
         self.depth_scale = check_scale(scale, str(self.path))
         self.intrinsics = Intrinsics.from_dict(intr) if intr else None
 

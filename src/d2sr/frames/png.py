@@ -12,7 +12,8 @@ import cv2
 import numpy as np
 
 from d2sr.errors import InputError
-from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_scale, stamp_from_name
+from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_names, check_scale, stamp_from_name
+from d2sr.frames.encoded import check_encoded
 
 __all__ = ["PngReader", "PngWriter", "decode_png", "encode_png", "write_meta"]
 
@@ -29,6 +30,7 @@ def decode_png(data: bytes, where: str, dtype: type = np.uint16) -> np.ndarray:
         raise InputError(f"{where}: not a PNG file")
     if b"IEND" not in data[-16:]:
         raise InputError(f"{where}: truncated PNG (no end marker)")
+    check_encoded(data, where)
     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if img is None:
         raise InputError(f"{where}: corrupt PNG (cannot decode)")
@@ -59,20 +61,49 @@ def encode_png(img: np.ndarray, where: str) -> bytes:
 
 
 def read_meta(folder: Path) -> dict[str, Any]:
-    """``meta.json`` (ours) or ``intrinsics.json`` (RealSense tools); {} when neither exists."""
+    """``meta.json`` (ours) or ``intrinsics.json`` (RealSense tools), its fields checked; {} when neither
+    exists."""
     for name in (META, "intrinsics.json"):
         f = folder / name
         if f.is_file():
             try:
                 meta = json.loads(f.read_text())
-            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-                raise InputError(f"{f}: not valid JSON: {exc}") from None
+            except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+                raise InputError(f"{f}: not valid JSON: {str(exc)[:100]}") from None
+            except OSError as exc:
+                raise InputError(f"{f}: cannot read: {exc.strerror}") from None
             if not isinstance(meta, dict):
                 raise InputError(f"{f}: expected a JSON object")
             if name == "intrinsics.json":
                 meta = {"depth_scale": meta.get("depth_scale"), "intrinsics": meta}
-            return meta
+            return _checked_meta(meta, f)
     return {}
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _checked_meta(meta: dict[str, Any], where: Path) -> dict[str, Any]:
+    """The fields d2sr reads, of the types it reads them as (one line naming the first that is not)."""
+    scale = meta.get("depth_scale")
+    if scale is not None and not _number(scale):
+        raise InputError(f"{where}: depth_scale must be a number, got {str(scale)[:40]!r}")
+    intr = meta.get("intrinsics")
+    if intr is not None and not isinstance(intr, dict):
+        raise InputError(f"{where}: intrinsics must be an object")
+    frames = meta.get("frames", [])
+    if not isinstance(frames, list):
+        raise InputError(f"{where}: frames must be a list of objects")
+    for i, fr in enumerate(frames):
+        if not isinstance(fr, dict) or not isinstance(fr.get("name"), str):
+            raise InputError(f"{where}: frames[{i}] must be an object with a name")
+        stamp = fr.get("timestamp_ns")
+        if stamp is not None and (not isinstance(stamp, int) or isinstance(stamp, bool) or stamp < 0):
+            raise InputError(
+                f"{where}: frames[{i}].timestamp_ns must be a whole number of ns, got {str(stamp)[:40]!r}"
+            )
+    return meta
 
 
 class PngReader(Reader):
@@ -85,13 +116,12 @@ class PngReader(Reader):
         self.files = sorted(p for p in self.path.iterdir() if p.suffix.lower() == ".png" and p.is_file())
         if not self.files:
             raise InputError(f"{self.path}: no PNG depth frames in this folder")
+        check_names([f.stem for f in self.files], str(self.path))
         meta = read_meta(self.path)
         self.depth_scale = check_scale(meta.get("depth_scale"), str(self.path))
         intr = meta.get("intrinsics")
         self.intrinsics = Intrinsics.from_dict(intr) if intr and "fx" in intr else None
-        self._frame_meta = {
-            f["name"]: f for f in meta.get("frames", []) if isinstance(f, dict) and "name" in f
-        }
+        self._frame_meta = {f["name"]: f for f in meta.get("frames", [])}
         self._shape: tuple[int, int] | None = None
 
     def __len__(self) -> int:

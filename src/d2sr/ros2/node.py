@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.errors import ConfigError, InputError
+from d2sr.errors import ConfigError, D2SRError, InputError
+from d2sr.frames.base import MAX_PIXELS
 from d2sr.frames.colour import decode_colour
 from d2sr.runtime.stats import median_p99_ms
 from d2sr.synth.gaps import ColourFrame, ColourGaps
@@ -49,20 +50,25 @@ def domain_id() -> int:
     return int(raw)
 
 
+LATENCY_WINDOW = 10_000  # frames whose latency the node's figures cover (about 5 min at 30 Hz)
+MIN_SIDE = 8  # pixels: a smaller image is no depth frame the models can judge
+
+
 @dataclass
 class Stats:
-    """What a node did: frames in, out, refused (an encoding it does not take), flagged; seconds each frame
-    spent in the node, from taken off the reader to its last message written."""
+    """What a node did: frames in, out, refused (malformed, or an encoding it does not take), flagged;
+    seconds each of the last ``LATENCY_WINDOW`` frames spent in the node, from taken off the reader to its
+    last message written (a fixed window: the node's memory stays flat however long it runs)."""
 
     received: int = 0
     published: int = 0
     refused: int = 0
     flagged: int = 0
     synthesized: int = 0
-    seconds: list[float] = field(default_factory=list)
+    seconds: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCY_WINDOW))
 
     def latency_ms(self) -> dict[str, float]:
-        median, p99 = median_p99_ms(self.seconds)
+        median, p99 = median_p99_ms(list(self.seconds))
         return {"median": median, "p99": p99}
 
 
@@ -84,6 +90,12 @@ class Ros2Node:
     ) -> None:
         if qos not in QOS:
             raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
+        if depth_scale is not None and not (
+            isinstance(depth_scale, int | float) and np.isfinite(depth_scale) and depth_scale > 0
+        ):
+            raise ConfigError(
+                f"--depth-scale must be a positive number of units per metre, got {depth_scale}"
+            )
         self.topic = "/" + topic.lstrip("/")
         name = dds_topic(topic)
         try:
@@ -119,7 +131,7 @@ class Ros2Node:
         self.stats = Stats()
         self._warned: set[str] = set()
         self.domain = domain_id() if domain is None else domain
-        self.participant = DomainParticipant(self.domain)
+        self.participant = _participant(DomainParticipant, self.domain)
         # A best-effort reader matches reliable and best-effort publishers alike.
         listen = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(8))
         if qos == "reliable":
@@ -161,6 +173,8 @@ class Ros2Node:
 
     def spin(self, seconds: float | None = None) -> Stats:
         """Take, repair and publish until ``stop`` (or for ``seconds``)."""
+        if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
+            raise ConfigError(f"--seconds must be a positive number, got {seconds}")
         end = None if seconds is None else time.monotonic() + seconds
         while not self._stop.is_set() and (end is None or time.monotonic() < end):
             self._waitset.wait(self._duration(milliseconds=2 if self._running else 100))
@@ -185,32 +199,48 @@ class Ros2Node:
             self._waitset.detach(cond)
 
     def handle(self, msg: Any, taken: float) -> None:
-        """One image message: judged now, repaired on a worker, published in order once repaired (or a
-        warning, once per kind, when refused)."""
+        """One image message: judged now, repaired on a worker, published in order once repaired. A message
+        the node cannot use is dropped with a warning (once per kind) and the node keeps running."""
         self.stats.received += 1
-        depth = self._depth(msg)
+        try:
+            depth = self._depth(msg)
+            stamp = _stamp(msg)
+        except InputError as exc:
+            self._refuse("malformed", f"{self.topic}: {exc}; such messages are skipped")
+            return
         if depth is None:
             self.stats.refused += 1
             return
-        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         unjoined = self._gaps.depth(stamp)
         if unjoined:  # the slots before this window: made from the last real frame, before this one is
             self._publish_done(wait=True)
             self._synthesize(unjoined)
         try:
             decided = self.pipeline.decide(depth, stamp, arrival_s=taken)
-        except InputError as exc:  # e.g. a --depth-scale given for a float topic: say so, keep running
-            self._warn(f"{self.topic}: {exc}; skipped")
-            self.stats.refused += 1
+        except D2SRError as exc:  # e.g. a --depth-scale given for a float topic: say so, keep running
+            self._refuse(type(exc).__name__ + str(depth.shape), f"{self.topic}: {exc}; skipped")
+            return
+        except Exception as exc:  # a frame no check foresaw must not stop the node
+            self._refuse(type(exc).__name__, f"{self.topic}: a frame failed ({type(exc).__name__}); skipped")
             return
         self._running.append((msg, taken, self._pool.submit(self.pipeline.finish, decided)))
         if len(self._running) > 6:  # the workers are behind: wait for the oldest rather than pile up
             self._publish_done(wait=True)
 
+    def _refuse(self, kind: str, line: str) -> None:
+        self.stats.refused += 1
+        self._warn(line, kind)
+
     def _publish_done(self, wait: bool = False) -> None:
         while self._running and (wait or self._running[0][2].done()):
             msg, taken, future = self._running.popleft()
-            r = future.result()
+            try:
+                r = future.result()
+            except Exception as exc:  # a repair that failed drops its frame, not the node
+                self._refuse(
+                    type(exc).__name__, f"{self.topic}: a repair failed ({type(exc).__name__}); skipped"
+                )
+                continue
             self._publish(msg, taken, r)
             if self.colour_reader is not None:
                 stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
@@ -222,10 +252,10 @@ class Ros2Node:
         """A colour frame: kept for pairing with its depth frame, or for synthesis if none comes."""
         try:
             img = decode_colour(msg, "colour")
+            stamp = _stamp(msg)
         except InputError as exc:
-            self._warn(f"{exc}; skipped")
+            self._warn(f"{exc}; such colour frames are skipped", "colour")
             return
-        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         self._gaps.colour(ColourFrame(stamp, img, taken, msg.header))
 
     def _synthesize_due(self, now: float) -> None:
@@ -297,19 +327,33 @@ class Ros2Node:
         self.stats.seconds.append(time.monotonic() - taken)
 
     def _depth(self, msg: Any) -> np.ndarray | None:
-        dtype = ENCODINGS.get(msg.encoding)
+        """The message's depth image, or None (with a warning once per kind) for one the node does not take;
+        sizes are checked before any array is made."""
+        dtype = ENCODINGS.get(msg.encoding) if isinstance(msg.encoding, str) else None
         if dtype is None:
-            self._warn(f"{self.topic}: encoding {msg.encoding!r} is not a depth image d2sr takes "
-                       f"({', '.join(ENCODINGS)}); those messages are skipped")  # fmt: skip
+            self._warn(f"{self.topic}: encoding {str(msg.encoding)[:40]!r} is not a depth image d2sr takes "
+                       f"({', '.join(ENCODINGS)}); those messages are skipped", "encoding")  # fmt: skip
             return None
-        data = np.asarray(msg.data, np.uint8)
-        row = msg.width * dtype.itemsize
-        if msg.height == 0 or msg.step < row or data.size < msg.step * msg.height:
-            self._warn(f"{self.topic}: an image's size, step and data disagree; skipped")
+        h, w, step = int(msg.height), int(msg.width), int(msg.step)
+        if min(h, w) < MIN_SIDE or h * w > MAX_PIXELS:
+            self._warn(f"{self.topic}: an image of {w}x{h} pixels (d2sr takes {MIN_SIDE}x{MIN_SIDE} up to "
+                       f"{MAX_PIXELS // 10**6} MP); such messages are skipped", "size")  # fmt: skip
             return None
-        rows = data[: msg.step * msg.height].reshape(msg.height, msg.step)[:, :row]
+        row = w * dtype.itemsize
+        if step < row or len(msg.data) < step * h or step > 16 * row:
+            self._warn(
+                f"{self.topic}: an image's size, step and data disagree; such messages are skipped", "step"
+            )
+            return None
+        data = np.frombuffer(_bytes(msg.data, step * h), np.uint8)
+        rows = data.reshape(h, step)[:, :row]
         depth = np.ascontiguousarray(rows).view(dtype.newbyteorder(">" if msg.is_bigendian else "<"))
-        return depth.astype(dtype, copy=False)
+        depth = depth.astype(dtype, copy=False)
+        if dtype == np.float32 and not np.isfinite(depth).all():
+            depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(
+                np.float32
+            )  # REP 118: no return
+        return depth
 
     def _status(self, msg: Any, r: Any, repaired: int) -> Any:
         from d2sr.ros2.msgs import DiagnosticStatus, KeyValue
@@ -334,7 +378,39 @@ class Ros2Node:
             [KeyValue(k, v) for k, v in values.items()],
         )
 
-    def _warn(self, line: str) -> None:
-        if line not in self._warned:
-            self._warned.add(line)
+    def _warn(self, line: str, kind: str | None = None) -> None:
+        """Say ``line`` once per ``kind`` (the line itself by default); at most ``_KINDS`` kinds are kept."""
+        key = kind or line
+        if key not in self._warned and len(self._warned) < _KINDS:
+            self._warned.add(key)
             self.say(line)
+
+
+_KINDS = 64  # kinds of warning a node remembers (and says once each)
+
+
+def _stamp(msg: Any) -> int:
+    try:
+        sec, nsec = int(msg.header.stamp.sec), int(msg.header.stamp.nanosec)
+    except (AttributeError, TypeError, ValueError):
+        raise InputError("a message without a usable header stamp") from None
+    return sec * 10**9 + nsec
+
+
+def _bytes(data: Any, n: int) -> bytes | memoryview:
+    """The first ``n`` bytes of a message's data (bytes, a bytearray or a list of ints)."""
+    if isinstance(data, bytes | bytearray | memoryview):
+        return memoryview(data)[:n]
+    return bytes(data[:n])
+
+
+def _participant(factory: Any, domain: int) -> Any:
+    """A DDS participant, or one line when Cyclone refuses its configuration (``CYCLONEDDS_URI``)."""
+    try:
+        return factory(domain)
+    except Exception as exc:  # cyclonedds raises DDSException with a return code
+        uri = os.environ.get("CYCLONEDDS_URI", "")
+        hint = f" (CYCLONEDDS_URI={uri[:60]!r})" if uri else ""
+        raise ConfigError(
+            f"Cyclone DDS could not start a participant in domain {domain}{hint}: {exc}"
+        ) from None

@@ -1,15 +1,19 @@
 """A run's output folder: repaired frames, masks and a per-frame log, safe against being killed.
 
-The run writes into ``.<out>.partial/`` next to ``OUT``; each PNG lands under a temporary name and is
-renamed, and its log line is written (and flushed) only after both of the frame's PNGs exist. So a killed
-run leaves only complete files. A rerun with the same settings on a recording resumes from the log (the
-controller is replayed from the logged flags); anything else starts clean. ``finish`` renames the
-folder to ``OUT`` in one step, so ``OUT`` only ever holds a complete run.
+The run writes into a working folder next to ``OUT`` (``.<out>.d2sr-<pid>-<random>.partial``, marked
+inside by ``RUN_MARK``); each PNG lands under a temporary name and is renamed, and its log line is written
+(and flushed) only after both of the frame's PNGs exist. So a killed run leaves only complete files. A
+rerun with the same settings on a recording resumes from the log (the controller is replayed from the
+logged flags); anything else starts in a fresh working folder. Only folders with d2sr's name and marker
+are ever resumed or removed. ``finish`` renames the folder to ``OUT`` in one step, so ``OUT`` only ever
+holds a complete run.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import glob
 import json
 import shutil
 from dataclasses import dataclass
@@ -18,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.atomic import commit
+from d2sr.atomic import commit, ours, sibling, writing
 from d2sr.errors import D2SRError
 from d2sr.frames.layout import RUN, RUN_FILLED, FrameFolder, sensor_dir
 from d2sr.frames.overlap import Behind
@@ -26,7 +30,10 @@ from d2sr.runtime.loop import Result
 from d2sr.synth.recording import confidence_image
 from d2sr.ui import NA
 
-__all__ = ["LOG_COLUMNS", "RunFolder", "SensorSink", "SynthFrame"]
+__all__ = ["LOG_COLUMNS", "RUN_MARK", "RunFolder", "SensorSink", "SynthFrame"]
+
+RUN_MARK = ".d2sr-run.json"  # inside a run's working folder: whose it is
+MAX_SENSORS = 64  # sensors one run folder holds (a log naming more is not d2sr's)
 
 LOG_COLUMNS = [
     "sensor",
@@ -54,19 +61,27 @@ class RunFolder:
         """``fill``: the run also holds synthesized frames, and every frame its ``confidence``."""
         self.out = Path(out)
         self.layout = RUN_FILLED if fill else RUN
-        self.partial = self.out.with_name(f".{self.out.name}.partial")
         self.settings = json.loads(json.dumps(settings, default=str))
         self.done: dict[tuple[int, str], dict[str, Any]] = {}
         self.resumed = False
         self._folders: dict[int, FrameFolder] = {}
-        prior = self._read_settings()
-        if prior is not None and prior == self.settings and resumable:
-            self.done = self._read_log()
-            self.resumed = bool(self.done)
-        else:
-            shutil.rmtree(self.partial, ignore_errors=True)
-            self.partial.mkdir(parents=True)
-            (self.partial / "settings.json").write_text(json.dumps(self.settings, indent=1) + "\n")
+        earlier = self._earlier()
+        match = next((p for p in earlier if resumable and _settings(p) == self.settings), None)
+        with writing(self.out):
+            for p in earlier:  # a run that cannot be resumed is not kept
+                if p != match:
+                    shutil.rmtree(p, ignore_errors=True)
+            if match is not None:
+                self.partial = match
+                for torn in match.rglob(".*.png.tmp"):  # a PNG a kill cut short
+                    torn.unlink()
+                self.done = self._read_log()
+                self.resumed = bool(self.done)
+            else:
+                self.partial = sibling(self.out, "partial")
+                self.partial.mkdir(parents=True)
+                (self.partial / RUN_MARK).write_text(json.dumps({"made_by": "d2sr", "out": self.out.name}))
+                (self.partial / "settings.json").write_text(json.dumps(self.settings, indent=1) + "\n")
         new = not (self.partial / "log.csv").is_file()
         self._log = open(self.partial / "log.csv", "a", newline="")  # noqa: SIM115 (closed in finish/close)
         self._csv = csv.writer(self._log)
@@ -83,12 +98,17 @@ class RunFolder:
         if kind is not None and issubclass(kind, D2SRError):
             shutil.rmtree(self.partial, ignore_errors=True)
 
-    def _read_settings(self) -> dict[str, Any] | None:
-        try:
-            data = json.loads((self.partial / "settings.json").read_text())
-        except (OSError, ValueError):
-            return None
-        return data if isinstance(data, dict) else None
+    def _earlier(self) -> list[Path]:
+        """Working folders an earlier run on ``out`` left (d2sr's by name and by marker)."""
+        found, name = [], self.out.name
+        for p in sorted(self.out.parent.glob(f".{glob.escape(self.out.name)}.d2sr-*.partial")):
+            if ours(p, ("partial",)) is None or p.is_symlink() or not p.is_dir():
+                continue
+            with contextlib.suppress(OSError, ValueError):
+                mark = json.loads((p / RUN_MARK).read_text())
+                if isinstance(mark, dict) and mark.get("made_by") == "d2sr" and mark.get("out") == name:
+                    found.append(p)
+        return found
 
     def _read_log(self) -> dict[tuple[int, str], dict[str, Any]]:
         """Complete log lines whose PNGs exist; the log is cut back to them (a killed run's last line may
@@ -106,6 +126,8 @@ class RunFolder:
             if len(row) != len(LOG_COLUMNS):
                 break
             rec = dict(zip(LOG_COLUMNS, row, strict=True))
+            if not rec["sensor"].isdigit() or int(rec["sensor"]) > MAX_SENSORS:
+                break
             if not self._folder(int(rec["sensor"]), create=False).has(rec["frame"]):
                 break
             done[(int(rec["sensor"]), rec["frame"])] = rec
@@ -191,7 +213,9 @@ class RunFolder:
         """Write ``summary.json`` and move the complete run into place."""
         self.drain()
         self._log.close()
-        (self.partial / "summary.json").write_text(json.dumps(summary, indent=1, default=str) + "\n")
+        with writing(self.out):
+            (self.partial / "summary.json").write_text(json.dumps(summary, indent=1, default=str) + "\n")
+            (self.partial / RUN_MARK).unlink()
         commit(self.partial, self.out)
         return self.out
 
@@ -223,3 +247,11 @@ class SensorSink:
 
     def write(self, res: Result) -> None:
         self.folder.write(self.sensor, res)
+
+
+def _settings(folder: Path) -> dict[str, Any] | None:
+    try:
+        data = json.loads((folder / "settings.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None

@@ -20,6 +20,7 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, to_metres, to_units
 from d2sr.frames.checks import checked_counts, open_input
+from d2sr.frames.encoded import check_encoded
 from d2sr.frames.layout import FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
 from d2sr.synth.fill import Filler
@@ -131,7 +132,12 @@ def fill_recording(
 
 
 def _colour(path: Path) -> np.ndarray:
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    check_encoded(data, str(path), "PNG or JPEG")
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
     if img is None:
         raise InputError(f"{path}: not a readable colour image")
     return img

@@ -47,7 +47,7 @@ from d2sr.models.store import load_model, mask_logit, save_model, torch_device, 
 from d2sr.models.store import threshold as read_threshold
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
-from d2sr.train.loop import deterministic, loss_fn, pick_as_recovered, recovered_sums
+from d2sr.train.loop import deterministic, load_checkpoint, loss_fn, pick_as_recovered, recovered_sums
 from d2sr.train.synth import Synth, synth_sequence_frame
 
 __all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
@@ -276,13 +276,18 @@ def _fit(
     rng = np.random.default_rng([SEED, len(phase.name)])
     spent, steps, losses = 0.0, 0, []
     if ckpt.is_file():
-        state = torch.load(ckpt, weights_only=False)
+        state = load_checkpoint(ckpt)
         if state.get("planned") != phase.steps:  # resumed, it would be neither run (none: before 0.7.0)
             raise InputError(f"{out} holds an adapt run of another --minutes or version; use a new --out")
-        model.load_state_dict(state["model"])
-        opt.load_state_dict(state["opt"])
-        rng.bit_generator.state = state["rng"]
-        spent, steps, losses = state["seconds"], state["steps"], state["losses"]
+        try:
+            model.load_state_dict(state["model"])
+            opt.load_state_dict(state["opt"])
+            rng.bit_generator.state = state["rng"]
+            spent, steps, losses = float(state["seconds"]), int(state["steps"]), list(state["losses"])
+        except (KeyError, RuntimeError, ValueError, TypeError) as exc:
+            raise InputError(
+                f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); use a new --out"
+            ) from None
     model.train()
     t0, last = time.perf_counter(), time.perf_counter()
 

@@ -10,6 +10,7 @@ import os
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -19,7 +20,7 @@ from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.contract import REPAIR_PASSES, refill, repair_frame
-from d2sr.errors import ConfigError
+from d2sr.errors import ConfigError, InputError
 from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
@@ -131,6 +132,23 @@ def as_second_pass(
     return dataclasses.replace(b, x=x)
 
 
+def load_checkpoint(path: Path) -> dict[str, Any]:
+    """A training checkpoint d2sr wrote: tensors and plain values only (``weights_only``), so a file planted
+    in an output folder cannot run code; anything else is refused with one line."""
+    if path.is_symlink() or not path.is_file():
+        raise InputError(f"{path}: a checkpoint must be a plain file, not a link or a folder")
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch's unpickler raises many kinds on a foreign or damaged file
+        why = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
+        raise InputError(
+            f"{path}: not a checkpoint d2sr wrote (it may hold only tensors and plain values): {why}"
+        ) from None
+    if not isinstance(state, dict):
+        raise InputError(f"{path}: not a checkpoint d2sr wrote (not a dictionary)")
+    return state
+
+
 def _save_checkpoint(
     path: Path,
     model: nn.Module,
@@ -197,14 +215,20 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         start, losses, before = 0, [], 0.0
         ckpt = out / CHECKPOINT
         if ckpt.is_file():
-            state = torch.load(ckpt, weights_only=False)
-            if _same_run(state["config"], cfg):
-                core.load_state_dict(state["model"])
-                opt.load_state_dict(state["opt"])
-                sched.load_state_dict(state["sched"])
-                rng.bit_generator.state = state["rng"]
-                torch.set_rng_state(state["torch_rng"])
-                start = state["step"]
+            state = load_checkpoint(ckpt)
+            saved = state.get("config")
+            if isinstance(saved, dict) and _same_run(saved, cfg):
+                try:
+                    core.load_state_dict(state["model"])
+                    opt.load_state_dict(state["opt"])
+                    sched.load_state_dict(state["sched"])
+                    rng.bit_generator.state = state["rng"]
+                    torch.set_rng_state(state["torch_rng"])
+                    start = int(state["step"])
+                except (KeyError, RuntimeError, ValueError, TypeError) as exc:
+                    raise InputError(
+                        f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); use a new --out"
+                    ) from None
                 before, losses = state.get("minutes"), state.get("losses")
                 if before is None or losses is None:  # a checkpoint from before these were kept in it
                     done_card = read_card(out / f"{cfg.model}.safetensors").get("training", {})
