@@ -36,7 +36,15 @@ class NpzReader(Reader):
                 intr = json.loads(str(z["intrinsics"])) if "intrinsics" in z.files else None
         except InputError:
             raise
-        except (OSError, ValueError, TypeError, IndexError, zipfile.BadZipFile, EOFError, RecursionError) as exc:
+        except (
+            OSError,
+            ValueError,
+            TypeError,
+            IndexError,
+            zipfile.BadZipFile,
+            EOFError,
+            RecursionError,
+        ) as exc:
             raise InputError(f"{self.path}: corrupt or truncated npz: {exc}") from None
         if self.depth.ndim == 2:
             self.depth = self.depth[None]

@@ -348,12 +348,7 @@ class Ros2Node:
         data = np.frombuffer(_bytes(msg.data, step * h), np.uint8)
         rows = data.reshape(h, step)[:, :row]
         depth = np.ascontiguousarray(rows).view(dtype.newbyteorder(">" if msg.is_bigendian else "<"))
-        depth = depth.astype(dtype, copy=False)
-        if dtype == np.float32 and not np.isfinite(depth).all():
-            depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0).astype(
-                np.float32
-            )  # REP 118: no return
-        return depth
+        return depth.astype(dtype, copy=False)
 
     def _status(self, msg: Any, r: Any, repaired: int) -> Any:
         from d2sr.ros2.msgs import DiagnosticStatus, KeyValue

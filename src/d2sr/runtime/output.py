@@ -83,7 +83,8 @@ class RunFolder:
                 (self.partial / RUN_MARK).write_text(json.dumps({"made_by": "d2sr", "out": self.out.name}))
                 (self.partial / "settings.json").write_text(json.dumps(self.settings, indent=1) + "\n")
         new = not (self.partial / "log.csv").is_file()
-        self._log = open(self.partial / "log.csv", "a", newline="")  # noqa: SIM115 (closed in finish/close)
+        # Names are any bytes a file system allows: surrogateescape writes them back as they were.
+        self._log = open(self.partial / "log.csv", "a", newline="", errors="surrogateescape")  # noqa: SIM115
         self._csv = csv.writer(self._log)
         if new:
             self._csv.writerow(LOG_COLUMNS)
@@ -115,7 +116,7 @@ class RunFolder:
         be torn)."""
         path = self.partial / "log.csv"
         try:
-            lines = path.read_text().splitlines(keepends=True)
+            lines = path.read_text(errors="surrogateescape").splitlines(keepends=True)
         except OSError:
             return {}
         keep, done = lines[:1], {}
@@ -132,7 +133,7 @@ class RunFolder:
                 break
             done[(int(rec["sensor"]), rec["frame"])] = rec
             keep.append(line)
-        path.write_text("".join(keep))
+        path.write_text("".join(keep), errors="surrogateescape")
         return done
 
     def _folder(self, sensor: int, create: bool = True) -> FrameFolder:

@@ -17,6 +17,7 @@ import queue
 import socket
 import sys
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -25,6 +26,7 @@ import numpy as np
 
 from d2sr.atomic import commit, discard, temp_for
 from d2sr.errors import InputError
+from d2sr.frames.base import check_name
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
 from d2sr.frames.png import decode_png
 from d2sr.runtime.loop import Result
@@ -190,6 +192,58 @@ class RerunLog:
         self.close(ok=kind is None)
 
 
+@dataclass(frozen=True)
+class _Logged:
+    """One line of a run's ``log.csv``, checked."""
+
+    sensor: int
+    frame: str
+    stamp: int | None
+    score: float | None
+    flagged: bool
+    offset: int
+    repaired: float
+    truth: bool | None
+
+
+_SENSORS = 64  # sensors a run folder holds
+
+
+def _row(r: dict[str, str | None], line: int, run: Path) -> _Logged:
+    """A log line as values, or an InputError naming the line (a run folder is data: nothing is trusted)."""
+
+    def num(key: str) -> float | None:
+        v = r.get(key)
+        if v in ("", "n/a"):
+            return None
+        x = float(v or "nan")
+        if not np.isfinite(x):
+            raise ValueError(f"line {line}: {key} is {v!r}")
+        return x
+
+    try:
+        sensor = int(r.get("sensor") or "")
+        if not 0 <= sensor < _SENSORS:
+            raise ValueError(f"line {line}: sensor {sensor} (a run holds sensors 0..{_SENSORS - 1})")
+        frame = check_name(r.get("frame"), f"{run}/log.csv line {line}")
+        t, score, share = num("time_s"), num("score"), num("repaired_share")
+        return _Logged(
+            sensor, frame, None if t is None else round(t * 1e9), score, r.get("flagged") == "1",
+            int(num("offset") or 0), share or 0.0, None if r.get("interfered") in ("", "n/a", None)
+            else r.get("interfered") == "1",
+        )  # fmt: skip
+    except (TypeError, OverflowError) as exc:
+        raise ValueError(f"line {line}: {exc}") from None
+
+
+def _png(path: Path, dtype: type) -> np.ndarray:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    return decode_png(data, str(path), dtype)
+
+
 def view(run: Path, target: str | Path) -> int:
     """Replay a finished ``d2sr run`` folder (repaired frames, predicted masks, log.csv) into Rerun;
     returns the frames logged."""
@@ -198,26 +252,27 @@ def view(run: Path, target: str | Path) -> int:
         raise InputError(f"{run}: not a finished d2sr run folder (no log.csv)")
     try:
         settings = json.loads((Path(run) / "settings.json").read_text())
-        rows = list(csv.DictReader(log_path.open()))
+        with log_path.open(newline="", errors="surrogateescape") as fh:
+            rows = [_row(r, k + 2, run) for k, r in enumerate(csv.DictReader(fh))]
     except (OSError, ValueError, csv.Error) as exc:
-        raise InputError(f"{run}: cannot read the run's log ({exc})") from None
-    scale = float(settings.get("depth_scale") or 4000.0)
-    sensors = 1 + max((int(r["sensor"]) for r in rows), default=0)
+        raise InputError(f"{run}: cannot read the run's log ({str(exc)[:100]})") from None
+    scale = settings.get("depth_scale") if isinstance(settings, dict) else None
+    if (
+        not isinstance(scale, int | float)
+        or isinstance(scale, bool)
+        or not (np.isfinite(scale) and scale > 0)
+    ):
+        scale = 4000.0
+    sensors = 1 + max((r.sensor for r in rows), default=0)
     folders = [FrameFolder(sensor_dir(Path(run), i), RUN, create=False) for i in range(sensors)]
     asked = ("d2sr view (no --save)", "--save FILE.rrd")
     with RerunLog(target, sensors, f"d2sr run {Path(run).name}", asked=asked) as log:
         for r in rows:
-            i, name = int(r["sensor"]), r["frame"]
-            stamp = None if r["time_s"] in ("", "n/a") else round(float(r["time_s"]) * 1e9)
-            log._time(i, stamp)
-            path = folders[i].path("depth", name)
-            depth = decode_png(path.read_bytes(), str(path))
-            mpath = folders[i].path("masks", name)
-            mask = decode_png(mpath.read_bytes(), str(mpath), np.uint8) > 0
-            log.rec.log(f"sensor{i}/repaired", log.rr.DepthImage(depth, meter=scale))
-            log.rec.log(f"sensor{i}/repaired/mask", log.rr.SegmentationImage(mask.astype(np.uint8)))
-            truth = None if r["interfered"] in ("", "n/a") else r["interfered"] == "1"
-            log._series(
-                i, float(r["score"]), r["flagged"] == "1", int(r["offset"]), float(r["repaired_share"]), truth
-            )
+            log._time(r.sensor, r.stamp)
+            depth = _png(folders[r.sensor].path("depth", r.frame), np.uint16)
+            mask = _png(folders[r.sensor].path("masks", r.frame), np.uint8) > 0
+            log.rec.log(f"sensor{r.sensor}/repaired", log.rr.DepthImage(depth, meter=float(scale)))
+            log.rec.log(f"sensor{r.sensor}/repaired/mask", log.rr.SegmentationImage(mask.astype(np.uint8)))
+            if r.score is not None:  # a synthesized frame has no score, flag or repair
+                log._series(r.sensor, r.score, r.flagged, r.offset, r.repaired, r.truth)
     return len(rows)

@@ -120,7 +120,7 @@ def fill_recording(
                 progress(i + 1, len(reader))
         writes.drain()
         folder.finish(scale, reader.intrinsics, [{"name": r["frame"]} for r in rows])
-        (tmp / "fill.csv").write_text(_csv(rows))
+        (tmp / "fill.csv").write_text(_csv(rows), errors="surrogateescape")
     k = filler.intrinsics
     recorded = reader.intrinsics is not None
     if say is not None and not recorded and k is not None and colours is not None:
