@@ -115,6 +115,33 @@ def check_options(model: str, repair: str, threshold: float | None, flag: str = 
         check_probability(threshold, f"{flag}threshold")
 
 
+# The type each argument of ``repair`` and ``Pipeline`` must have (None allowed where its default is None).
+_TYPES: dict[str, tuple[type, ...]] = {
+    "model": (str,), "models": (str, Path), "repair": (str,), "backend": (str,), "controller": (str,),
+    "threshold": (int, float), "mask_logit": (int, float), "depth_scale": (int, float),
+    "passes": (int,), "active_frames": (int,), "seed": (int,), "threads": (int,),
+    "int8": (bool,), "scene": (bool,), "scene_repair": (bool,),
+}  # fmt: skip
+_OPTIONAL = {"threshold", "mask_logit", "depth_scale", "threads"}
+
+
+def check_types(**arguments: object) -> None:
+    """Each argument of the library's entry points of its type (a ConfigError naming it otherwise), numbers
+    finite: a caller's mistake is one of d2sr's errors, not a TypeError from deep inside."""
+    for name, value in arguments.items():
+        want = _TYPES.get(name)
+        if want is None or (value is None and name in _OPTIONAL):
+            continue
+        numeric = want[0] is int or want[0] is float
+        if (numeric and isinstance(value, bool)) or not isinstance(value, want):
+            kind = ("a number" if numeric else " or ".join(t.__name__ for t in want)) + (
+                " or None" if name in _OPTIONAL else ""
+            )
+            raise ConfigError(f"{name} must be {kind}, got {type(value).__name__} {str(value)[:40]!r}")
+        if numeric and not np.isfinite(float(value)):  # type: ignore[arg-type]
+            raise ConfigError(f"{name} must be a finite number, got {value}")
+
+
 def _open(options: Options, threads: int | None = None, int8: bool = False) -> tuple[Backend, str]:
     """The models ``options`` ask for, checked, and the repair mode."""
     unknown = set(options) - set(Options.__annotations__)
@@ -122,6 +149,7 @@ def _open(options: Options, threads: int | None = None, int8: bool = False) -> t
         raise ConfigError(
             f"unknown option {sorted(unknown)[0]!r}; options: {', '.join(Options.__annotations__)}"
         )
+    check_types(threads=threads, int8=int8, **options)
     model, mode = options.get("model", DEFAULT_MODEL), options.get("repair", "flagged")
     check_options(model, mode, options.get("threshold"))
     models = Path(options.get("models", WEIGHTS))
@@ -167,6 +195,7 @@ def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.n
     if depth.ndim != 2:
         raise InputError(f"{name}: depth must be a 2-D image, got shape {'x'.join(map(str, depth.shape))}")
     if depth.dtype.kind == "f":
+        check_types(depth_scale=depth_scale)
         if depth_scale not in (None, 1, 1.0):
             raise InputError(f"{name}: float depth is metres; depth_scale applies to uint16 frames only")
         metres = np.where(np.isfinite(depth), depth, 0).astype(np.float32)
@@ -175,6 +204,7 @@ def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.n
         return metres, 1.0
     if depth.dtype != np.uint16:
         raise InputError(f"{name}: depth must be uint16 (sensor units) or float (metres), got {depth.dtype}")
+    check_types(depth_scale=depth_scale)
     scale = 1000.0 if depth_scale is None else float(depth_scale)
     if not (np.isfinite(scale) and scale > 0):
         raise InputError(f"depth_scale must be a positive number, got {depth_scale}")
@@ -239,6 +269,10 @@ class Pipeline:
         scene_repair: bool = True,
         **options: Unpack[Options],
     ) -> None:
+        check_types(
+            depth_scale=depth_scale, controller=controller, active_frames=active_frames, seed=seed,
+            scene=scene, scene_repair=scene_repair,
+        )  # fmt: skip
         if controller not in CONTROLLERS or controller == "oracle":
             names = ", ".join(c for c in CONTROLLERS if c != "oracle")
             raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")
