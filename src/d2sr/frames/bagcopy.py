@@ -27,7 +27,7 @@ from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.colour import PAIR_NS, decode_colour
 from d2sr.frames.png import decode_png, encode_png
-from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open, _stamp
+from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open, _stamp, name_data_file
 
 __all__ = ["CONFIDENCE", "MASK", "REPAIRED", "BagCopy", "Synthesis"]
 
@@ -235,6 +235,8 @@ class BagCopy:
         assert self.tmp is not None
         self.bag.close()
         self.reader.close()
+        if not self.ros1:
+            name_data_file(self.tmp, self.out.name)
         commit(self.tmp, self.out)
         self.tmp = None
 

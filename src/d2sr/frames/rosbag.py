@@ -8,6 +8,7 @@ PNG). ``--topic`` picks one; without it the single depth-looking topic is used.
 from __future__ import annotations
 
 import contextlib
+import glob
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -309,12 +310,27 @@ class _BagWriter(Writer):
         if self._bag is None:
             raise InputError(f"{self.path}: no frames to write")
         self._bag.close()
+        if self.is_dir:
+            assert self._tmp is not None
+            name_data_file(self._tmp, self.path.name)
 
     def abort(self) -> None:
         if self._bag is not None:
             with contextlib.suppress(Exception):
                 self._bag.close()
         super().abort()
+
+
+def name_data_file(folder: Path, bag: str) -> None:
+    """Give a ROS 2 bag written in a temporary folder the data file name rosbag2 gives
+    (``<bag>_0.db3`` / ``<bag>_0.mcap``), in the folder and in its ``metadata.yaml``."""
+    meta = folder / "metadata.yaml"
+    text = meta.read_text()
+    for data in sorted(folder.glob(f"{glob.escape(folder.name)}.*")):  # rosbags names it after its folder
+        final = f"{bag}_0{data.suffix}"
+        data.rename(folder / final)
+        text = text.replace(data.name, final)
+    meta.write_text(text)
 
 
 class Ros1Writer(_BagWriter):
