@@ -61,8 +61,11 @@ def ros2(
 
     Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
     """
+    from d2sr.errors import ConfigError
     from d2sr.ros2 import Ros2Node
 
+    if seconds is not None and not (0 < seconds < float("inf")):
+        raise ConfigError(f"--seconds must be a positive number, got {seconds}")
     node = Ros2Node(
         topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,
         active_frames=active_frames, trigger=trigger, repair=repair, model=model, models=Path(models),

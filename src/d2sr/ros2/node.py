@@ -400,12 +400,23 @@ def _bytes(data: Any, n: int) -> bytes | memoryview:
 
 
 def _participant(factory: Any, domain: int) -> Any:
-    """A DDS participant, or one line when Cyclone refuses its configuration (``CYCLONEDDS_URI``)."""
-    try:
-        return factory(domain)
-    except Exception as exc:  # cyclonedds raises DDSException with a return code
-        uri = os.environ.get("CYCLONEDDS_URI", "")
-        hint = f" (CYCLONEDDS_URI={uri[:60]!r})" if uri else ""
-        raise ConfigError(
-            f"Cyclone DDS could not start a participant in domain {domain}{hint}: {exc}"
-        ) from None
+    """A DDS participant, or one line when Cyclone refuses its configuration (``CYCLONEDDS_URI``): what
+    Cyclone itself prints of it is caught and its first line said in ours."""
+    import tempfile
+
+    with tempfile.TemporaryFile() as caught:
+        saved = os.dup(2)
+        os.dup2(caught.fileno(), 2)
+        try:
+            return factory(domain)
+        except Exception:  # noqa: S110 - cyclonedds raises DDSException; its own lines say why
+            pass
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        caught.seek(0)
+        said = caught.read().decode("utf-8", "replace").strip().splitlines()
+    why = said[0].split("config:", 1)[-1].strip()[:120] if said else "no reason given"
+    uri = os.environ.get("CYCLONEDDS_URI", "")
+    hint = f" (CYCLONEDDS_URI={uri[:60]!r})" if uri else ""
+    raise ConfigError(f"Cyclone DDS could not start a participant in domain {domain}{hint}: {why}")

@@ -1,0 +1,117 @@
+"""The ROS 2 node's message handler fed malformed messages: each is dropped (one warning per kind), the node
+keeps running, the real frames after them come back, and what it keeps stays bounded however many come."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from d2sr.errors import ConfigError
+from helpers import room
+
+
+@dataclass
+class Stamp:
+    sec: int = 1
+    nanosec: int = 0
+
+
+@dataclass
+class Header:
+    stamp: Stamp = field(default_factory=Stamp)
+    frame_id: str = "cam"
+
+
+@dataclass
+class Msg:
+    height: int
+    width: int
+    encoding: str
+    step: int
+    data: bytes
+    is_bigendian: int = 0
+    header: Header = field(default_factory=Header)
+
+
+def _real(i: int) -> Msg:
+    depth = room(i, (120, 160), 1000.0)
+    return Msg(120, 160, "16UC1", 320, depth.tobytes(), header=Header(Stamp(10 + i, 0)))
+
+
+@pytest.fixture(scope="module")
+def node(weights):
+    pytest.importorskip("cyclonedds")
+    from d2sr.ros2 import Ros2Node
+
+    n = Ros2Node("/hostile/depth", 1000.0, domain=177, models=weights, model="unet8", scene=False)
+    lines: list[str] = []
+    n.say = lines.append
+    n.lines = lines
+    yield n
+    n.close()
+
+
+MALFORMED = [
+    Msg(480, 0, "16UC1", 0, b""),  # width 0 (killed the node before)
+    Msg(0, 640, "16UC1", 1280, b""),
+    Msg(1, 1, "16UC1", 2, b"\x01\x00"),
+    Msg(480, 640, "16UC1", 1280, b"\x00" * 100),  # step and data disagree
+    Msg(480, 640, "16UC1", 10, b"\x00" * (480 * 640 * 2)),  # step shorter than a row
+    Msg(480, 640, "rgb8", 1920, b"\x00" * (480 * 640 * 3)),  # not depth
+    Msg(7240, 7240, "16UC1", 14480, b""),  # over the pixel budget: refused before any allocation
+    Msg(2**31, 2**31, "16UC1", 2**32, b""),
+    Msg(120, 160, "32FC1", 640, np.full(120 * 160, np.nan, np.float32).tobytes()),
+    Msg(120, 160, "16UC1", 320, b"\x00" * 38400, header=None),  # type: ignore[arg-type]
+]
+
+
+def test_malformed_messages_are_dropped_and_real_frames_still_answered(node):
+    before = node.stats.published
+    for m in MALFORMED:
+        node.handle(m, time.monotonic())
+    for i in range(3):
+        node.handle(_real(i), time.monotonic())
+    node._publish_done(wait=True)
+    assert node.stats.published - before == 3
+    assert node.stats.refused >= 8
+    assert len(node.lines) <= len(MALFORMED)  # one warning per kind, not per message
+
+
+def test_warnings_and_figures_stay_bounded(node):
+    said = len(node.lines)
+    for i in range(20_000):
+        node.handle(Msg(480, i % 7, "16UC1", 0, b""), time.monotonic())
+        node.handle(Msg(2, 2, f"enc{i}", 4, b"\x00" * 16), time.monotonic())
+    assert len(node.lines) - said <= 2  # the size kind was said before; one line for unknown encodings
+    assert len(node._warned) <= 64
+    node.stats.seconds.extend([0.01] * 50_000)
+    assert len(node.stats.seconds) == node.stats.seconds.maxlen
+
+
+_FIELDS = st.builds(
+    Msg,
+    st.integers(-2, 5000), st.integers(-2, 5000),
+    st.sampled_from(["16UC1", "mono16", "32FC1", "8UC1", "", "16uc1"]),
+    st.integers(-4, 20000), st.binary(max_size=2048), st.integers(0, 1),
+)  # fmt: skip
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(_FIELDS)
+def test_random_messages_never_stop_the_node(node, msg):
+    node.handle(msg, time.monotonic())
+    node._publish_done(wait=True)
+
+
+def test_settings_are_checked_at_start(weights):
+    pytest.importorskip("cyclonedds")
+    from d2sr.ros2 import Ros2Node
+
+    for scale in (-1, 0, float("nan"), "abc"):
+        with pytest.raises(ConfigError, match="depth-scale"):
+            Ros2Node("/hostile/depth", scale, domain=178, models=weights, model="unet8")
