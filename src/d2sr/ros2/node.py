@@ -409,7 +409,7 @@ def _participant(factory: Any, domain: int) -> Any:
         os.dup2(caught.fileno(), 2)
         try:
             return factory(domain)
-        except Exception:  # noqa: S110 - cyclonedds raises DDSException; its own lines say why
+        except Exception:
             pass
         finally:
             os.dup2(saved, 2)
