@@ -427,9 +427,11 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
     finally:
         board.close()
     rows = list(csvmod.DictReader((tmp_path / "run" / "log.csv").open()))
-    assert summary["all"]["frames"] == len(rows) >= 24
+    # How many frames the loop takes in 6 s depends on the machine's load; what it does with each does not.
+    assert summary["all"]["frames"] == len(rows) >= 12
     assert all(int(r["slot"]) == truth[r["frame"]][1] for r in rows)  # every frame in its own slot
-    # and in its own period, but for a frame the loop took after that period had closed (not counted)
-    assert sum(int(r["period"]) == truth[r["frame"]][0] for r in rows) >= 0.9 * len(rows)
+    # and in its own period, or (a frame the loop took after its period had closed, on a busy machine)
+    # in the one after: never an earlier one
+    assert all(0 <= int(r["period"]) - truth[r["frame"]][0] <= 1 for r in rows)
     last = [r for r in rows if int(r["period"]) == max(int(r["period"]) for r in rows)]
     assert not any(int(r["slot"]) in other for r in last)  # the window left the interferer

@@ -23,6 +23,7 @@ from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES,
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe, to_units
+from d2sr.frames.encoded import check_size
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
@@ -194,6 +195,7 @@ def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.n
         raise InputError(f"{name}: depth must be a numpy array, got {type(depth).__name__}")
     if depth.ndim != 2:
         raise InputError(f"{name}: depth must be a 2-D image, got shape {'x'.join(map(str, depth.shape))}")
+    check_size(depth.shape[0], depth.shape[1], name)  # every frame: a stream may change size
     if depth.dtype.kind == "f":
         check_types(depth_scale=depth_scale)
         if depth_scale not in (None, 1, 1.0):
@@ -302,6 +304,23 @@ class Pipeline:
         self._last_pose: Pose | None = None
         self._fed = False
 
+    def attach(self, device: Any) -> None:
+        """Give a camera-bound trigger (``realsense-emitter``: the depth sensor; ``orbbec``: the device) the
+        camera it acts on; until then such a trigger refuses to run frames rather than do nothing."""
+        actuator = self.closed.actuator if self.closed is not None else None
+        if actuator is None or not hasattr(actuator, "attach"):
+            raise ConfigError("attach: this Pipeline has no camera-bound trigger")
+        actuator.attach(device)
+
+    def _check_bound(self) -> None:
+        actuator = self.closed.actuator if self.closed is not None else None
+        missing = getattr(actuator, "unbound", None)
+        if missing:
+            raise ConfigError(
+                f"trigger {getattr(actuator, 'kind', '')}: nothing to act on yet; give it {missing} "
+                "through Pipeline.attach before the first frame"
+            )
+
     def close(self) -> None:
         """Stop the trigger's clock and release its device."""
         if self.closed is not None:
@@ -383,6 +402,7 @@ class Pipeline:
         sense (``_probe``)."""
         frame, scale = _as_frame(depth, self.depth_scale, name)
         if not self._probed:
+            self._check_bound()
             _probe(frame, scale, name)
             self._probed = True
         return frame, scale

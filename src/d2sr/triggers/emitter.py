@@ -35,6 +35,11 @@ class EmitterActuator(HostActuator):
         self.write = self._switch
         super().__post_init__()
 
+    @property
+    def unbound(self) -> str | None:
+        """What this trigger still needs before it acts on anything (None: nothing)."""
+        return "a RealSense depth sensor (attach(sensor))" if self.sensor is None else None
+
     def attach(self, sensor: Any) -> None:
         """Drive this sensor's emitter from now on (the projector starts off)."""
         from d2sr.frames.realsense import import_rs

@@ -114,6 +114,15 @@ class OrbbecActuator(HostActuator):
         self.write = self._fire
         super().__post_init__()
 
+    @property
+    def unbound(self) -> str | None:
+        """What this trigger still needs before it acts on anything (None: nothing)."""
+        return "an Orbbec device (attach(device))" if self.device is None else None
+
+    def attach(self, device: Any) -> None:
+        """Fire this device's software trigger from now on."""
+        self.device = device
+
     def _fire(self, level: int) -> None:
         if level and self.device is not None:
             self.device.trigger_capture()
