@@ -46,6 +46,7 @@ __all__ = [
     "check_out",
     "commit",
     "discard",
+    "listed",
     "made_by_d2sr",
     "ours",
     "record_manifest",
@@ -206,6 +207,7 @@ def temp_for(path: Path, is_dir: bool) -> Path:
         raise OutputError(f"{path}: not a usable output path")
     with writing(path):
         path.parent.mkdir(parents=True, exist_ok=True)
+        tidy(path)  # what a killed run left for this output goes before a new temporary comes
         mask = _umask()  # outputs get the usual permissions (umask applies)
         for _ in range(100):
             tmp = path.with_name(f".{path.name}.{_token()}.tmp{'' if is_dir else path.suffix}")
@@ -337,6 +339,11 @@ def _empty_dirs(root: Path) -> list[str]:
         if Path(top) != root and not dirs and not files:
             found.append(os.path.normpath(str(Path(top).relative_to(root))))
     return sorted(found)
+
+
+def listed(folder: Path) -> set[str]:
+    """The files ``folder``'s manifest says d2sr made there (none without a manifest)."""
+    return _made(folder) if (folder / MANIFEST).is_file() else set()
 
 
 def record_manifest(folder: Path, files: Iterable[str] | None = None) -> None:

@@ -3,7 +3,9 @@ one call into the pipeline below it. Every D2SRError becomes one line on stderr 
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
 from collections.abc import Callable
 from typing import Annotated, NoReturn
@@ -98,6 +100,8 @@ EXTRAS = {
 def main() -> None:
     """Console entry point: one-line errors with exit code 2 instead of tracebacks (``D2SR_TRACEBACK=1``
     shows the traceback of an error d2sr did not foresee)."""
+    with contextlib.suppress(ValueError):  # SIGTERM unwinds like Ctrl-C: temporaries go, commits finish
+        signal.signal(signal.SIGTERM, _terminated)
     try:
         app()
     except D2SRError as exc:
@@ -120,6 +124,10 @@ def main() -> None:
         _unforeseen(exc)
     finally:
         flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited
+
+
+def _terminated(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _fail(line: str) -> NoReturn:

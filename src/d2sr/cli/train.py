@@ -177,8 +177,8 @@ def adapt(
     minutes: Annotated[
         float,
         typer.Option(
-            help="Training budget in minutes: the steps 2 cores take in that time (the same command gives "
-            "the same model); a slower machine stops at 1.25x and says so."
+            help="Time budget in minutes on 2 cores, planned up front as copies and steps (the same command "
+            "gives the same model; a slower or busier machine takes longer, never trains less)."
         ),
     ] = 8.0,
     false_alarm: Annotated[
@@ -200,8 +200,8 @@ def adapt(
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
     from d2sr.frames.checks import checked_counts, open_input
+    from d2sr.train.adapt import Plan, check_resumable, labelled_frames, prepare, split
     from d2sr.train.adapt import adapt as run
-    from d2sr.train.adapt import labelled_frames, prepare
     from d2sr.ui import progress_bar
 
     t0 = time.perf_counter()
@@ -217,23 +217,29 @@ def adapt(
         recordings.append([f.depth for f in checked_counts(reader, s, "clean frame")])
     assert scale is not None
     pairs = labelled_frames(labelled or [])
+    plan = Plan.of(minutes, *split(recordings))
+    check_resumable(out, plan)
+    note = "" if plan.seconds <= minutes * 60 * 1.05 else f" (over --minutes {minutes:g}: so many frames)"
+    console.print(
+        f"plan: {plan.variants} corrupted copies of each frame, {plan.rehearsal} generated frames, "
+        f"{plan.steps} training steps; about {plan.seconds / 60:.1f} min on 2 cores{note}"
+    )
     with progress_bar() as bar:
-        task = bar.add_task("corrupting the clean frames", total=None)
-        data = prepare(recordings, scale, pairs)
         tasks: dict[str, TaskID] = {}
 
         def tick(name: str, share: float) -> None:
             if name not in tasks:
-                bar.update(task, visible=False)
-                tasks[name] = bar.add_task(f"adapting the {name}", total=1.0)
+                for t in tasks.values():
+                    bar.update(t, completed=1.0)
+                tasks[name] = bar.add_task(name, total=1.0)
             bar.update(tasks[name], completed=share)
 
+        data = prepare(recordings, scale, pairs, plan=plan, tick=tick)
         command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-        card = run(data, out, minutes, false_alarm, command, models, tick)
-    for name, fit in card["training"].items():
-        if fit["stopped_at_time_cap"]:
-            warn(f"the {name} stopped at its time cap after {fit['steps']} of {fit['planned_steps']} steps "
-                 "(a slower or busier machine); its card says so")  # fmt: skip
+        card = run(data, out, plan, false_alarm, command, models, tick)
+    if card["kept"]:
+        warn(f"adapting did not help on your held-out frames ({card['kept'].split('adapted, ')[-1]}): "
+             f"{out} holds the models it started from")  # fmt: skip
     d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
     console.print(
         f"held out ({card['data']['held_out']} clean frames, x{card['data']['corrupted_copies']['held_out']} "

@@ -12,26 +12,30 @@ out; on it the mask threshold is chosen for at most ``MAX_CLEAN_CHANGED`` clean 
 detector's threshold for a target false-alarm rate. The result is a model folder (safetensors, ONNX, card)
 that ``--models`` takes; the shipped weights are never written. A checkpoint lets an interrupted run resume.
 
-The budget in minutes buys a fixed number of steps (what a slow 2-core machine does in that time,
-``STEPS_PER_SECOND``), so the same command on the same frames gives the same model; a time-boxed loop saw a
-different number of batches each run, and its thresholds moved with them. A machine that falls behind
-stops at ``TIME_CAP`` times its share of the budget, and the card says so.
+The budget in minutes buys a fixed plan, worked out before anything runs from the number of frames and
+what each part costs on a 2-core machine (``COSTS``, measured): how many corrupted copies of each frame,
+how many generated frames mixed in, how many training steps. The same command on the same frames gives the
+same model whatever the machine's load; a slower or busier machine takes longer, and says so, but never
+trains less. An adapted model that does worse than the one it started from on the held-out frames is not
+handed out: the folder gets the starting models back, and the card says why.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import json
+import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 
-from d2sr.atomic import atomic_file, atomic_write, record_manifest
+from d2sr.atomic import atomic_file, atomic_write, listed, record_manifest
 from d2sr.contract import (
     DEFAULT_RECOVERY,
     DETECTOR,
@@ -50,7 +54,19 @@ from d2sr.train.data import Pool, Source
 from d2sr.train.loop import deterministic, load_checkpoint, loss_fn, pick_as_recovered, recovered_sums
 from d2sr.train.synth import Synth, synth_sequence_frame
 
-__all__ = ["MIN_FRAMES", "AdaptData", "adapt", "choose_threshold", "prepare"]
+__all__ = [
+    "COSTS",
+    "MIN_FRAMES",
+    "AdaptData",
+    "Costs",
+    "Plan",
+    "adapt",
+    "check_resumable",
+    "choose_threshold",
+    "prepare",
+    "split",
+    "worse",
+]
 
 MIN_FRAMES = 50  # fewer clean frames than this cannot both train and hold out
 HOLDOUT = 0.2
@@ -65,12 +81,10 @@ VISIBLE = 0.01  # the threshold keeps recall on held-out frames with at least th
 # Over 4,488 steps, held-out RMSE / mask F1 / detector recall: 3e-4 46.3 cm / 0.40 / 0.75, 6e-4 43.0 / 0.43 /
 # 0.75, 1e-3 39.8 / 0.44 / 0.68; 6e-4 is the one no held-out figure is worse for.
 LR = 6e-4
-# Training steps a second (batch 8, crops up to ``CROP``) on the slower of the 2-core machines this project
-# has run on, measured: 11.5 (the other does 22). Planned for the faster one, adapt hit its time cap here.
-STEPS_PER_SECOND = 11.0
 CROP = (256, 320)
-SHARE = 0.85  # of the budget (the rest prepares, scores, exports)
-TIME_CAP = 1.25  # a phase stops at this many times its share of the budget, whatever its steps
+TRAIN_SHARE = 0.5  # of the budget at least for training, when the frames allow (the rest prepares, judges)
+PREPARING, JUDGING = "preparing the frames", "judging on the held-out frames"  # progress labels
+MIN_STEPS = 20  # a budget too small for its frames still trains this much (and says it runs over)
 Arr = np.ndarray
 CHECKPOINT = "adapt-checkpoint.pt"
 
@@ -90,6 +104,7 @@ class AdaptData:
     held_bad_clean: list[np.ndarray] = field(default_factory=list)
     labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # frame, gt, mask
     rehearsal: list[Synth] = field(default_factory=list)  # generated frames (their own scales)
+    variants: int = VARIANTS  # corrupted copies of each training frame
 
     def pool(self, frames: int = 1) -> Pool:
         """The training frames; ``frames=2`` for a temporal detector (each with its previous frame)."""
@@ -101,7 +116,7 @@ class AdaptData:
         sources = [
             Source(self.train, self.train, None, self.scale, np.zeros(n, bool), prev(self.train_prev)),
             Source(self.bad, self.bad_clean, None, self.scale, np.ones(len(self.bad), bool),
-                   prev(self.train_prev * VARIANTS)),
+                   prev(self.train_prev * self.variants)),
         ]  # fmt: skip
         if g:
             last = [x.clean if x.previous is None else x.previous for x in g]
@@ -115,6 +130,56 @@ class AdaptData:
             before = [f[k - 1] if k and f[k - 1].shape == x.shape else x for k, x in enumerate(f)]
             sources.append(Source(f, c, m, self.scale, np.array([x.any() for x in m]), prev(before)))
         return Pool(sources, frames, raw_previous=True)
+
+
+@dataclass(frozen=True)
+class Costs:
+    """Seconds each part of adapt takes on the slower of the 2-core machines this project runs on (an AMD
+    EPYC VM, measured with ``lab``'s adapt profile at 640x480): what turns a budget into a plan."""
+
+    step: float = 1 / 11.0  # one training step (batch 8, crops up to ``CROP``); the other machine: 1/22
+    corrupt: float = 0.08  # one corrupted copy of a frame (two worker processes)
+    generate: float = 0.20  # one generated frame mixed in
+    judge: float = 0.35  # one held-out corrupted frame judged (scores, masks, threshold curves)
+    fixed: float = 25.0  # loading, two exports and the card
+
+
+COSTS = Costs()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a budget buys for a number of frames: corrupted copies per training and held-out frame,
+    generated frames mixed in, training steps, and the seconds all of it should take (``COSTS``)."""
+
+    variants: int
+    held_variants: int
+    rehearsal: int
+    steps: int
+    seconds: float
+
+    @classmethod
+    def of(cls, minutes: float, train: int, held: int, costs: Costs | None = None) -> Plan:
+        """The most corrupted copies (up to ``VARIANTS``) that leave training ``TRAIN_SHARE`` of the budget
+        (copies taught it more than steps: 4 -> 8 copies, held-out RMSE 50 -> 39 cm), then the steps the
+        rest of the budget buys; at least one copy and ``MIN_STEPS`` steps, whatever the budget."""
+        budget, costs = minutes * 60, costs or COSTS
+
+        def rehearsal(v: int) -> int:
+            return min(REHEARSAL, 2 * train * v // VARIANTS)
+
+        def overhead(v: int) -> float:
+            judged = held * HELD_VARIANTS
+            return (costs.fixed + costs.corrupt * (train * v + judged) + costs.generate * rehearsal(v)
+                    + costs.judge * judged)  # fmt: skip
+
+        v = next((v for v in range(VARIANTS, 0, -1) if overhead(v) <= (1 - TRAIN_SHARE) * budget), 1)
+        steps = max(MIN_STEPS, round((budget - overhead(v)) / costs.step))
+        return cls(v, HELD_VARIANTS, rehearsal(v), steps, round(overhead(v) + steps * costs.step, 1))
+
+    def key(self) -> dict[str, int]:
+        """What decides the model (a run resumes only under the same)."""
+        return {"variants": self.variants, "rehearsal": self.rehearsal, "steps": self.steps}
 
 
 def _corrupt(job: tuple[np.ndarray, float, int]) -> np.ndarray:
@@ -145,14 +210,36 @@ def labelled_frames(folders: list[Path]) -> list[tuple[np.ndarray, np.ndarray, n
     return pairs
 
 
+def check_resumable(out: Path, plan: Plan) -> None:
+    """Refuse, before any work, an ``out`` whose adapt run was planned otherwise (another budget or frames):
+    resumed, the result would be neither run."""
+    ckpt = out / f"recovery-{CHECKPOINT}"
+    if ckpt.is_file() and load_checkpoint(ckpt).get("plan") != plan.key():
+        raise InputError(f"{out} holds an adapt run of another --minutes, frames or version; use a new --out")
+
+
+def split(recordings: list[list[np.ndarray]]) -> tuple[int, int]:
+    """(training frames, held-out frames) ``prepare`` will take from ``recordings``."""
+    train = held = 0
+    for r in recordings:
+        cut = len(r) - max(1, round(HOLDOUT * len(r)))
+        for k, f in enumerate(r):
+            if f.any():
+                train, held = (train + 1, held) if k < cut else (train, held + 1)
+    return train, held
+
+
 def prepare(
     recordings: list[list[np.ndarray]],
     scale: float,
     labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     workers: int = 2,
+    plan: Plan | None = None,
+    tick: Callable[[str, float], None] | None = None,
 ) -> AdaptData:
     """Split each recording by time (the last ``HOLDOUT`` held out), check the frames, and draw the
-    corrupted copies (in ``workers`` processes)."""
+    corrupted copies ``plan`` asks for (``VARIANTS`` per frame by default; in ``workers`` processes),
+    ``tick`` telling how far it is."""
     frames = [f for r in recordings for f in r]
     if len(frames) < MIN_FRAMES:
         raise InputError(f"adapt needs at least {MIN_FRAMES} clean frames, got {len(frames)}")
@@ -170,13 +257,30 @@ def prepare(
                 (data.train if k < cut else data.held).append(f)
                 (data.train_prev if k < cut else data.held_prev).append(r[k - 1] if k else f)
     train, held = data.train, data.held
-    jobs = [(f, scale, SEED + i) for i, f in enumerate(train * VARIANTS)]
+    variants = VARIANTS if plan is None else plan.variants
+    data.variants = variants
+    jobs = [(f, scale, SEED + i) for i, f in enumerate(train * variants)]
     held_jobs = [(f, scale, SEED + 500_000 + i) for i, f in enumerate(held * HELD_VARIANTS)]
-    seeds = range(REHEARSAL_SEED, REHEARSAL_SEED + min(REHEARSAL, 2 * len(train)))
+    rehearsal = min(REHEARSAL, 2 * len(train)) if plan is None else plan.rehearsal
+    seeds = range(REHEARSAL_SEED, REHEARSAL_SEED + rehearsal)
+    total, done = len(jobs) + len(held_jobs) + len(seeds), 0
+
+    def each(results: Iterator[Any]) -> list[Any]:
+        nonlocal done
+        got = []
+        for r in results:
+            got.append(r)
+            done += 1
+            if tick and done % 8 == 0:
+                tick(PREPARING, done / total)
+        return got
+
     with ProcessPoolExecutor(max_workers=max(workers, 1)) as ex:
-        data.bad = list(ex.map(_corrupt, jobs, chunksize=8))
-        data.held_bad = list(ex.map(_corrupt, held_jobs, chunksize=8))
-        data.rehearsal = list(ex.map(_generated, seeds, chunksize=8))
+        data.bad = each(ex.map(_corrupt, jobs, chunksize=8))
+        data.held_bad = each(ex.map(_corrupt, held_jobs, chunksize=8))
+        data.rehearsal = each(ex.map(_generated, seeds, chunksize=8))
+    if tick:
+        tick(PREPARING, 1.0)
     data.bad_clean = [j[0] for j in jobs]
     data.held_bad_clean = [j[0] for j in held_jobs]
     return data
@@ -254,7 +358,7 @@ class _Phase:
     model: torch.nn.Module
     task: str
     steps: int
-    cap: float  # seconds: it stops here whatever its steps
+    plan: dict[str, int]
     batch: int
     crop: tuple[int, int] | None
     clean_share: float
@@ -267,8 +371,8 @@ def _fit(
     device: torch.device,
     tick: Callable[[str, float], None] | None,
 ) -> dict:
-    """Fine-tune for ``phase.steps`` (over every resumed part; for at most ``phase.cap`` seconds),
-    checkpointing as it goes."""
+    """Fine-tune for ``phase.steps`` (over every resumed part), checkpointing as it goes. Time decides only
+    when a checkpoint is written, never what is trained."""
     ckpt = out / f"{phase.name}-{CHECKPOINT}"
     deterministic(SEED)
     model = phase.model.to(device)
@@ -277,8 +381,10 @@ def _fit(
     spent, steps, losses = 0.0, 0, []
     if ckpt.is_file():
         state = load_checkpoint(ckpt)
-        if state.get("planned") != phase.steps:  # resumed, it would be neither run (none: before 0.7.0)
-            raise InputError(f"{out} holds an adapt run of another --minutes or version; use a new --out")
+        if state.get("plan") != phase.plan:  # resumed, it would be neither run
+            raise InputError(
+                f"{out} holds an adapt run of another --minutes, frames or version; use a new --out"
+            )
         try:
             model.load_state_dict(state["model"])
             opt.load_state_dict(state["opt"])
@@ -294,7 +400,7 @@ def _fit(
     def elapsed() -> float:
         return spent + time.perf_counter() - t0
 
-    while steps < phase.steps and elapsed() < phase.cap:
+    while steps < phase.steps:
         b = pool.batch(rng, phase.batch, phase.crop, phase.clean_share)
         loss = loss_fn(model, phase.task, b, device)
         opt.zero_grad(set_to_none=True)
@@ -303,35 +409,52 @@ def _fit(
         steps += 1
         losses.append(float(loss.item()))
         if tick:
-            tick(phase.name, steps / phase.steps)
+            tick(f"training the {phase.name} model", steps / phase.steps)
         if time.perf_counter() - last > 30:  # a checkpoint every half minute
-            _save(ckpt, model, opt, rng, elapsed(), steps, losses, phase.steps)
+            _save(ckpt, model, opt, rng, elapsed(), steps, losses, phase.plan)
             last = time.perf_counter()
     total = elapsed()
-    _save(ckpt, model, opt, rng, total, steps, losses, phase.steps)
+    _save(ckpt, model, opt, rng, total, steps, losses, phase.plan)
     last_loss = float(np.mean(losses[-50:])) if losses else float("nan")
-    return {"steps": steps, "planned_steps": phase.steps, "stopped_at_time_cap": steps < phase.steps,
-            "seconds": round(total, 1), "final_loss": round(last_loss, 5)}  # fmt: skip
+    return {"steps": steps, "seconds": round(total, 1), "final_loss": round(last_loss, 5)}
 
 
 def _save(path: Path, model: torch.nn.Module, opt: torch.optim.Optimizer, rng: np.random.Generator,
-          seconds: float, steps: int, losses: list[float], planned: int) -> None:  # fmt: skip
+          seconds: float, steps: int, losses: list[float], plan: dict[str, int]) -> None:  # fmt: skip
     state = {"model": model.state_dict(), "opt": opt.state_dict(), "rng": rng.bit_generator.state,
-             "seconds": seconds, "steps": steps, "losses": losses, "planned": planned}  # fmt: skip
+             "seconds": seconds, "steps": steps, "losses": losses, "plan": plan}  # fmt: skip
     with atomic_file(path) as tmp:
         torch.save(state, tmp)
+
+
+WORSE_BY = 0.005  # a held-out figure this much lower (mask F1, detector recall) is worse, not noise
+
+
+def worse(held_out: dict[str, Any]) -> str | None:
+    """Why the adapted models are worse than the ones they started from on the held-out frames (lower mask
+    F1, or lower detector recall without fewer false alarms), or None."""
+    d, r = held_out["detector"], held_out["recovery"]
+    if r["adapted"]["mask_f1"] < r["shipped"]["mask_f1"] - WORSE_BY:
+        return f"mask F1 {r['shipped']['mask_f1']:.2f} -> {r['adapted']['mask_f1']:.2f}"
+    recall = (d["shipped"]["recall"], d["adapted"]["recall"])
+    alarms = (d["shipped"]["false_alarms"], d["adapted"]["false_alarms"])
+    if recall[1] < recall[0] - WORSE_BY and alarms[1] >= alarms[0]:
+        return f"detector recall {recall[0]:.1%} -> {recall[1]:.1%} at {alarms[1]:.1%} false alarms"
+    return None
 
 
 def adapt(
     data: AdaptData,
     out: Path,
-    minutes: float,
+    plan: Plan,
     false_alarm: float,
     command: str,
     weights: Path = WEIGHTS,
     tick: Callable[[str, float], None] | None = None,
 ) -> dict:
-    """Fine-tune, choose thresholds on the held-out frames, write ``out`` (weights, ONNX, card)."""
+    """Fine-tune as ``plan`` says, choose thresholds on the held-out frames, write ``out`` (weights, ONNX,
+    card). When the adapted models do worse on the held-out frames than the ones in ``weights``
+    (``worse``), ``out`` gets those instead and the card says why."""
     from d2sr.models.onnx.export import export
 
     t_start = time.perf_counter()
@@ -352,12 +475,14 @@ def adapt(
     before = _detector_figures(*scored(shipped_det), read_threshold(weights / f"{DETECTOR}.safetensors"))
     rec = rec.to(device)
     mask_before = recovered_sums(rec, _held_items(data), shipped_logit).result()
-    seconds = SHARE * minutes * 60
-    steps = max(1, round(STEPS_PER_SECOND * seconds))
     crop = _crop(data.train[0].shape, CROP)
-    phase = _Phase("recovery", rec, "recovery", steps, TIME_CAP * seconds, 8, crop, 0.3)
+    phase = _Phase("recovery", rec, "recovery", plan.steps, plan.key(), 8, crop, 0.3)
     fits = {phase.name: _fit(phase, data.pool(int(getattr(rec, "frames", 1))), out, device, tick)}
+    if tick:
+        tick(JUDGING, 0.0)
     logit, rule, _, mask_after = pick_as_recovered(rec, _held_items(data))
+    if tick:
+        tick(JUDGING, 0.5)
     det = MaskDetector(rec, logit)  # the detector: this model's mask, at the repair threshold just chosen
     clean_s, bad_s = scored(det)
     # Not below 0.5 (the model would repair REF_SHARE of the returns): 20-odd held-out clean frames do not
@@ -369,6 +494,8 @@ def adapt(
     save_model(rec, DEFAULT_RECOVERY, out / f"{DEFAULT_RECOVERY}.safetensors", mask_logit=logit)
     for name in (DETECTOR, DEFAULT_RECOVERY):
         export(out / f"{name}.safetensors", out / f"{name}.onnx")
+    if tick:
+        tick(JUDGING, 1.0)
 
     def mask_row(r: dict) -> dict:
         return {k: round(float(r[k]), 4) for k in ("rmse_cm", "mask_f1", "clean_changed")}
@@ -387,10 +514,16 @@ def adapt(
             "held_out": len(data.held),
             "labelled_frames": len(data.labelled),
             "depth_scale": data.scale,
-            "corrupted_copies": {"train": VARIANTS, "held_out": HELD_VARIANTS},
+            "corrupted_copies": {"train": data.variants, "held_out": HELD_VARIANTS},
         },
         "command": command,
         "started_from": str(weights),
+        "plan": {
+            "copies": plan.variants,
+            "generated": plan.rehearsal,
+            "steps": plan.steps,
+            "minutes_on_2_cores": round(plan.seconds / 60, 2),
+        },
         "training": fits,
         "held_out": held_out,
         "minutes": round((time.perf_counter() - t_start) / 60, 2),
@@ -411,8 +544,24 @@ def adapt(
         write_card(out / f"{name}.safetensors", model=name, summary=summary[name], data=card["data"],
                    command=command, training=fits, metrics=held_out[kind], date=card["date"],
                    limits=limits, adapt=card)  # fmt: skip
-    atomic_write(out / "adapt.json", json.dumps(card, indent=1) + "\n")
     ext = (".safetensors", ".onnx", ".card.json", ".md")
     files = [f"{n}{e}" for n in (DETECTOR, DEFAULT_RECOVERY) for e in ext]
+    why = worse(held_out)
+    card["kept"] = (
+        None if why is None else f"the models it started from ({weights}): the adapted ones did worse ({why})"
+    )
+    if why is not None:  # the folder holds what it started from, so --models OUT is never a step back
+        started = sorted(
+            f.name for n in (DETECTOR, DEFAULT_RECOVERY) for f in weights.glob(f"{n}.*") if f.is_file()
+        )
+        for f in started:
+            with atomic_file(out / f) as tmp:
+                shutil.copyfile(weights / f, tmp)
+        files = sorted(set(files) | set(started))
+    mine = listed(out)
+    for old in [p for n in (DETECTOR, DEFAULT_RECOVERY) for p in out.glob(f"{n}.*")]:
+        if old.name not in files and old.name in mine:  # what an earlier run here wrote and this one did not
+            old.unlink()
+    atomic_write(out / "adapt.json", json.dumps(card, indent=1) + "\n")
     record_manifest(out, [*files, "adapt.json"])
     return card

@@ -212,7 +212,8 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         sched = torch.optim.lr_scheduler.OneCycleLR(opt, cfg.lr, total_steps=cfg.steps, pct_start=0.05)
         rng = np.random.default_rng([cfg.seed, rank])
-        start, losses, before = 0, [], 0.0
+        start, before = 0, 0.0
+        losses: list[float] = []
         ckpt = out / CHECKPOINT
         if ckpt.is_file():
             state = load_checkpoint(ckpt)
@@ -229,13 +230,13 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                     raise InputError(
                         f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); use a new --out"
                     ) from None
-                before, losses = state.get("minutes"), state.get("losses")
-                if before is None or losses is None:  # a checkpoint from before these were kept in it
+                kept_minutes, kept_losses = state.get("minutes"), state.get("losses")
+                if kept_minutes is None or kept_losses is None:  # a checkpoint from before these were kept
                     done_card = read_card(out / f"{cfg.model}.safetensors").get("training", {})
                     old = out / "loss.json"
-                    before = float(done_card.get("minutes", 0.0))
-                    losses = json.loads(old.read_text()) if old.is_file() else []
-                losses = list(losses)
+                    kept_minutes = float(done_card.get("minutes", 0.0))
+                    kept_losses = json.loads(old.read_text()) if old.is_file() else []
+                before, losses = float(kept_minutes), [float(x) for x in kept_losses]
                 if rank == 0:
                     console.print(f"resuming from step {start}")
             elif rank == 0:
