@@ -223,3 +223,34 @@ def test_a_commit_killed_while_moving_the_users_files_back_is_finished(tmp_path,
     check_out(out, is_dir=True, overwrite=True)
     assert (out / "notes.txt").read_text() == "mine" and (out / "a.png").read_bytes() == b"new"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 300 kB file system (tmpfs; root only): skipped where it cannot be mounted."""
+    import subprocess
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", str(disk)], capture_output=True
+    ).returncode:
+        pytest.skip("cannot mount a small tmpfs here (not root)")
+    yield disk
+    subprocess.run(["umount", str(disk)], check=False)
+
+
+def test_a_full_disk_and_a_read_only_folder_are_one_line_and_leave_nothing(tmp_path, weights, small_disk):
+    import subprocess
+
+    src = _frames(tmp_path / "in", 6)
+    big = tmp_path / "big"
+    big.mkdir()
+    for i in range(6):
+        cv2.imwrite(str(big / f"{i:06d}.png"), room(i))  # 640x480: more than the disk holds
+    code, err = _recover(big, small_disk / "out", weights)
+    assert code == 2 and "disk is full" in err and len(err.strip().splitlines()) == 1, err
+    assert list(small_disk.iterdir()) == []
+    subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
+    code, err = _recover(src, small_disk / "out", weights)
+    assert code == 2 and "cannot write in" in err and len(err.strip().splitlines()) == 1, err
