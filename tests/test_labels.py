@@ -124,6 +124,14 @@ def test_label_cli(tmp_path):
     assert d.dtype == np.uint16 and d[10, 15] > 0
     info = json.loads((out / "label.json").read_text())
     assert info["method"] == "stats" and len(info["frames"]) == 5
+    # the frames labelled are kept beside their truth: adapt --labelled reads the folder and nothing else
+    from d2sr.train.adapt import labelled_frames
+
+    inter.rename(tmp_path / "moved")  # the path label.json records is provenance, not a path to follow
+    pairs = labelled_frames([out])
+    assert len(pairs) == 5 and all(np.array_equal(p[0], b) for p, b in zip(pairs, bad, strict=True))
+    assert pairs[0][2].dtype == bool and pairs[0][2][10, 15] and pairs[0][1][10, 15] > 0
+    (tmp_path / "moved").rename(inter)
     r = _cli(
         "label",
         "--clean",

@@ -149,8 +149,15 @@ def label(
         with atomic_dir(out) as tmp:
             folder = FrameFolder(tmp, LABELS)
             references = refs() if method == "paper" else None
-            for name, mask, gt in label_frames(lab, frames, scale, references):
-                folder.write(name, masks=mask, depth=gt)
+            kept: dict[str, np.ndarray] = {}
+
+            def keeping() -> Iterator[tuple[str, np.ndarray]]:
+                for name, depth in frames:
+                    kept[name] = depth
+                    yield name, depth
+
+            for name, mask, gt in label_frames(lab, keeping(), scale, references):
+                folder.write(name, masks=mask, depth=gt, interfered=kept.pop(name))
                 rows.append({"name": name, "mask_share": round(float((mask > 0).mean()), 5)})
                 bar.advance(task2)
             folder.finish(scale, ireader.intrinsics, rows)

@@ -1,9 +1,9 @@
 """The on-disk layout of the frame folders d2sr writes, in one place: a recording of a simulated room
 (``d2sr simulate``: per sensor ``depth/``, ``clean/``, ``masks/``), a run (``d2sr run``: per sensor
 ``depth/``, ``masks/``, and ``confidence/`` with ``--fill``), repaired frames (``d2sr recover``:
-``<name>.png`` and ``masks/``) and labels (``d2sr label``: ``depth/``, ``masks/``). Each stream is a PNG
-folder a reader opens again: 16-bit depth in the recording's scale, masks as uint8 (255 = interfered),
-and a ``meta.json`` once finished."""
+``<name>.png`` and ``masks/``) and labels (``d2sr label``: ``depth/``, ``masks/`` and the frames labelled,
+``interfered/``). Each stream is a PNG folder a reader opens again: 16-bit depth in the recording's scale,
+masks as uint8 (255 = interfered), and a ``meta.json`` once finished."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ RECORDING = {"depth": "depth", "clean": "clean", "masks": "masks"}
 RUN = {"depth": "depth", "masks": "masks"}
 RUN_FILLED = {"depth": "depth", "masks": "masks", "confidence": "confidence"}  # d2sr run --fill
 REPAIRED = {"depth": "", "masks": "masks"}
-LABELS = {"depth": "depth", "masks": "masks"}
+LABELS = {"depth": "depth", "masks": "masks", "interfered": "interfered"}  # the frames labelled, beside
 MASK_STREAMS = ("masks",)
 
 

@@ -46,6 +46,7 @@ from d2sr.contract import (
     detector_input,
 )
 from d2sr.errors import InputError
+from d2sr.frames.png import decode_png
 from d2sr.models.detector import MaskDetector
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.models.store import threshold as read_threshold
@@ -192,21 +193,27 @@ def _generated(seed: int) -> Synth:
 
 
 def labelled_frames(folders: list[Path]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(interfered frame, ground-truth depth, mask) of every frame in folders ``d2sr label`` wrote."""
+    """(interfered frame, ground-truth depth, mask) of every frame in folders ``d2sr label`` wrote: each
+    holds its interfered frames (``interfered/``) beside their truth, so nothing outside it is read."""
     from d2sr.frames import open_frames
+    from d2sr.frames.layout import LABELS, FrameFolder
 
     pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for folder in folders:
-        info = folder / "label.json"
-        if not info.is_file():
+        if not (folder / "label.json").is_file():
             raise InputError(f"{folder}: not a d2sr label output (no label.json)")
-        src = Path(json.loads(info.read_text())["interfered"])
-        frames = [f.depth for f in open_frames(src)]
-        gts = [f.depth for f in open_frames(folder / "depth")]
-        masks = [f.depth > 0 for f in open_frames(folder / "masks")]
-        if not len(frames) == len(gts) == len(masks):
-            raise InputError(f"{folder}: {len(frames)} interfered frames for {len(masks)} masks")
-        pairs += list(zip(frames, gts, masks, strict=True))
+        if not (folder / LABELS["interfered"]).is_dir():
+            raise InputError(f"{folder}: made by an older d2sr label (no interfered/); run d2sr label again")
+        frames = list(open_frames(folder / LABELS["interfered"]))
+        stored = FrameFolder(folder, LABELS, create=False)
+        for f in frames:
+            if not stored.has(f.name):
+                raise InputError(f"{folder}: frame {f.name} has no mask or truth beside it")
+            gt = decode_png(stored.path("depth", f.name).read_bytes(), f"{folder}/depth/{f.name}")
+            mask = decode_png(stored.path("masks", f.name).read_bytes(), f"{folder}/masks/{f.name}", np.uint8)
+            if not f.depth.shape == gt.shape == mask.shape:
+                raise InputError(f"{folder}: frame {f.name}'s truth or mask is of another size")
+            pairs.append((f.depth, gt, mask > 0))
     return pairs
 
 
