@@ -186,3 +186,50 @@ def test_the_api_on_random_arrays_and_options(weights, depth, options):
         except D2SRError:
             return
     assert r.depth.shape == np.asarray(depth).shape and r.mask.shape == r.depth.shape
+
+
+@FUZZ
+@given(st.binary(max_size=400), st.sampled_from(["rec.bag", "rec.npz", "rec.mcap", "rec.db3", "bag2"]))
+def test_random_bytes_as_any_recording(tmp_path, data, name):
+    path = tmp_path / name
+    if name == "bag2":  # a ROS 2 bag folder whose metadata is noise
+        path.mkdir(exist_ok=True)
+        (path / "metadata.yaml").write_bytes(data)
+        (path / "bag2_0.mcap").write_bytes(data[::-1])
+    else:
+        path.write_bytes(data)
+    try:
+        with open_frames(path) as reader:
+            for f in reader:
+                assert f.depth.ndim == 2
+    except D2SRError:
+        pass
+
+
+def test_a_bag_whose_depth_message_has_no_width_is_one_line(tmp_path, weights):
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    bag = tmp_path / "bag"
+    with Writer(bag, version=9) as w:
+        conn = w.add_connection("/camera/depth", "sensor_msgs/msg/Image", typestore=ts)
+        for i, (h, wd) in enumerate([(48, 64), (48, 0), (48, 64)]):
+            depth = room(i, (48, 64), 1000.0)[:h, :wd]
+            msg = T["sensor_msgs/msg/Image"](
+                header=T["std_msgs/msg/Header"](
+                    stamp=T["builtin_interfaces/msg/Time"](sec=i, nanosec=0), frame_id="c"
+                ),
+                height=h, width=wd, encoding="16UC1", is_bigendian=0, step=wd * 2,
+                data=np.ascontiguousarray(depth).view(np.uint8).reshape(-1),
+            )  # fmt: skip
+            w.write(conn, i * 10**9, ts.serialize_cdr(msg, "sensor_msgs/msg/Image"))
+    from helpers import d2sr_inprocess
+
+    models = ["--models", str(weights)]
+    for cmd in (["recover", *models], ["detect", *models], ["fill", "--active-frames", "2"]):
+        out = tmp_path / f"out-{cmd[0]}{'.csv' if cmd[0] == 'detect' else ''}"
+        code, _, err = d2sr_inprocess(cmd[0], str(bag), "--out", str(out), *cmd[1:])
+        assert code == 2 and "no pixels" in err and len(err.strip().splitlines()) == 1, (cmd, err)
+        assert not out.exists() and not list(tmp_path.glob(f".{out.name}*"))
