@@ -199,7 +199,7 @@ def test_a_commit_killed_between_its_renames_is_undone_by_the_next_run(tmp_path,
 
 
 def test_a_commit_killed_while_moving_the_users_files_back_is_finished(tmp_path, monkeypatch):
-    import d2sr.atomic as atomic
+    import d2sr.atomic.placing as atomic
 
     out = tmp_path / "out"
     out.mkdir()
