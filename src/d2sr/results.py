@@ -50,18 +50,47 @@ def _load(root: Path, rel: str) -> dict:
 
 
 def untraceable(root: Path = ROOT) -> tuple[list[str], int]:
-    """(the JSON files under ``docs/results`` that do not record both a command and a commit, how many
-    JSON files there are)."""
+    """(the JSON files under ``docs/results`` that do not record a command and a clean commit of this
+    repository's history, how many JSON files there are). A commit with ``+changes`` was made from an
+    uncommitted tree: no one can make it again."""
     files = sorted((root / "docs" / "results").rglob("*.json"))
-    bad = []
+    bad, commits = [], {}
     for f in files:
         try:
             data = json.loads(f.read_text())
         except (OSError, ValueError):
             data = None
-        if not (isinstance(data, dict) and data.get("command") and data.get("commit")):
+        ok = isinstance(data, dict) and bool(data.get("command")) and isinstance(data.get("commit"), str)
+        commit = str(data.get("commit", "")) if isinstance(data, dict) else ""
+        if not ok or not commit or commit.endswith("+changes"):
             bad.append(str(f.relative_to(root)))
-    return bad, len(files)
+        else:
+            commits[str(f.relative_to(root))] = commit
+    known = _in_history(root, set(commits.values()))
+    bad += [f for f, c in commits.items() if known is not None and c not in known]
+    return sorted(bad), len(files)
+
+
+def _in_history(root: Path, commits: set[str]) -> set[str] | None:
+    """The ones of ``commits`` that name a commit of the repository (``root``'s, else the checkout d2sr runs
+    from); None where there is no repository to ask."""
+    import subprocess
+
+    repo = root if (root / ".git").exists() else ROOT if (ROOT / ".git").exists() else None
+    if repo is None or not commits:
+        return None if repo is None else set()
+    asked = sorted(commits)
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(repo), "cat-file", "--batch-check"],
+            input="".join(f"{c}^{{commit}}\n" for c in asked),
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.splitlines()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return {c for c, line in zip(asked, out, strict=False) if not line.endswith("missing")}
 
 
 def pending(root: Path = ROOT) -> list[str]:
@@ -360,7 +389,7 @@ def check(root: Path = ROOT, weights: Path = WEIGHTS) -> list[str]:
     bad, _ = untraceable(root)
     waiting = pending(root)
     for f in sorted(set(bad) - set(waiting)):
-        problems.append(f"{f}: records no command and commit (its command writes them)")
+        problems.append(f"{f}: records no command and clean commit of this history (its command writes them)")
     for f in sorted(set(waiting) - set(bad)):
         problems.append(f"{PENDING}: {f} is traceable now or gone; take it off the list")
     readme = (root / "README.md").read_text()
