@@ -135,14 +135,16 @@ class AdaptData:
 
 @dataclass(frozen=True)
 class Costs:
-    """Seconds each part of adapt takes on the slower of the 2-core machines this project runs on (an AMD
-    EPYC VM, measured with ``lab``'s adapt profile at 640x480): what turns a budget into a plan."""
+    """Seconds each part of adapt takes on a 2-core machine at 640x480, what turns a budget into a plan
+    (``docs/research/adapt_costs.py`` on the shared D435 frames, 2-core Xeon, 2026-11-28: 7.0-9.2 steps a
+    second, 0.066-0.071 s a corrupted copy, 0.19-0.21 s a generated frame; loading, judging 20-40 held-out
+    copies and two exports 21-30 s, not growing with the copies at that size, so a small share a copy)."""
 
-    step: float = 1 / 11.0  # one training step (batch 8, crops up to ``CROP``); the other machine: 1/22
-    corrupt: float = 0.08  # one corrupted copy of a frame (two worker processes)
-    generate: float = 0.20  # one generated frame mixed in
-    judge: float = 0.35  # one held-out corrupted frame judged (scores, masks, threshold curves)
-    fixed: float = 25.0  # loading, two exports and the card
+    step: float = 1 / 9.0  # one training step (batch 8, crops up to ``CROP``)
+    corrupt: float = 0.07  # one corrupted copy of a frame (two worker processes)
+    generate: float = 0.2  # one generated frame mixed in
+    judge: float = 0.1  # one held-out corrupted copy judged (scores, masks, threshold curves)
+    fixed: float = 25.0  # loading, judging's fixed part, two exports and the cards
 
 
 COSTS = Costs()
