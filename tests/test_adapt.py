@@ -90,7 +90,7 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
     held = json.loads((models / "adapt.json").read_text())["held_out"]["recovery"]["adapted"]
     assert held["clean_changed"] <= 0.01 or held["mask_logit"] == MASK_LOGITS[0]
     assert "passes" in held["rule"]
-    assert "false alarms" in out and "--models" in out
+    assert "false alarms" in out and ("--models" in out or kept is not None)
     card = (models / "detector.md").read_text()  # a model card: what it is, data, command, metrics, date
     assert all(f"## {t}" in card for t in ("Data", "Command", "Metrics", "Date"))
     assert ("mask-detector" in card) == (kept is None)

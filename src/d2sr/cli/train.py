@@ -227,19 +227,17 @@ def adapt(
     with progress_bar() as bar:
         tasks: dict[str, TaskID] = {}
 
-        def tick(name: str, share: float) -> None:
+        def tick(name: str, done: int, total: int) -> None:
             if name not in tasks:
-                for t in tasks.values():
-                    bar.update(t, completed=1.0)
-                tasks[name] = bar.add_task(name, total=1.0)
-            bar.update(tasks[name], completed=share)
+                tasks[name] = bar.add_task(name, total=total)
+            bar.update(tasks[name], completed=done, total=total)
 
         data = prepare(recordings, scale, pairs, plan=plan, tick=tick)
         command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
         card = run(data, out, plan, false_alarm, command, models, tick)
     if card["kept"]:
-        warn(f"adapting did not help on your held-out frames ({card['kept'].split('adapted, ')[-1]}): "
-             f"{out} holds the models it started from")  # fmt: skip
+        warn(f"adapting did not help on your held-out frames ({card['kept']['why']}): {out} holds the models "
+             f"it started from, {card['kept']['models']}")  # fmt: skip
     d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
     console.print(
         f"held out ({card['data']['held_out']} clean frames, x{card['data']['corrupted_copies']['held_out']} "
@@ -247,4 +245,7 @@ def adapt(
         f"recall {d['shipped']['recall']:.1%} -> {d['adapted']['recall']:.1%}, "
         f"mask F1 {r['shipped']['mask_f1']:.2f} -> {r['adapted']['mask_f1']:.2f}"
     )
-    console.print(f"{out} in {(time.perf_counter() - t0) / 60:.1f} min; use it with --models {out}")
+    took = f"{out} in {(time.perf_counter() - t0) / 60:.1f} min (planned {plan.seconds / 60:.1f} on 2 cores)"
+    console.print(
+        f"{took}; use it with --models {out}" if not card["kept"] else f"{took}: the models it started from"
+    )

@@ -244,11 +244,11 @@ def prepare(
     labelled: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     workers: int = 2,
     plan: Plan | None = None,
-    tick: Callable[[str, float], None] | None = None,
+    tick: Callable[[str, int, int], None] | None = None,
 ) -> AdaptData:
     """Split each recording by time (the last ``HOLDOUT`` held out), check the frames, and draw the
     corrupted copies ``plan`` asks for (``VARIANTS`` per frame by default; in ``workers`` processes),
-    ``tick`` telling how far it is."""
+    ``tick(what, done, total)`` telling how far it is."""
     frames = [f for r in recordings for f in r]
     if len(frames) < MIN_FRAMES:
         raise InputError(f"adapt needs at least {MIN_FRAMES} clean frames, got {len(frames)}")
@@ -281,7 +281,7 @@ def prepare(
             got.append(r)
             done += 1
             if tick and done % 8 == 0:
-                tick(PREPARING, done / total)
+                tick(PREPARING, done, total)
         return got
 
     with ProcessPoolExecutor(max_workers=max(workers, 1)) as ex:
@@ -289,7 +289,7 @@ def prepare(
         data.held_bad = each(ex.map(_corrupt, held_jobs, chunksize=8))
         data.rehearsal = each(ex.map(_generated, seeds, chunksize=8))
     if tick:
-        tick(PREPARING, 1.0)
+        tick(PREPARING, total, total)
     data.bad_clean = [j[0] for j in jobs]
     data.held_bad_clean = [j[0] for j in held_jobs]
     return data
@@ -378,7 +378,7 @@ def _fit(
     pool: Pool,
     out: Path,
     device: torch.device,
-    tick: Callable[[str, float], None] | None,
+    tick: Callable[[str, int, int], None] | None,
 ) -> dict:
     """Fine-tune for ``phase.steps`` (over every resumed part), checkpointing as it goes. Time decides only
     when a checkpoint is written, never what is trained."""
@@ -418,7 +418,7 @@ def _fit(
         steps += 1
         losses.append(float(loss.item()))
         if tick:
-            tick(f"training the {phase.name} model", steps / phase.steps)
+            tick(f"training the {phase.name} model", steps, phase.steps)
         if time.perf_counter() - last > 30:  # a checkpoint every half minute
             _save(ckpt, model, opt, rng, elapsed(), steps, losses, phase.plan)
             last = time.perf_counter()
@@ -459,7 +459,7 @@ def adapt(
     false_alarm: float,
     command: str,
     weights: Path = WEIGHTS,
-    tick: Callable[[str, float], None] | None = None,
+    tick: Callable[[str, int, int], None] | None = None,
 ) -> dict:
     """Fine-tune as ``plan`` says, choose thresholds on the held-out frames, write ``out`` (weights, ONNX,
     card). When the adapted models do worse on the held-out frames than the ones in ``weights``
@@ -488,10 +488,10 @@ def adapt(
     phase = _Phase("recovery", rec, "recovery", plan.steps, plan.key(), 8, crop, 0.3)
     fits = {phase.name: _fit(phase, data.pool(int(getattr(rec, "frames", 1))), out, device, tick)}
     if tick:
-        tick(JUDGING, 0.0)
+        tick(JUDGING, 0, 3)
     logit, rule, _, mask_after = pick_as_recovered(rec, _held_items(data))
     if tick:
-        tick(JUDGING, 0.5)
+        tick(JUDGING, 1, 3)
     det = MaskDetector(rec, logit)  # the detector: this model's mask, at the repair threshold just chosen
     clean_s, bad_s = scored(det)
     # Not below 0.5 (the model would repair REF_SHARE of the returns): 20-odd held-out clean frames do not
@@ -504,7 +504,7 @@ def adapt(
     for name in (DETECTOR, DEFAULT_RECOVERY):
         export(out / f"{name}.safetensors", out / f"{name}.onnx")
     if tick:
-        tick(JUDGING, 1.0)
+        tick(JUDGING, 3, 3)
 
     def mask_row(r: dict) -> dict:
         return {k: round(float(r[k]), 4) for k in ("rmse_cm", "mask_f1", "clean_changed")}
@@ -556,9 +556,7 @@ def adapt(
     ext = (".safetensors", ".onnx", ".card.json", ".md")
     files = [f"{n}{e}" for n in (DETECTOR, DEFAULT_RECOVERY) for e in ext]
     why = worse(held_out)
-    card["kept"] = (
-        None if why is None else f"the models it started from ({weights}): the adapted ones did worse ({why})"
-    )
+    card["kept"] = None if why is None else {"models": str(weights), "why": why}
     if why is not None:  # the folder holds what it started from, so --models OUT is never a step back
         started = sorted(
             f.name for n in (DETECTOR, DEFAULT_RECOVERY) for f in weights.glob(f"{n}.*") if f.is_file()
