@@ -254,3 +254,48 @@ def test_a_full_disk_and_a_read_only_folder_are_one_line_and_leave_nothing(tmp_p
     subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
     code, err = _recover(src, small_disk / "out", weights)
     assert code == 2 and "cannot write in" in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["recover", "in", "--prime", "-1", "--out", "o"],
+        ["recover", "in"],
+        ["recover", "in", "--out", "o", "--bogus"],
+        ["detect", "in", "--out", "x.csv", "--threshold", "abc"],
+        ["nosuch"],
+    ],
+)
+def test_a_usage_error_is_one_line(args):
+    code, _, err = d2sr_inprocess(*args)
+    assert code == 2 and err.startswith("d2sr: error: ") and len(err.strip().splitlines()) == 1, err
+    assert "--help" in err
+
+
+def test_a_pipe_is_no_recording(tmp_path):
+    for name in ("rec.npz", "rec.bag"):
+        os.mkfifo(tmp_path / name)
+        code, _, err = d2sr_inprocess("detect", str(tmp_path / name), "--out", str(tmp_path / "x.csv"))
+        assert code == 2 and "not a regular file" in err, err  # refused at once, not read forever
+    bag = tmp_path / "bag2"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    os.mkfifo(bag / "bag2_0.mcap")
+    code, _, err = d2sr_inprocess("detect", str(bag), "--out", str(tmp_path / "y.csv"))
+    assert code == 2 and "not a regular file" in err, err
+
+
+def test_an_npz_whose_header_claims_a_huge_frame_is_refused_before_reading(tmp_path):
+    import io
+    import zipfile
+
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<u2", "fortran_order": False, "shape": (1, 60000, 60000)}
+    )
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("depth.npy", header.getvalue() + bytes(1000))
+    from d2sr.frames import open_frames
+
+    with pytest.raises(InputError, match="60000x60000"):
+        open_frames(tmp_path / "bomb.npz")

@@ -103,7 +103,15 @@ def main() -> None:
     with contextlib.suppress(ValueError):  # SIGTERM unwinds like Ctrl-C: temporaries go, commits finish
         signal.signal(signal.SIGTERM, _terminated)
     try:
-        app()
+        code = app(standalone_mode=False)
+    except typer.TyperException as exc:  # click's usage errors (typer vendors click): one line too
+        ctx = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:  # `d2sr` or a group alone
+            print(ctx.get_help())
+            raise SystemExit(2) from None
+        _fail(f"{exc.format_message()} (see {ctx.command_path if ctx else 'd2sr'} --help)")
+    except typer.Abort:
+        _fail("aborted")
     except D2SRError as exc:
         _fail(str(exc))
     except ModuleNotFoundError as exc:
@@ -118,12 +126,12 @@ def main() -> None:
     except OSError as exc:  # the system refused (no permission, a full disk, a device gone)
         where = f"{exc.filename}: " if exc.filename else ""
         _fail(f"{where}{exc.strerror or type(exc).__name__}")
-    except (SystemExit, typer.Exit, typer.Abort):
-        raise
     except Exception as exc:
         _unforeseen(exc)
     finally:
         flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited
+    if isinstance(code, int) and code:  # typer.Exit(code), outside standalone mode, comes back as a value
+        raise SystemExit(code)
 
 
 def _terminated(signum: int, frame: object) -> None:

@@ -4,19 +4,17 @@ from __future__ import annotations
 
 import shlex
 import sys
-import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import TaskID
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
 from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.train.config import VALIDATION_FRAMES
-from d2sr.ui import console, warn
+from d2sr.ui import console
 
 __all__ = ["adapt", "export", "threshold", "train"]
 
@@ -200,11 +198,8 @@ def adapt(
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
     from d2sr.frames.checks import checked_counts, open_input
-    from d2sr.train.adapt import Plan, check_resumable, labelled_frames, prepare, split
-    from d2sr.train.adapt import adapt as run
-    from d2sr.ui import progress_bar
+    from d2sr.train.adapt import adapt_recordings
 
-    t0 = time.perf_counter()
     if not minutes > 0:
         raise ConfigError(f"--minutes must be > 0, got {minutes}")
     check_probability(false_alarm, "--false-alarm")
@@ -216,36 +211,7 @@ def adapt(
         scale = s
         recordings.append([f.depth for f in checked_counts(reader, s, "clean frame")])
     assert scale is not None
-    pairs = labelled_frames(labelled or [])
-    plan = Plan.of(minutes, *split(recordings))
-    check_resumable(out, plan)
-    note = "" if plan.seconds <= minutes * 60 * 1.05 else f" (over --minutes {minutes:g}: so many frames)"
-    console.print(
-        f"plan: {plan.variants} corrupted copies of each frame, {plan.rehearsal} generated frames, "
-        f"{plan.steps} training steps; about {plan.seconds / 60:.1f} min on 2 cores{note}"
-    )
-    with progress_bar() as bar:
-        tasks: dict[str, TaskID] = {}
-
-        def tick(name: str, done: int, total: int) -> None:
-            if name not in tasks:
-                tasks[name] = bar.add_task(name, total=total)
-            bar.update(tasks[name], completed=done, total=total)
-
-        data = prepare(recordings, scale, pairs, plan=plan, tick=tick)
-        command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-        card = run(data, out, plan, false_alarm, command, models, tick)
-    if card["kept"]:
-        warn(f"adapting did not help on your held-out frames ({card['kept']['why']}): {out} holds the models "
-             f"it started from, {card['kept']['models']}")  # fmt: skip
-    d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
-    console.print(
-        f"held out ({card['data']['held_out']} clean frames, x{card['data']['corrupted_copies']['held_out']} "
-        f"corrupted): false alarms {d['shipped']['false_alarms']:.1%} -> {d['adapted']['false_alarms']:.1%}, "
-        f"recall {d['shipped']['recall']:.1%} -> {d['adapted']['recall']:.1%}, "
-        f"mask F1 {r['shipped']['mask_f1']:.2f} -> {r['adapted']['mask_f1']:.2f}"
-    )
-    took = f"{out} in {(time.perf_counter() - t0) / 60:.1f} min (planned {plan.seconds / 60:.1f} on 2 cores)"
-    console.print(
-        f"{took}; use it with --models {out}" if not card["kept"] else f"{took}: the models it started from"
+    command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    adapt_recordings(
+        recordings, scale, out, minutes, false_alarm, command, labelled or [], models, console.print
     )

@@ -72,8 +72,15 @@ def detect_format(path: Path) -> str:
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file or folder")
+    if not (path.is_dir() or path.is_file()):  # a pipe or a device would be read forever
+        raise InputError(f"{path}: not a regular file or folder (a pipe or a device?)")
     if path.is_dir():
-        return "ros2" if (path / "metadata.yaml").is_file() else "png"
+        if (path / "metadata.yaml").is_file():
+            pipes = [p.name for p in path.iterdir() if p.suffix in (".db3", ".mcap") and not p.is_file()]
+            if pipes:
+                raise InputError(f"{path / pipes[0]}: not a regular file (a pipe or a device?)")
+            return "ros2"
+        return "png"
     suffix = path.suffix.lower()
     if suffix == ".npz":
         return "npz"

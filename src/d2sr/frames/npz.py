@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,6 +14,7 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, check_names, check_scale
+from d2sr.frames.encoded import check_size
 
 __all__ = ["NpzReader", "NpzWriter"]
 
@@ -21,6 +23,7 @@ class NpzReader(Reader):
     def __init__(self, path: Path) -> None:
         super().__init__(path)
         try:
+            _check_header(self.path)
             with np.load(self.path, allow_pickle=False) as z:
                 if "depth" not in z.files:
                     raise InputError(
@@ -78,6 +81,32 @@ class NpzReader(Reader):
 
     def sample(self, k: int) -> list[Frame]:
         return [self._frame(int(i)) for i in np.unique(np.linspace(0, len(self) - 1, k).round())]
+
+
+def _check_header(path: Path) -> None:
+    """The ``depth`` array's shape, from its header before it is read (an npz is read whole): each frame
+    within the pixel budget, all of them within half this machine's memory."""
+    with zipfile.ZipFile(path) as z:
+        if "depth.npy" not in z.namelist():
+            return  # the reader says what is missing
+        with z.open("depth.npy") as fh:
+            version = np.lib.format.read_magic(fh)
+            read = (
+                np.lib.format.read_array_header_1_0
+                if version == (1, 0)
+                else np.lib.format.read_array_header_2_0
+            )
+            shape, _, dtype = read(fh)
+    if len(shape) in (2, 3) and all(isinstance(n, int) for n in shape):
+        h, w = shape[-2:]
+        check_size(h, w, f"{path}: 'depth'")
+        total = int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        if total > memory // 2:
+            raise InputError(
+                f"{path}: 'depth' holds {total / 2**30:.1f} GiB, over half this machine's memory (an npz is "
+                "read whole); write it as a PNG folder or a bag"
+            )
 
 
 class NpzWriter(Writer):

@@ -50,7 +50,7 @@ def colour_frames(folder: Path) -> list[Path]:
     """The colour images of ``folder`` in name order."""
     if not folder.is_dir():
         raise InputError(f"--rgb {folder}: no such folder")
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
     if not files:
         raise InputError(f"--rgb {folder}: no .png or .jpg colour frames")
     return files

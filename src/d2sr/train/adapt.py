@@ -62,6 +62,7 @@ __all__ = [
     "Costs",
     "Plan",
     "adapt",
+    "adapt_recordings",
     "check_resumable",
     "choose_threshold",
     "prepare",
@@ -571,4 +572,50 @@ def adapt(
             old.unlink()
     atomic_write(out / "adapt.json", json.dumps(card, indent=1) + "\n")
     record_manifest(out, [*files, "adapt.json"])
+    return card
+
+
+def adapt_recordings(
+    recordings: list[list[np.ndarray]],
+    scale: float,
+    out: Path,
+    minutes: float,
+    false_alarm: float,
+    command: str,
+    labelled: list[Path],
+    weights: Path = WEIGHTS,
+    say: Callable[[str], object] = print,
+) -> dict:
+    """``d2sr adapt`` from clean recordings (uint16 frames, ``scale`` units per metre): plan the budget, say
+    the plan, prepare, fit and judge with a progress bar, say the held-out figures (and a kept start)."""
+    from d2sr.ui import progress_bar, warn
+
+    t0 = time.perf_counter()
+    pairs = labelled_frames(labelled)
+    plan = Plan.of(minutes, *split(recordings))
+    check_resumable(out, plan)
+    over = "" if plan.seconds <= minutes * 60 * 1.05 else f" (over --minutes {minutes:g}: so many frames)"
+    say(f"plan: {plan.variants} corrupted copies of each frame, {plan.rehearsal} generated frames, "
+        f"{plan.steps} training steps; about {plan.seconds / 60:.1f} min on 2 cores{over}")  # fmt: skip
+    with progress_bar() as bar:
+        tasks: dict[str, Any] = {}
+
+        def tick(name: str, done: int, total: int) -> None:
+            if name not in tasks:
+                tasks[name] = bar.add_task(name, total=total)
+            bar.update(tasks[name], completed=done, total=total)
+
+        data = prepare(recordings, scale, pairs, plan=plan, tick=tick)
+        card = adapt(data, out, plan, false_alarm, command, weights, tick)
+    kept = card["kept"]
+    if kept:
+        warn(f"adapting did not help on your held-out frames ({kept['why']}): {out} holds the models it "
+             f"started from, {kept['models']}")  # fmt: skip
+    d, r = card["held_out"]["detector"], card["held_out"]["recovery"]
+    say(f"held out ({card['data']['held_out']} clean frames, x{HELD_VARIANTS} corrupted): false alarms "
+        f"{d['shipped']['false_alarms']:.1%} -> {d['adapted']['false_alarms']:.1%}, recall "
+        f"{d['shipped']['recall']:.1%} -> {d['adapted']['recall']:.1%}, "
+        f"mask F1 {r['shipped']['mask_f1']:.2f} -> {r['adapted']['mask_f1']:.2f}")  # fmt: skip
+    took = f"{out} in {(time.perf_counter() - t0) / 60:.1f} min (planned {plan.seconds / 60:.1f} on 2 cores)"
+    say(f"{took}: the models it started from" if kept else f"{took}; use it with --models {out}")
     return card
