@@ -21,7 +21,7 @@ from d2sr.frames.encoded import check_encoded
 from d2sr.frames.png import decode_png, read_meta
 from helpers import room
 
-FUZZ = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 def _png(w: int, h: int, depth: int = 16, colour: int = 0, body: bytes = b"") -> bytes:

@@ -1,7 +1,7 @@
 """SIGKILL at random moments of ``d2sr recover`` (a folder replaced with --overwrite, the user's own files
 in it) and of a bag write; after each kill, the next run on the same output completes. Nothing of the
 user's is lost, and no temporary is left beside the output. ``D2SR_KILLS`` sets the kills of each kind
-(default 5; the issue's bar is 20)."""
+(default 3; the issue's bar is 20)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import pytest
 
 from helpers import room
 
-KILLS = int(os.environ.get("D2SR_KILLS", "5"))
+KILLS = int(os.environ.get("D2SR_KILLS", "3"))
 
 
 def _start(*args: str) -> subprocess.Popen:
