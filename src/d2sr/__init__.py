@@ -19,7 +19,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.10.0"
+from d2sr.version import __version__
 
 _WHERE = {
     "repair": "d2sr.runtime.pipeline",

@@ -21,6 +21,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from d2sr.contract import WEIGHTS
+from d2sr.version import __version__
 
 __all__ = ["KEYS", "MADE_BY", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
 
@@ -111,8 +112,6 @@ def record(
     """The provenance of a run (``KEYS``): ``argv`` (default ``sys.argv``) as a command, the commit, the
     version, ``models`` hashed (``model_hashes``, in ``folder``), ``data`` (a set's name and status), the
     CPU and the UTC date."""
-    from d2sr import __version__
-
     return {
         "command": command_line(argv),
         "commit": git_commit(),
@@ -133,8 +132,6 @@ def stamp(
 ) -> dict:
     """``result`` headed by ``made_by`` and its provenance (``record``); a ``data`` key of the result's own
     replaces the record's. Any other key the record writes is refused: it would hide the provenance."""
-    from d2sr import __version__
-
     head = record(models=models, folder=folder, data=data)
     clash = set(result) & (set(head) - {"data"})
     if clash:

@@ -12,10 +12,10 @@ from typing import Annotated, NoReturn
 
 import typer
 
-from d2sr import __version__
 from d2sr.cli import bench, data, desync, evaluate, fill, results, ros2, run, show, stages, train, trigger
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
+from d2sr.version import __version__
 
 __all__ = ["app", "main"]
 

@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from d2sr import __version__
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.errors import InputError
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
+from d2sr.version import __version__
 
 __all__ = [
     "COMPARED",

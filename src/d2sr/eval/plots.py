@@ -12,10 +12,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from d2sr import __version__
 from d2sr.atomic import atomic_file
 from d2sr.eval.desync import FPS, SENSORS, CellResult
 from d2sr.sim.calibrate import BINS, SequenceStats
+from d2sr.version import __version__
 
 __all__ = [
     "calibration",
