@@ -12,7 +12,7 @@ import threading
 from collections.abc import Iterator
 from pathlib import Path
 
-from d2sr.atomic.manifest import empty_dirs, files_under, made, prune, record_manifest
+from d2sr.atomic.manifest import empty_dirs, files_under, listed, made, prune, record_manifest
 from d2sr.atomic.naming import MANIFEST, absolute, alive, journal, ours, temporaries, token
 from d2sr.atomic.oserrors import writing
 from d2sr.errors import OutputError
@@ -58,6 +58,7 @@ def tidy(path: Path) -> None:
     if not path.parent.is_dir():
         return
     _resume_commit(path)
+    left = []
     for tmp in temporaries(path):
         kind = ours(tmp)
         if kind is None or alive(kind[1]):
@@ -67,7 +68,8 @@ def tidy(path: Path) -> None:
                 discard(tmp)
             elif tmp.is_dir() and not tmp.is_symlink():
                 prune(tmp)  # an old folder left empty; one that holds files stays
-    left = [t for t in temporaries(path) if (k := ours(t)) and k[0] == "old" and not alive(k[1])]
+        if kind[0] == "old" and tmp.exists():
+            left.append(tmp)
     if left:
         from d2sr.ui import warn
 
@@ -138,7 +140,7 @@ def _write_journal(path: Path, entries: dict[str, str]) -> None:
 def _settle(path: Path, old: Path) -> None:
     """The second half of a folder commit: the user's files and empty folders go back from ``old`` into
     the new ``path``; what d2sr made there goes; ``old`` goes once empty."""
-    mine = made(old) if (old / MANIFEST).is_file() else set()
+    mine = listed(old)
     for f in [f for f in files_under(old) if f not in mine and f != MANIFEST]:
         if (path / f).exists() or (path / f).is_symlink():
             continue  # cannot happen after commit's clash check; never overwrite, leave it in old

@@ -19,7 +19,7 @@ import numpy as np
 
 from d2sr.atomic import commit, discard, temp_for
 from d2sr.errors import InputError
-from d2sr.frames.encoded import MAX_PIXELS, check_size
+from d2sr.frames.encoded import MAX_PIXELS, check_pixels
 
 __all__ = [
     "MAX_PIXELS",
@@ -82,7 +82,7 @@ def check_depth(depth: np.ndarray, where: str) -> np.ndarray:
     if depth.ndim != 2:
         shape = "x".join(map(str, depth.shape))
         raise InputError(f"{where}: depth must be a single-channel 2-D image, got shape {shape}")
-    check_size(depth.shape[0], depth.shape[1], where)
+    check_pixels(depth.shape[0], depth.shape[1], where)
     if depth.dtype == np.float32:
         if not np.isfinite(depth).all():
             raise InputError(f"{where}: depth has NaN or infinite values")
@@ -191,10 +191,7 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
     frames that look like an intensity image, sizes far from the models' training."""
     warnings, meds, empty, textured = [], [], [], []
     for f in frames:
-        check_depth(f.depth, f"frame {f.name}")
-        if f.depth.size > MAX_PIXELS:
-            h, w = f.depth.shape
-            raise InputError(f"frame {f.name} is {w}x{h}; d2sr takes frames up to {MAX_PIXELS // 10**6} MP")
+        check_depth(f.depth, f"frame {f.name}")  # its size too (``check_pixels``)
         med = _median_m(f.depth, scale)
         if med is None:
             empty.append(f.name)

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from d2sr.errors import InputError
-from d2sr.frames.encoded import check_encoded, check_size
+from d2sr.frames.encoded import check_encoded, check_pixels
 
 __all__ = ["COLOUR_ENCODINGS", "PAIR_NS", "decode_colour"]
 
@@ -31,7 +31,7 @@ def decode_colour(msg: Any, where: str, compressed: bool = False) -> np.ndarray:
     if channels is None:
         raise InputError(f"{where}: colour encoding {str(msg.encoding)!r} is not bgr8, rgb8 or mono8")
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
-    check_size(h, w, where)
+    check_pixels(h, w, where)
     data = np.asarray(msg.data, np.uint8)
     row = w * channels
     if step < row or data.size < step * h:

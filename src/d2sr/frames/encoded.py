@@ -7,7 +7,7 @@ import struct
 
 from d2sr.errors import InputError
 
-__all__ = ["check_encoded", "check_size", "encoded_size"]
+__all__ = ["check_encoded", "check_pixels", "encoded_size"]
 
 MAX_PIXELS = 4096 * 4096  # about 1.6 GB of working memory for a frame; larger frames are refused
 _PNG = b"\x89PNG\r\n\x1a\n"
@@ -16,7 +16,7 @@ _JPEG = b"\xff\xd8"
 _SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
 
 
-def check_size(height: int, width: int, where: str) -> None:
+def check_pixels(height: int, width: int, where: str) -> None:
     """An image of ``width`` x ``height`` is one d2sr takes: both sides above zero, at most MAX_PIXELS."""
     if height <= 0 or width <= 0:
         raise InputError(f"{where}: an image of {width}x{height} pixels has no pixels")
@@ -62,5 +62,5 @@ def check_encoded(data: bytes | memoryview, where: str, what: str = "PNG") -> tu
     size = encoded_size(data)
     if size is None:
         raise InputError(f"{where}: corrupt {what} (no readable image header)")
-    check_size(size[0], size[1], where)
+    check_pixels(size[0], size[1], where)
     return size

@@ -14,7 +14,7 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_depth, check_names, check_scale
-from d2sr.frames.encoded import check_size
+from d2sr.frames.encoded import check_pixels
 
 __all__ = ["NpzReader", "NpzWriter"]
 
@@ -99,7 +99,7 @@ def _check_header(path: Path) -> None:
             shape, _, dtype = read(fh)
     if len(shape) in (2, 3) and all(isinstance(n, int) for n in shape):
         h, w = shape[-2:]
-        check_size(h, w, f"{path}: 'depth'")
+        check_pixels(h, w, f"{path}: 'depth'")
         total = int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
         if total > memory // 2:

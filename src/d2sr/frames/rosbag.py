@@ -25,7 +25,7 @@ from d2sr.atomic import CALLER, discard
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
 from d2sr.frames.colour import decode_colour
-from d2sr.frames.encoded import check_size
+from d2sr.frames.encoded import check_pixels
 from d2sr.frames.png import decode_png, encode_png
 
 __all__ = ["BagColours", "BagReader", "Ros1Writer", "Ros2Writer", "bag_topics", "is_ros2_bag"]
@@ -91,7 +91,7 @@ def decode_image(msg: Any, msgtype: str, where: str) -> tuple[np.ndarray, float]
     dt = {"16UC1": np.uint16, "mono16": np.uint16, "32FC1": np.float32}.get(enc)
     if dt is None:
         raise InputError(f"{where}: image encoding {enc!r} is not depth (16UC1 or 32FC1)")
-    check_size(h, w, where)
+    check_pixels(h, w, where)
     data = np.asarray(msg.data, dtype=np.uint8)
     item = np.dtype(dt).itemsize
     if step < w * item or data.size < h * step:

@@ -127,7 +127,7 @@ class RunFolder:
             if len(row) != len(LOG_COLUMNS):
                 break
             rec = dict(zip(LOG_COLUMNS, row, strict=True))
-            if not rec["sensor"].isdigit() or int(rec["sensor"]) > MAX_SENSORS:
+            if not rec["sensor"].isdigit() or int(rec["sensor"]) >= MAX_SENSORS:
                 break
             if not self._folder(int(rec["sensor"]), create=False).has(rec["frame"]):
                 break

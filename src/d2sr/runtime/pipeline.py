@@ -23,7 +23,7 @@ from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES,
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe, to_units
-from d2sr.frames.encoded import check_size
+from d2sr.frames.encoded import check_pixels
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
@@ -195,7 +195,7 @@ def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.n
         raise InputError(f"{name}: depth must be a numpy array, got {type(depth).__name__}")
     if depth.ndim != 2:
         raise InputError(f"{name}: depth must be a 2-D image, got shape {'x'.join(map(str, depth.shape))}")
-    check_size(depth.shape[0], depth.shape[1], name)  # every frame: a stream may change size
+    check_pixels(depth.shape[0], depth.shape[1], name)  # every frame: a stream may change size
     if depth.dtype.kind == "f":
         check_types(depth_scale=depth_scale)
         if depth_scale not in (None, 1, 1.0):

@@ -30,6 +30,7 @@ from d2sr.frames.base import check_name
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
 from d2sr.frames.png import decode_png
 from d2sr.runtime.loop import Result
+from d2sr.runtime.output import MAX_SENSORS
 
 __all__ = ["LIVE", "RerunLog", "view"]
 
@@ -206,9 +207,6 @@ class _Logged:
     truth: bool | None
 
 
-_SENSORS = 64  # sensors a run folder holds
-
-
 def _row(r: dict[str, str | None], line: int, run: Path) -> _Logged:
     """A log line as values, or an InputError naming the line (a run folder is data: nothing is trusted)."""
 
@@ -223,8 +221,8 @@ def _row(r: dict[str, str | None], line: int, run: Path) -> _Logged:
 
     try:
         sensor = int(r.get("sensor") or "")
-        if not 0 <= sensor < _SENSORS:
-            raise ValueError(f"line {line}: sensor {sensor} (a run holds sensors 0..{_SENSORS - 1})")
+        if not 0 <= sensor < MAX_SENSORS:
+            raise ValueError(f"line {line}: sensor {sensor} (a run holds sensors 0..{MAX_SENSORS - 1})")
         frame = check_name(r.get("frame"), f"{run}/log.csv line {line}")
         t, score, share = num("time_s"), num("score"), num("repaired_share")
         return _Logged(
