@@ -11,8 +11,9 @@ import pytest
 
 from d2sr.errors import ConfigError, InputError
 from d2sr.eval.labels import evaluate, sim_case
-from d2sr.labels import STAT_FIELDS, Labeller, clean_stats, f1, sort_frames, stack_stats
-from d2sr.reference import READ
+from d2sr.scene.labeller import Labeller, f1
+from d2sr.scene.reference import READ
+from d2sr.scene.stats import STAT_FIELDS, clean_stats, sort_frames, stack_stats
 from helpers import d2sr as _cli
 
 
@@ -220,7 +221,7 @@ def test_sort_frames_sorts_each_pixel_as_numpy_does(n):
 def test_window_counts_decide_as_the_blurred_share_would(share):
     """``Labeller.mask`` counts a 7x7 window's raw pixels in integers; from ``count_from(share, 7)`` on, the
     count reaches ``share`` exactly where ``cv2.blur``'s float share does (borders included)."""
-    from d2sr.labels import count_from
+    from d2sr.scene.stats import count_from
 
     rng = np.random.default_rng(7)
     raw = rng.random((60, 80)) < rng.random((60, 80))  # densities from empty to full
@@ -232,7 +233,7 @@ def test_window_counts_decide_as_the_blurred_share_would(share):
 def test_blur_shares_are_what_cv2_blur_gives_for_each_count():
     """A window's integer count looked up in ``blur_shares`` is cv2.blur's float share, bit for bit (the
     scene reference's shifted windows divide by it)."""
-    from d2sr.labels import blur_shares
+    from d2sr.scene.stats import blur_shares
 
     rng = np.random.default_rng(8)
     for side in (7, 15):

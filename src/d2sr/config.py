@@ -20,13 +20,17 @@ class Settings(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
+    def __init__(self, **values: Any) -> None:
+        # d2sr's own error, one line, however the settings are built (``make`` says the same).
+        try:
+            super().__init__(**values)
+        except ValidationError as exc:
+            raise ConfigError(one_line(exc, type(self).__name__)) from None
+
     @classmethod
     def make(cls: type[M], **values: Any) -> M:
         """Build and validate, raising ConfigError (one line) instead of pydantic's ValidationError."""
-        try:
-            return cls(**values)
-        except ValidationError as exc:
-            raise ConfigError(one_line(exc, cls.__name__)) from None
+        return cls(**values)
 
 
 def one_line(exc: ValidationError, what: str) -> str:

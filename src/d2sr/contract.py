@@ -14,12 +14,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
 
 import cv2
 import numpy as np
 
 from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import crop_around
+from d2sr.scene.evidence import SceneRepair
 
 __all__ = [
     "AGREE_M",
@@ -245,18 +246,6 @@ def scale_at(scale: float | np.ndarray, i: int) -> float:
     return float(scale) if isinstance(scale, (int, float)) else float(np.asarray(scale)[i])
 
 
-def crop_around(where: np.ndarray, margin: int) -> tuple[slice, slice] | None:
-    """The rows and columns of a 2-D bool array's True pixels, widened by ``margin`` (cut at the image's
-    top and left; slicing cuts the rest): the crop a filter of that reach needs. None when none is True."""
-    rows, cols = np.flatnonzero(where.any(1)), np.flatnonzero(where.any(0))
-    if rows.size == 0:
-        return None
-    return (
-        slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
-        slice(max(cols[0] - margin, 0), cols[-1] + margin + 1),
-    )
-
-
 def guard(metres: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Do no harm: (pred, mask) limited to changes that matter and agree with the frame's trusted pixels.
 
@@ -358,14 +347,6 @@ def recover_passes(
         if not found:
             break
     return pred, mask
-
-
-class SceneRepair(NamedTuple):
-    """What a still sensor's scene knows of a frame (``SceneReference.repair``), beside the model's repair."""
-
-    fill: np.ndarray  # bool: pixels whose depth the scene knows within their own noise
-    depth: np.ndarray  # float32 metres there (0 elsewhere)
-    keep: np.ndarray  # bool: returning pixels the scene finds nothing wrong with: left as they are
 
 
 def repair_frame(

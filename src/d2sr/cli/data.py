@@ -116,7 +116,7 @@ def label(
     Example: d2sr label --clean clean/ --interfered interfered/ --depth-scale 4000 --out labels/
     """
     from d2sr.frames.layout import LABELS, FrameFolder
-    from d2sr.labels import Labeller, clean_stats, label_frames
+    from d2sr.scene import Labeller, clean_stats, label_frames
 
     if memory_mb <= 0:
         raise ConfigError("--memory-mb must be positive")

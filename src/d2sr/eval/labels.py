@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.frames import open_frames
-from d2sr.labels import METHODS, THRESHOLDS, Labeller, clean_stats, f1
+from d2sr.scene import METHODS, THRESHOLDS, Labeller, clean_stats, f1
 from d2sr.sim.calibrate import static_camera
 from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
 from d2sr.sim.scene import L515, SensorNoise

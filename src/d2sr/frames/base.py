@@ -358,3 +358,15 @@ class Writer(ABC):
             self.close()
         else:
             self.abort()
+
+
+def crop_around(where: np.ndarray, margin: int) -> tuple[slice, slice] | None:
+    """The rows and columns of a 2-D bool array's True pixels, widened by ``margin`` (cut at the image's
+    top and left; slicing cuts the rest): the crop a filter of that reach needs. None when none is True."""
+    rows, cols = np.flatnonzero(where.any(1)), np.flatnonzero(where.any(0))
+    if rows.size == 0:
+        return None
+    return (
+        slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+        slice(max(cols[0] - margin, 0), cols[-1] + margin + 1),
+    )

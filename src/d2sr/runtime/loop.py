@@ -11,37 +11,27 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agreement, padded, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Frame, Intrinsics, check_depth, to_metres
-from d2sr.moving_reference import MovingReference
-from d2sr.reference import EVIDENT, QUIET, TRUST_RATE, Evidence, SceneReference
+from d2sr.frames.base import Frame, check_depth, to_metres
 from d2sr.runtime.backends import Backend
-from d2sr.synth.warp import Pose
+from d2sr.scene import Evidence, SceneReference, SceneSettings
 
 REPAIR = ("flagged", "all", "none")
 # Frames a recording's loop judges ahead of its first to warm the scene (``SensorLoop.primed``): twice the
 # scene's ring, so that with every other frame interfered its 16 clean frames are all judged warm.
 PRIME_FRAMES = 32
-#: With ``SensorLoop.unvouched``: a detector's flag on a frame the scene finds quiet stands where the recovery
-#: model's mask covers this share of the known scene, at least ``UNVOUCHED_SHARE`` of it where the scene
-#: returns in under ``TRUST_RATE`` of its clean frames: pixels it cannot vouch for, so its quiet verdict
-#: says nothing of them. About twice the most any clean development frame's mask reached (0.0022, L515
-#: dev1; docs/research/decisions.md, 2026-11-27).
-UNVOUCHED_AREA, UNVOUCHED_SHARE = 0.005, 0.5
 
 __all__ = [
     "PRIME_FRAMES",
     "REPAIR",
-    "UNVOUCHED_AREA",
-    "UNVOUCHED_SHARE",
     "Capture",
     "Decision",
     "PeriodEnd",
@@ -64,7 +54,6 @@ class Capture:
     mask: np.ndarray | None = None
     interfered: bool | None = None
     counted: bool = True  # False: a frame that arrived after its period closed (repaired, not counted)
-    pose: Pose | None = None  # the camera's pose (camera to world), for a moving sensor's scene
 
     @property
     def name(self) -> str:
@@ -138,38 +127,23 @@ class SensorLoop:
     # False (recover --all with a temporal model): the detector runs only where its verdict can change the
     # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
     judge_every: bool = True
-    # True: a still sensor's frames are also judged against its own scene (``d2sr.reference``): a flag on
+    # True: a still sensor's frames are also judged against its own scene (``d2sr.scene``): a flag on
     # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
     # deviations in patches (not something that moved) is interfered, flagged or not. On in d2sr.Pipeline and
     # the commands; off here, where the paper's evaluations measure the detector alone.
     scene: bool = False
-    # The scene reference's settings (``SceneReference``'s keywords; {}: as shipped), for measuring others.
-    scene_options: dict[str, Any] = field(default_factory=dict)
-    # True (with ``scene``, experimental, off): a frame that comes with a pose (``Capture.pose``) is judged
-    # against the last clean frames warped into its view instead (``d2sr.moving_reference``): that evidence
-    # only adds flags. It failed sealed set J (docs/research/decisions.md, 2026-11-27).
-    moving_scene: bool = False
-    intrinsics: Intrinsics | None = None  # the depth camera's, for ``moving_scene`` [guessed]
+    # The scene reference's settings (as shipped unless given).
+    scene_settings: SceneSettings = field(default_factory=SceneSettings)
     # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
     # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
-    # model's repair. On since it held sealed set N (docs/research/decisions.md, 2026-11-27); it had failed
-    # G and H under ``repair="all"`` before the guard left lone returns alone.
+    # model's repair.
     scene_repair: bool = True
-    # True: ``prime`` keeps the scene only if the sensor held still over the frames ahead (sealed set X,
-    # docs/research/decisions.md, 2026-11-27: priming had flagged clean frames of a moving camera).
-    prime_still: bool = True
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
     exact_scores: bool = False
-    # True (with ``scene``; experimental, off): a frame the scene finds quiet is still scored, and a flag on
-    # it stands where the scene cannot vouch for what the detector saw (``UNVOUCHED_AREA``): one pass of the
-    # recovery model's mask, only on such flags. It found 4 more frames of development set I and none of
-    # sealed set Y (docs/research/decisions.md, 2026-11-27).
-    unvouched: bool = False
     period: int = 0
     _reference: SceneReference | None = None
-    _moving: MovingReference | None = None
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
@@ -226,18 +200,15 @@ class SensorLoop:
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         cut = None if self.exact_scores else self._cut
-        still = self.scene and judge and not (self.moving_scene and cap.pose is not None)
-        units, ev = self._scene_evidence(raw, cap.scale, metres) if still else (None, None)
-        if ev is not None and _decides(ev, self.unvouched) and not self.exact_scores:
+        units, ev = self._scene_evidence(raw, cap.scale, metres) if self.scene and judge else (None, None)
+        if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.evident
         else:
             score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
             flagged = score >= self._cut  # False for NaN
-        if self.scene and self.moving_scene and judge and cap.pose is not None:
-            flagged = self._against_moving(raw, cap.scale, flagged, cap.pose)
-        elif ev is not None and units is not None:
-            flagged = self._weigh(units, flagged, ev, lambda: self._stands(metres, raw.shape, ev))
+        if ev is not None and units is not None:
+            flagged = self._weigh(units, flagged, ev)
         fix = self.repair == "all" or (flagged and self.repair == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.scene_repair and fix:
@@ -256,8 +227,9 @@ class SensorLoop:
         first frames are judged against a scene too, not by the detector alone as a live sensor's are. They
         are judged as ``decide`` judges them, from the last to the second, so the scene ends where the
         recording starts; the first is left out, as it would explain its own deviations. Nothing else
-        changes: no result, no flag for the controller, no frame the models remember. With ``prime_still``,
-        a scene that is not settled at the end (``SceneReference.settled``: the sensor moved) is dropped."""
+        changes: no result, no flag for the controller, no frame the models remember. A scene that is not
+        settled at the end (``SceneReference.settled``: the sensor moved) is dropped, since priming a moving
+        camera's scene flags its clean frames."""
         if not self.scene or len(captures) < 2:
             return
         kept = (self.repair, self._last, self._last_clean, self._unjudged)
@@ -267,7 +239,7 @@ class SensorLoop:
                 self.decide(replace(cap, counted=False))
         finally:
             self.repair, self._last, self._last_clean, self._unjudged = kept
-        if self.prime_still and self._reference is not None and not self._reference.settled:
+        if self._reference is not None and not self._reference.settled:
             self._reference = None  # the sensor moved over the frames ahead: start cold, as a live one does
 
     def primed(self, captures: Iterable[Capture], frames: int = PRIME_FRAMES) -> Iterator[Capture]:
@@ -318,53 +290,19 @@ class SensorLoop:
         units, scale = _in_units(raw, scale)
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, units.shape):
-            ref = self._reference = SceneReference(scale, **self.scene_options)
+            ref = self._reference = SceneReference(scale, self.scene_settings)
         own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None
         return units, ref.evidence(units, own)
 
-    def _weigh(
-        self, raw: np.ndarray, flagged: bool, ev: Evidence, stands: Callable[[], bool] | None = None
-    ) -> bool:
+    def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
-        takes the frame if clean. ``stands``: with ``unvouched``, whether a flag on a quiet frame stands
-        (``_stands``; None: a verdict decided before, which stands as it was)."""
+        takes the frame if clean."""
         if ev.usable:
-            evident = ev.evident
-            kept = flagged and ev.dense >= QUIET  # a flag on a quiet frame is a false alarm, or unvouched
-            if flagged and not kept and not evident and self.unvouched:
-                kept = stands() if stands is not None else True
-            flagged = kept or evident
+            quiet = ev.dense < self.scene_settings.quiet  # a flag on a quiet frame is a false alarm
+            flagged = (flagged and not quiet) or ev.evident
         if not flagged:
             assert self._reference is not None
             self._reference.add(raw)
-        return flagged
-
-    def _stands(self, metres: np.ndarray, shape: tuple[int, ...], ev: Evidence) -> bool:
-        """A detector's flag on a frame the scene finds quiet stands: the recovery model's mask (one pass)
-        covers ``UNVOUCHED_AREA`` of the known scene, ``UNVOUCHED_SHARE`` of it where the scene cannot vouch
-        (returns under ``TRUST_RATE``)."""
-        ref = self._reference
-        if ref is None or ref.rates is None:
-            return False
-        net = getattr(self.backend, "single", self.backend)  # auto: its single-frame model
-        logit = net.raw(metres, self._last_clean if net.frames > 1 else None)[0]
-        mask = logit[0, : shape[0], : shape[1]] > net.mask_logit
-        seen = np.count_nonzero(mask)
-        if seen < UNVOUCHED_AREA * ev.known:
-            return False
-        return bool(np.count_nonzero(mask & (ref.rates < TRUST_RATE)) >= UNVOUCHED_SHARE * seen)
-
-    def _against_moving(self, raw: np.ndarray, scale: float, flagged: bool, pose: Pose) -> bool:
-        """A moving sensor's frame against its last clean frame seen from ``pose``: flagged where its depth
-        deviates there in patches (``EVIDENT``), whatever the detector says; the reference never clears a
-        flag (dropouts depend on the view, so it cannot see interference made of them)."""
-        raw, scale = _in_units(raw, scale)
-        ref = self._moving
-        if ref is None or ref.scale != scale or ref.shape not in (None, raw.shape):
-            ref = self._moving = MovingReference(scale, self.intrinsics)
-        flagged = flagged or ref.evidence(raw, pose).dense >= EVIDENT
-        if not flagged:
-            ref.add(raw, pose)
         return flagged
 
     def _remember(self, raw: np.ndarray, metres: np.ndarray, clean: bool) -> None:
@@ -398,11 +336,11 @@ class SensorLoop:
         return new
 
 
-def _decides(ev: Evidence, unvouched: bool = False) -> bool:
+def _decides(ev: Evidence) -> bool:
     """The scene's evidence settles the verdict alone (``SensorLoop._weigh``): fresh deviations in patches
-    flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says
-    (not with ``unvouched``, where the detector's flag may still stand there)."""
-    return ev.usable and ((ev.dense < QUIET and not unvouched) or ev.evident)
+    flag the frame whatever the detector says; a frame that matches its scene is clean whatever it says."""
+    quiet = ev.parts is not None and ev.dense < ev.parts.settings.quiet
+    return ev.usable and (quiet or ev.evident)
 
 
 def _in_units(raw: np.ndarray, scale: float) -> tuple[np.ndarray, float]:

@@ -246,7 +246,7 @@ class Pipeline:
       ``int8``: the int8 models (``d2sr export --int8``).
     - ``intrinsics``: the depth camera's (``d2sr.frames.Intrinsics``), for ``synthesize`` [guessed].
     - ``scene`` [True]: frames are also judged against the scene the sensor's clean frames have shown
-      (``d2sr.reference``), once it has held still: a flagged frame in which nothing deviates from it is
+      (``d2sr.scene``), once it has held still: a flagged frame in which nothing deviates from it is
       passed, one with fresh patches off it, or a surface read a centimetre or more off as a whole, is
       flagged. While the sensor moves the detector decides alone.
       False: the detector alone, always.
@@ -293,7 +293,6 @@ class Pipeline:
             repair=mode,
             scene=scene,
             scene_repair=scene_repair,
-            intrinsics=intrinsics,
         )
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()
@@ -353,7 +352,7 @@ class Pipeline:
         which the frame reached the host, by default now). ``colour``: the colour frame taken with it (depth
         aligned to colour), ``pose``: the camera's pose (odometry, camera to world), which ``synthesize``
         follows the camera with."""
-        r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s, pose))
+        r = self.finish(self.decide(depth, timestamp_ns, slot, arrival_s))
         self.keep(r, colour, pose)
         return r
 
@@ -413,10 +412,9 @@ class Pipeline:
         timestamp_ns: int | None = None,
         slot: int | None = None,
         arrival_s: float | None = None,
-        pose: Pose | None = None,
     ) -> Decided:
         """The first half of ``process``, which must run in frame order: the detector's verdict and the
-        controller's window (``pose``: the camera's, for the experimental ``SensorLoop.moving_scene``).
+        controller's window.
         ``finish`` then repairs; several decided frames may be finished at once (on threads), so a live
         stream keeps its rate on several cores."""
         if slot is not None and self.closed is not None:
@@ -424,7 +422,7 @@ class Pipeline:
         arrival = time.monotonic() if arrival_s is None else arrival_s
         k = next(self._count)
         frame, scale = self._frame(depth, f"frame {k}")
-        cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot, pose=pose)
+        cap = Capture(Frame(f"{k:06d}", frame, timestamp_ns), scale, slot)
         decision = self.loop.decide(cap) if self.closed is None else self.closed.decide(cap, arrival)
         return Decided(depth, decision)
 
