@@ -76,12 +76,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import DEFAULT_RECOVERY, DETECTOR
-from d2sr.desync import make_controller
-from d2sr.errors import D2SRError
-from d2sr.frames import Frame
 from d2sr.reference import (
     OFF_AREA,
     STILL_FRAMES,
@@ -91,6 +85,12 @@ from d2sr.reference import (
     TRUST_RATE,
     SceneReference,
 )
+
+from d2sr.bench import check_output, output_args, write_result
+from d2sr.contract import DEFAULT_RECOVERY, DETECTOR
+from d2sr.desync import make_controller
+from d2sr.errors import D2SRError
+from d2sr.frames import Frame
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
 from held_out import (

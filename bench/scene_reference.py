@@ -25,13 +25,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from d2sr.reference import EVIDENT, QUIET, SceneReference
 
 from d2sr.bench import check_output, output_args, write_result
 from d2sr.contract import DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
 from d2sr.frames import Frame
-from d2sr.reference import EVIDENT, QUIET, SceneReference
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
 from held_out import clean_sequences, every_other, open_sets, outside_set, set_data

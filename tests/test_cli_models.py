@@ -15,6 +15,7 @@ import pytest
 from d2sr.contract import padded, repair_frame
 from d2sr.frames.png import encode_png
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import RunSettings
 from helpers import d2sr
 
 
@@ -81,7 +82,7 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         assert fixed.dtype == np.uint16 and mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 255}
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
     # --all repairs several frames at a time: the same frames, in the same order, as one at a time
-    net = open_backend("unet8", "onnx", weights, None, threads=2)
+    net = open_backend(RunSettings(model="unet8", backend="onnx", models=weights, threads=2), detector=False)
     for f in sorted(src.glob("*.png")):
         raw = _png(f)
         pred, m = net.recover(padded(raw.astype(np.float32)[None] / np.float32(1000)))
@@ -107,7 +108,6 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
 def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_path, weights):
     import torch
 
-    from d2sr.contract import DETECTOR
     from d2sr.desync import make_controller
     from d2sr.frames import Frame
     from d2sr.models import build
@@ -149,7 +149,7 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
         assert np.array_equal(_png(tmp_path / "fallback" / f.name), _png(tmp_path / "unet8" / f.name))
     # The same frames as the runtime's loop repairing one at a time, in order, its detector run only where
     # it can change the last clean frame (recover --all with a temporal model); both models were used.
-    net = open_backend("auto", "onnx", both, DETECTOR, threads=2)
+    net = open_backend(RunSettings(backend="onnx", models=both, threads=2))
     used = {"single": 0, "temporal": 0}
 
     def counted(side: str):
@@ -163,7 +163,12 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
 
     for side in used:
         getattr(net, side).recover = counted(side)
-    loop = SensorLoop(net, make_controller("static", 30, 30), repair="all", judge_every=False)
+    loop = SensorLoop(
+        net,
+        make_controller("static", 30, 30),
+        judge_every=False,
+        settings=RunSettings(repair="all", scene=False),
+    )
     for f in files:
         r = loop.process(Capture(Frame(f.stem, _png(f)), 1000.0))
         assert np.array_equal(_png(tmp_path / "auto" / f.name), r.depth)

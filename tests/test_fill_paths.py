@@ -14,6 +14,7 @@ from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
 from d2sr.frames.base import Frame
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.synth.gaps import ColourFrame, ColourGaps, interleave
 from helpers import d2sr_inprocess
 from test_fill import K, _colour_of_wall, _texture
@@ -189,9 +190,9 @@ def test_live_run_fills_what_the_camera_sent_as_colour_alone(tmp_path, monkeypat
             yield live.Shot(frame, 1000.0, ns / 1e9, colours[k], ns)
 
     monkeypatch.setattr(live, "_camera", lambda kind, serial, seconds, *_: (shots(seconds), K))
-    net = open_models(models=weights)
-    summary = live.run_live(net, tmp_path / "run", "realsense", None, "robust", 2.0, 6, "flagged", None, 0,
-                            fill=True)  # fmt: skip
+    net = open_models(RunSettings(models=weights))
+    plan = LoopSettings(controller="robust", seconds=2.0, fill=True)
+    summary = live.run_live(net, tmp_path / "run", "realsense", RunSettings(), plan)
     rows = _log(tmp_path / "run")
     synth = [r for r in rows if r["synthesized"] == "1"]
     assert summary["synthesized"] == [len(synth)] == [SLOTS - 12]

@@ -120,5 +120,10 @@ def test_run_fill_is_refused_where_no_slot_is_skipped(tmp_path, weights):
     rng = np.random.default_rng(8)
     src = _folder(tmp_path / "in", [_room(rng, 2.0) for _ in range(3)], 1000)
     code, _, err = _run(["run", str(src), "--out", str(tmp_path / "r"), "--fill", "--models", str(weights)])
-    assert code == 2 and "--fill" in err and "d2sr fill" in err and len(err.strip().splitlines()) == 1
+    assert (
+        code == 2
+        and "fill on a recording" in err
+        and "d2sr fill" in err
+        and len(err.strip().splitlines()) == 1
+    )
     assert not (tmp_path / "r").exists()

@@ -92,9 +92,10 @@ sys.meta_path.insert(0, Block())
 import numpy as np
 from pathlib import Path
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.contract import repair_frame
 from d2sr.eval.baselines import BASELINES
-net = open_backend('unet8', 'auto', Path({str(tmp_path)!r}))
+net = open_backend(RunSettings(model='unet8', models=Path({str(tmp_path)!r})))
 assert net.name == 'onnxruntime'
 x = np.random.default_rng(0).uniform(0.5, 4, (1, 96, 128)).astype(np.float32)
 s = net.scores(x)
@@ -103,7 +104,8 @@ u, _ = repair_frame((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
 assert s.shape == (1,) and u.dtype == np.uint16 and 'torch' not in sys.modules
 # the closed loop in a simulated room, on the edge backend
 from d2sr.runtime.session import run_sim
-summary = run_sim(net, Path({str(tmp_path / "run")!r}), 'damped', sensors=2, seconds=2)
+plan = LoopSettings(controller='damped', sensors=2, seconds=2.0)
+summary = run_sim(net, Path({str(tmp_path / "run")!r}), RunSettings(), plan)
 assert summary['all']['frames'] == 2 * 2 * 6 and 'torch' not in sys.modules
 sys.argv = ['d2sr', '--help']
 import d2sr.cli, d2sr.cli.stages, d2sr.cli.run

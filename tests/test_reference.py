@@ -12,6 +12,7 @@ from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.scene import SceneReference, SceneSettings
 from test_runtime import FakeNet
 
@@ -88,9 +89,7 @@ def _loops(net: FakeNet, repair: str, settings: dict) -> dict:
         name: SensorLoop(
             net,
             make_controller("static", 30, 30),
-            repair=repair,
-            scene=True,
-            scene_settings=SceneSettings(**opts),
+            settings=RunSettings(repair=repair, scene=True, scene_settings=SceneSettings(**opts)),
         )
         for name, opts in settings.items()
     }
@@ -150,8 +149,8 @@ def test_a_surface_read_a_little_off_as_a_whole_is_evidence():
     hit[patch] = np.where(hit[patch] > 0, hit[patch] - int(0.02 * SCALE), 0)
     ev = ref.evidence(hit)
     assert ev.fresh[patch].mean() > 0.5 and not ev.fresh[:35].any()
-    loop = SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="all", scene=True,
-                      scene_repair=True)  # fmt: skip
+    every = RunSettings(repair="all", scene=True, scene_repair=True)
+    loop = SensorLoop(_NoRepair(), make_controller("static", 30, 30), settings=every)
     for _ in range(10):
         loop.process(Capture(Frame("c", _scene(rng)), SCALE))
     truth = _scene(rng)
@@ -208,7 +207,9 @@ def test_the_loop_flags_a_surface_read_a_centimetre_and_a_half_off_by_default():
     """The detector misses it (FakeNet flags nothing here), and no pixel deviates beyond its own tolerance;
     the scene's shifted windows find it, as shipped."""
     rng = np.random.default_rng(5)
-    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    loop = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
+    )
     for _ in range(30):
         assert not loop.process(Capture(Frame("c", _scene(rng)), SCALE)).flagged
     hit = _scene(rng)
@@ -276,8 +277,12 @@ def test_bad_settings_and_frames_are_refused():
 
 def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_real_one():
     rng = np.random.default_rng(2)
-    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
-    plain = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none")
+    loop = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
+    )
+    plain = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=False)
+    )
 
     def frame(false_alarm: bool, hit: bool) -> Capture:
         f = _scene(rng)
@@ -306,7 +311,12 @@ def test_a_frame_the_scene_decides_alone_is_not_scored_and_keeps_its_verdict():
     rng = np.random.default_rng(4)
     nets = FakeNet(), FakeNet()
     fast, exact = (
-        SensorLoop(n, make_controller("static", 30, 30), repair="none", scene=True, exact_scores=e)
+        SensorLoop(
+            n,
+            make_controller("static", 30, 30),
+            exact_scores=e,
+            settings=RunSettings(repair="none", scene=True),
+        )
         for n, e in zip(nets, (False, True), strict=True)
     )
     frames = [_scene(rng) for _ in range(10)]
@@ -373,14 +383,15 @@ def test_run_on_a_recording_takes_the_scene(tmp_path):
     import csv
 
     from d2sr.frames import open_frames
-    from d2sr.runtime.session import run_recording
+    from d2sr.runtime.session import Recording, run_recording
 
     rec = _patched_recording(tmp_path)
     flags = {}
     for scene in (False, True):
         out = tmp_path / f"out{scene}"
-        summary = run_recording(FakeNet(), open_frames(rec), SCALE, out, "robust", "rec", repair="none",
-                                scene=scene)  # fmt: skip
+        recording = Recording(open_frames(rec), SCALE, "rec")
+        settings = RunSettings(repair="none", scene=scene)
+        summary = run_recording(FakeNet(), recording, out, settings, LoopSettings(controller="robust"))
         assert summary["settings"]["scene"] is scene
         # the share of frames the scene weighed: not the first 5 (4 build it, the 5th shows it still)
         assert summary["all"].get("scene_used") == (0.5 if scene else None)
@@ -399,9 +410,13 @@ def test_the_scene_repairs_a_shifted_patch_where_it_is_trusted_and_leaves_clean_
     is put back to within the scene's noise where the scene is trusted; a clean frame comes out bit for bit;
     with it off, the patch stays."""
     rng = np.random.default_rng(5)
-    on = SensorLoop(_NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True)
+    on = SensorLoop(
+        _NoRepair(), make_controller("static", 30, 30), settings=RunSettings(repair="flagged", scene=True)
+    )
     off = SensorLoop(
-        _NoRepair(), make_controller("static", 30, 30), repair="flagged", scene=True, scene_repair=False
+        _NoRepair(),
+        make_controller("static", 30, 30),
+        settings=RunSettings(repair="flagged", scene=True, scene_repair=False),
     )
     for _ in range(10):
         f = _scene(rng)
@@ -640,8 +655,14 @@ def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
     the scene's depth; dropouts are still the model's to fill. Without ``scene_repair`` the model's guess
     stands (the guard alone lets a 1.5 m move through where no neighbour is trusted)."""
     rng = np.random.default_rng(7)
-    loops = [SensorLoop(_Guesses(), make_controller("static", 30, 30), repair="all", scene=True,
-                        scene_repair=on) for on in (True, False)]  # fmt: skip
+    loops = [
+        SensorLoop(
+            _Guesses(),
+            make_controller("static", 30, 30),
+            settings=RunSettings(repair="all", scene=True, scene_repair=on),
+        )
+        for on in (True, False)
+    ]
     for _ in range(10):
         f = _scene(rng)
         for loop in loops:
@@ -681,7 +702,8 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
         cv2.imwrite(str(rec / f"{i:03d}.png"), f)
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "a"), "--depth-scale", "4000",
                                   "--all", "--no-scene", "--scene-repair")  # fmt: skip
-    assert code == 2 and "--scene-repair needs the scene" in err and not (tmp_path / "a").exists()
+    assert code == 2 and "needs the scene" in err and "(set by --scene-repair)" in err
+    assert not (tmp_path / "a").exists()
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "b"), "--depth-scale", "4000",
                                   "--all", "--scene", "--scene-repair")  # fmt: skip
     assert code == 0, err
@@ -736,7 +758,9 @@ def test_a_moving_sensor_s_scene_decides_nothing():
     assert evident[None] >= 3 and evident[STILL_SHARE] == 0
     rng = np.random.default_rng(7)
     frames = [_panned(rng, k, k % 3 == 2) for k in range(60)]
-    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    loop = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
+    )
     assert not any(loop.process(Capture(Frame(f"{i}", f), SCALE)).flagged for i, f in enumerate(frames))
 
 
@@ -807,7 +831,10 @@ def test_a_primed_loop_judges_a_recording_s_first_frames_against_its_scene():
     for prime in (0, 32):
         net = FakeNet(frames=2)  # a temporal detector: it is given the frame before
         loop = SensorLoop(
-            net, make_controller("robust", 30, 6, seed=0), repair="none", scene=True, exact_scores=True
+            net,
+            make_controller("robust", 30, 6, seed=0),
+            exact_scores=True,
+            settings=RunSettings(repair="none", scene=True),
         )
         caps = loop.primed((Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)), prime)
         first = next(caps)
@@ -821,10 +848,14 @@ def test_a_primed_loop_judges_a_recording_s_first_frames_against_its_scene():
     flagged = {p: [i for i, r in enumerate(res) if r.flagged] for p, res in runs.items()}
     assert flagged == {0: [], 32: [1, 3]}
     assert all(r.scene for r in runs[32]) and not any(r.scene for r in runs[0][:5])
-    loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+    loop = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
+    )
     with pytest.raises(ConfigError):
         loop.primed([], -1)
-    alone = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none")  # no scene: nothing read
+    alone = SensorLoop(
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=False)
+    )  # no scene: nothing read
     caps = [Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)]
     assert [c.name for c in alone.primed(iter(caps))] == [c.name for c in caps]
 
@@ -885,7 +916,9 @@ def test_a_primed_scene_is_kept_only_where_the_sensor_held_still():
     moving = [np.roll(_scene(rng), 9 * i, axis=1) for i in range(20)]  # the view pans 9 px a frame
 
     def primed(frames: list[np.ndarray]) -> SensorLoop:
-        loop = SensorLoop(FakeNet(), make_controller("static", 30, 30), repair="none", scene=True)
+        loop = SensorLoop(
+            FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
+        )
         loop.prime([Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames)])
         return loop
 

@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 from d2sr.contract import THRESHOLD, agreement
-from d2sr.desync import DEFAULT_CONTROLLER, make_controller
+from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
 from d2sr.runtime.backends import Gated, open_backend
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
-from d2sr.runtime.session import run_recording, run_sim
+from d2sr.runtime.session import Recording, run_recording, run_sim
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.room import SimRoom
 from d2sr.sim.timing import TimingConfig
@@ -94,20 +95,24 @@ def test_repairing_every_frame_needs_no_detector():
             raise AssertionError("the detector ran")
 
     ctrl = make_controller("static", 30, 3)
-    got = SensorLoop(NoDetector(), ctrl, repair="all", detect=False).process(_cap("0", bad=True))
-    ref = SensorLoop(FakeNet(), ctrl, repair="all").process(_cap("0", bad=True))
+    got = SensorLoop(
+        NoDetector(), ctrl, detect=False, settings=RunSettings(repair="all", scene=False)
+    ).process(_cap("0", bad=True))
+    ref = SensorLoop(FakeNet(), ctrl, settings=RunSettings(repair="all", scene=False)).process(
+        _cap("0", bad=True)
+    )
     assert np.array_equal(got.depth, ref.depth) and np.array_equal(got.mask, ref.mask) and got.mask.any()
     assert np.isnan(got.score) and not got.flagged
     # Only where no verdict is used: repairing flagged frames, or a temporal model's last clean frame.
     with pytest.raises(ConfigError, match="detect=False"):
-        SensorLoop(FakeNet(), ctrl, repair="flagged", detect=False)
+        SensorLoop(FakeNet(), ctrl, detect=False, settings=RunSettings(repair="flagged", scene=False))
     with pytest.raises(ConfigError, match="detect=False"):
-        SensorLoop(FakeNet(frames=2), ctrl, repair="all", detect=False)
+        SensorLoop(FakeNet(frames=2), ctrl, detect=False, settings=RunSettings(repair="all", scene=False))
 
 
 def test_temporal_backend_gets_the_last_frame_the_detector_passed():
     net = FakeNet(frames=2)
-    loop = SensorLoop(net, make_controller("static", 30, 3), repair="all")
+    loop = SensorLoop(net, make_controller("static", 30, 3), settings=RunSettings(repair="all", scene=False))
     first = _cap("0", bad=True)
     first.frame.depth[3, 3] = 4000  # marks this flagged frame (1 m)
     loop.process(first)
@@ -121,7 +126,7 @@ def test_temporal_backend_gets_the_last_frame_the_detector_passed():
     for prev in net.previous[2:]:  # frame 1, not the flagged frames 0 and 2
         assert prev is not None and prev[0, 2, 2] == 0.5 and prev[0, 3, 3] == 2.0
     one = FakeNet()
-    loop = SensorLoop(one, make_controller("static", 30, 3), repair="all")
+    loop = SensorLoop(one, make_controller("static", 30, 3), settings=RunSettings(repair="all", scene=False))
     loop.process(clean)
     loop.process(_cap("2", bad=True))
     assert one.previous == [None, None]  # a one-frame model is never handed frames it cannot use
@@ -133,7 +138,12 @@ def test_repairing_every_frame_the_detector_runs_only_where_the_last_clean_frame
     from d2sr.contract import REFRESH_FRAMES
 
     net = FakeNet(frames=2)
-    loop = SensorLoop(net, make_controller("static", 30, 3), repair="all", judge_every=False)
+    loop = SensorLoop(
+        net,
+        make_controller("static", 30, 3),
+        judge_every=False,
+        settings=RunSettings(repair="all", scene=False),
+    )
     results = [loop.process(_cap("0", bad=True)), loop.process(_cap("1", bad=False))]
     assert len(net.before) == 2  # judged: no last clean frame yet, then frame 1 passes
     for i in range(2, 2 + 2 * REFRESH_FRAMES):
@@ -148,9 +158,19 @@ def test_repairing_every_frame_the_detector_runs_only_where_the_last_clean_frame
     moved.frame.depth[:] = 16000  # no longer lines up with the last clean frame (2 m against 4 m)
     assert not np.isnan(loop.process(moved).score)
     with pytest.raises(ConfigError):
-        SensorLoop(FakeNet(), make_controller("static", 30, 3), repair="all", judge_every=False)
+        SensorLoop(
+            FakeNet(),
+            make_controller("static", 30, 3),
+            judge_every=False,
+            settings=RunSettings(repair="all", scene=False),
+        )
     with pytest.raises(ConfigError):
-        SensorLoop(net, make_controller("static", 30, 3), repair="flagged", judge_every=False)
+        SensorLoop(
+            net,
+            make_controller("static", 30, 3),
+            judge_every=False,
+            settings=RunSettings(repair="flagged", scene=False),
+        )
 
 
 def test_agreement_counts_pixels_returning_in_both_within_5_cm_and_2_percent():
@@ -193,7 +213,7 @@ def test_triggered_loop_reads_flags_in_window_order_and_tells_the_trigger():
     trig = Recorder()
     seen = []
     ctrl.update = lambda flags: seen.append(list(flags)) or 7  # type: ignore[method-assign]
-    loop = SensorLoop(FakeNet(), ctrl, trig, repair="none")
+    loop = SensorLoop(FakeNet(), ctrl, trig, settings=RunSettings(repair="none", scene=False))
     assert trig.calls == [(0, 28)]
     for slot, bad in ((0, True), (1, False), (28, False)):  # slot 29's frame was dropped
         loop.step(_cap(f"s{slot}", bad, slot))
@@ -205,9 +225,9 @@ def test_triggered_loop_reads_flags_in_window_order_and_tells_the_trigger():
 def test_loop_pads_frames_the_model_strides_do_not_divide(net):
     d = np.full((240, 320), 8000, np.uint16)  # 240 is not a multiple of 32
     d[:, 100:140] = 0
-    res = SensorLoop(net, make_controller("static", 30, 3), repair="all").process(
-        Capture(Frame("f", d), 4000)
-    )
+    res = SensorLoop(
+        net, make_controller("static", 30, 3), settings=RunSettings(repair="all", scene=False)
+    ).process(Capture(Frame("f", d), 4000))
     assert res.depth.shape == res.mask.shape == (240, 320) and res.depth.dtype == np.uint16
     assert np.array_equal(res.depth[~res.mask], d[~res.mask])
 
@@ -221,7 +241,9 @@ def test_loop_takes_float_metres_only_at_scale_1_and_refuses_a_bad_repair_mode()
     res = loop.process(Capture(Frame("f", np.ones((8, 16), np.float32)), 1.0))
     assert res.depth.dtype == np.float32
     with pytest.raises(ConfigError, match="repair"):
-        SensorLoop(FakeNet(), make_controller("static", 30, 3), repair="some")
+        SensorLoop(
+            FakeNet(), make_controller("static", 30, 3), settings=RunSettings(repair="some", scene=False)
+        )
 
 
 def test_room_interference_follows_the_windows_the_triggers_set():
@@ -247,13 +269,13 @@ def test_room_interference_follows_the_windows_the_triggers_set():
 
 @pytest.fixture(scope="module")
 def net():
-    return open_backend("unet8", "onnx", threads=1)
+    return open_backend(RunSettings(model="unet8", backend="onnx", threads=1))
 
 
 @pytest.mark.slow  # a long simulation: not in make test-fast
 def test_closed_loop_in_a_room_desynchronizes_and_repairs(net):
-    static = run_sim(net, None, "static", sensors=3, seconds=8, seed=0)
-    ours = run_sim(net, None, DEFAULT_CONTROLLER, sensors=3, seconds=8, seed=0)
+    static = run_sim(net, None, RunSettings(), LoopSettings(controller="static", sensors=3, seconds=8.0))
+    ours = run_sim(net, None, RunSettings(), LoopSettings(sensors=3, seconds=8.0))
     s, o = static["all"], ours["all"]
     assert s["frames"] == o["frames"] == 3 * 8 * 6
     assert s["interfered_ratio"] > 0.15  # the seed-0 room: two sensors start on the same slots
@@ -267,9 +289,9 @@ def test_closed_loop_in_a_room_desynchronizes_and_repairs(net):
 def test_run_sim_fill_writes_every_slot_and_leaves_the_real_frames_as_they_were(net, tmp_path):
     # --fill: each slot a sensor's laser skipped gets a synthesized frame (logged as such, no verdict, its
     # confidence beside it); the real frames and their log lines are those of the same run without it.
-    kw = {"sensors": 2, "seconds": 2, "seed": 3, "moving": True}
-    plain = run_sim(net, tmp_path / "plain", DEFAULT_CONTROLLER, **kw)
-    filled = run_sim(net, tmp_path / "filled", DEFAULT_CONTROLLER, fill=True, **kw)
+    kw = {"sensors": 2, "seconds": 2.0, "seed": 3, "moving": True}
+    plain = run_sim(net, tmp_path / "plain", RunSettings(), LoopSettings(**kw))
+    filled = run_sim(net, tmp_path / "filled", RunSettings(), LoopSettings(fill=True, **kw))
     slots = 2 * 30
     for i in range(2):
         real = sorted(p.name for p in (tmp_path / "plain" / f"sensor{i}" / "depth").glob("*.png"))
@@ -303,7 +325,7 @@ def test_run_sim_fill_writes_every_slot_and_leaves_the_real_frames_as_they_were(
 
     assert all(read(b).any() and not np.array_equal(read(a), read(b)) for a, b in pairs)
     with pytest.raises(ConfigError, match="fill"):
-        run_sim(net, None, DEFAULT_CONTROLLER, fill=True, **kw)
+        run_sim(net, None, RunSettings(), LoopSettings(fill=True, **kw))
 
 
 def _recording(tmp_path: Path, n: int = 12) -> Path:
@@ -340,8 +362,13 @@ def test_recording_replays_identically_and_a_killed_run_resumes(tmp_path, net):
 
     rec = _recording(tmp_path)
     reader = open_frames(rec)
-    a = run_recording(net, reader, 4000.0, tmp_path / "a", "damped", "rec", active_frames=3, repair="all")
-    run_recording(net, reader, 4000.0, tmp_path / "b", "damped", "rec", active_frames=3, repair="all")
+    s, plan = RunSettings(repair="all"), LoopSettings(controller="damped", active_frames=3)
+
+    def run(frames, out: Path) -> dict:
+        return run_recording(net, Recording(frames, 4000.0, "rec"), out, s, plan)
+
+    a = run(reader, tmp_path / "a")
+    run(reader, tmp_path / "b")
     assert a["all"]["frames"] == 12 and _digest(tmp_path / "a") == _digest(tmp_path / "b")
 
     class Dies:
@@ -355,13 +382,13 @@ def test_recording_replays_identically_and_a_killed_run_resumes(tmp_path, net):
                 yield f
 
     with pytest.raises(Killed):
-        run_recording(net, Dies(), 4000.0, tmp_path / "c", "damped", "rec", active_frames=3, repair="all")
+        run(Dies(), tmp_path / "c")
     assert not (tmp_path / "c").exists()  # nothing half-written where the output goes
     (partial,) = tmp_path.glob(".c.d2sr-*.partial")  # the working folder, with d2sr's marker
     assert len(list((partial / "sensor0" / "depth").glob("*.png"))) == 7
     with (partial / "log.csv").open("a") as fh:
         fh.write("0,f007,0.0,2")  # a torn last line, as a kill mid-write leaves it
-    c = run_recording(net, reader, 4000.0, tmp_path / "c", "damped", "rec", active_frames=3, repair="all")
+    c = run(reader, tmp_path / "c")
     assert c["resumed_frames"] == 7 and c["all"]["frames"] == 5
     assert _digest(tmp_path / "c") == _digest(tmp_path / "a") and not partial.exists()
 
@@ -410,25 +437,27 @@ def test_int8_models_quantize_and_run_in_the_loop(tmp_path):
             q == int8_path(tmp_path / f"{name}.onnx")
             and q.stat().st_size < (tmp_path / f"{name}.onnx").stat().st_size
         )
-    net = open_backend("unet8", "auto", tmp_path, int8=True)
+    net = open_backend(RunSettings(model="unet8", models=tmp_path, int8=True))
     assert net.name == "onnxruntime"
     d = np.full((96, 128), 8000, np.uint16)
-    res = SensorLoop(net, make_controller("static", 30, 3), repair="all").process(
-        Capture(Frame("f", d), 4000)
-    )
+    res = SensorLoop(
+        net, make_controller("static", 30, 3), settings=RunSettings(repair="all", scene=False)
+    ).process(Capture(Frame("f", d), 4000))
     assert res.depth.shape == (96, 128) and 0 <= res.score <= 1
-    with pytest.raises(InputError, match="onnxruntime"):
-        open_backend("unet8", "torch", tmp_path, int8=True)
+    with pytest.raises(ConfigError, match="onnxruntime"):
+        open_backend(RunSettings(model="unet8", backend="torch", models=tmp_path, int8=True))
     # A streaming temporal UNet: calibrated on the inputs the runtime feeds it, its encoder kept beside it.
     assert (tmp_path / "unet8-temporal.int8.code.onnx").is_file()
-    temporal = open_backend("unet8-temporal", "onnx", tmp_path, detector=None, int8=True)
+    temporal = open_backend(
+        RunSettings(model="unet8-temporal", backend="onnx", models=tmp_path, int8=True), detector=False
+    )
     x = np.full((1, 96, 128), 2.0, np.float32)
     assert temporal.raw(x, x)[1].shape == (1, 96, 128)
 
 
 def test_detector_gets_the_previous_frame_whatever_its_flag():
     net = FakeNet()
-    loop = SensorLoop(net, make_controller("static", 30, 3), repair="none")
+    loop = SensorLoop(net, make_controller("static", 30, 3), settings=RunSettings(repair="none", scene=False))
     first = _cap("0", bad=True)
     first.frame.depth[3, 3] = 4000
     loop.process(first)
@@ -440,9 +469,16 @@ def test_detector_gets_the_previous_frame_whatever_its_flag():
     # Every score is asked for against the loop's threshold (contract.gate), its own or the caller's;
     # exact_scores (d2sr detect) asks for every score exact.
     assert net.cuts == [THRESHOLD] * 3
-    SensorLoop(net, make_controller("static", 30, 3), repair="none", threshold=0.8).process(first)
+    SensorLoop(
+        net, make_controller("static", 30, 3), settings=RunSettings(threshold=0.8, repair="none", scene=False)
+    ).process(first)
     assert net.cuts[-1] == 0.8
-    SensorLoop(net, make_controller("static", 30, 3), repair="none", exact_scores=True).process(first)
+    SensorLoop(
+        net,
+        make_controller("static", 30, 3),
+        exact_scores=True,
+        settings=RunSettings(repair="none", scene=False),
+    ).process(first)
     assert net.cuts[-1] is None
 
 
@@ -462,9 +498,9 @@ def test_detect_writes_every_score_exact_with_the_shipped_temporal_detector(tmp_
     with PngWriter(root, 4000.0) as w:
         for i, f in enumerate(frames):
             w.write(Frame(f"f{i:03d}", f))
-    detect_recording(root, tmp_path / "d.csv", depth_scale=4000.0)
+    detect_recording(root, tmp_path / "d.csv", RunSettings(depth_scale=4000.0))
     got = [float(r["score"]) for r in csv.DictReader((tmp_path / "d.csv").open())]
-    net, prev, want, gated = open_backend(None), None, [], []
+    net, prev, want, gated = open_backend(recovery=False), None, [], []
     for f in frames:
         m = (f.astype(np.float32) / np.float32(4000))[None]
         want.append(float(net.scores(m, prev)[0]))
@@ -513,9 +549,13 @@ def test_auto_runs_the_temporal_model_at_its_own_operating_point():
     # auto: unet8-temporal at AUTO_TEMPORAL_LOGIT, unet8 at its own logit; a given --mask-logit sets both.
     from d2sr.contract import AUTO_TEMPORAL_LOGIT
 
-    net = open_backend("auto", "onnx")
+    net = open_backend(RunSettings(backend="onnx"))
     assert isinstance(net, Gated)
-    assert net.temporal.mask_logit == AUTO_TEMPORAL_LOGIT != open_backend("unet8-temporal", "onnx").mask_logit
-    assert net.single.mask_logit == open_backend("unet8", "onnx").mask_logit
-    given = open_backend("auto", "onnx", mask_logit=0.25)
+    assert (
+        net.temporal.mask_logit
+        == AUTO_TEMPORAL_LOGIT
+        != open_backend(RunSettings(model="unet8-temporal", backend="onnx")).mask_logit
+    )
+    assert net.single.mask_logit == open_backend(RunSettings(model="unet8", backend="onnx")).mask_logit
+    given = open_backend(RunSettings(backend="onnx", mask_logit=0.25))
     assert given.temporal.mask_logit == given.single.mask_logit == 0.25

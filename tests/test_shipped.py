@@ -14,6 +14,7 @@ from d2sr.contract import DETECTOR_NAMES, repair_frame
 from d2sr.contract import WEIGHTS as SHIPPED
 from d2sr.models.store import load_model
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import RunSettings
 from d2sr.train.synth import TEST_SEED, synth_frame, synth_sequence_frame
 
 NAMES = sorted(p.stem for p in SHIPPED.glob("*.safetensors"))
@@ -65,7 +66,7 @@ def frames() -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float, bool]]:
 
 
 def test_shipped_detector_separates_held_out_frames(frames):
-    net = open_backend(None)
+    net = open_backend(recovery=False)
     scores = [float(net.scores(x[None])[0]) for x, *_ in frames]
     labels = np.array([lab for *_, lab in frames])
     flagged = np.array(scores) >= net.threshold
@@ -78,7 +79,7 @@ def test_shipped_unet8_lowers_the_error_of_held_out_frames_taken_together():
     them falls by at least a quarter, at most 1 frame in 4 ends worse, and no pixel outside the predicted
     mask is touched. Single frames can end worse (measured 2026-11-26: 7 of 40, the worst 4.1x on a small
     patch): this test does not claim otherwise."""
-    net = open_backend("unet8")
+    net = open_backend(RunSettings(model="unet8"))
     before = after = 0.0
     worse = seen = i = 0
     while seen < 40:
@@ -100,16 +101,16 @@ def test_shipped_unet8_lowers_the_error_of_held_out_frames_taken_together():
 
 @pytest.mark.parametrize("backend", ["torch", "onnx"])
 def test_a_recovery_model_opens_alone(backend, frames):
-    from d2sr.errors import InputError
+    from d2sr.errors import ConfigError, InputError
 
-    net = open_backend("unet8", backend, detector=None)
+    net = open_backend(RunSettings(model="unet8", backend=backend), detector=False)
     x = frames[1][0][None]
     pred, mask = net.recover(x)
     assert pred.shape == mask.shape == x.shape
     with pytest.raises(InputError, match="no detector"):
         net.scores(x)
-    with pytest.raises(InputError, match="needs a detector"):
-        open_backend(None, backend, detector=None)
+    with pytest.raises(ConfigError, match="needs a detector"):
+        open_backend(RunSettings(backend=backend), detector=False, recovery=False)
 
 
 def test_every_shipped_file_stays_under_5_mb():

@@ -16,6 +16,7 @@ import pytest
 
 import d2sr
 from d2sr.errors import ConfigError, InputError
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.interference import corrupt
 from d2sr.triggers import SYNC_INPUTS, device_window, open_trigger, parse_trigger
 from d2sr.triggers.firmware.d2sr_trigger import Core
@@ -322,7 +323,10 @@ def test_orbbec_without_a_device_is_a_one_line_error(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["sim", "--trigger", "serial:/dev/ttyACM0"], "--trigger needs a live camera"),
+        (
+            ["sim", "--trigger", "serial:/dev/ttyACM0"],
+            "needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL]) (set by --trigger)",
+        ),
         (["realsense", "--trigger", "orbbec"], "--trigger orbbec drives its own camera kind"),
         (["orbbec", "--trigger", "laser"], "unknown trigger 'laser'"),
         (["realsense", "--trigger", "serial:/nonexistent/tty"], "serial:/nonexistent/tty: cannot open"),
@@ -423,8 +427,8 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
     first = d2sr.make_controller("robust", 30, 6, seed=0).offset
     other.update((first + k) % 30 for k in range(3, 11))
     try:
-        summary = live.run_live(net, tmp_path / "run", "realsense", f"serial:{board.path}@d400", "robust",
-                                6.0, 6, "flagged", None, 0)  # fmt: skip
+        plan = LoopSettings(controller="robust", seconds=6.0, trigger=f"serial:{board.path}@d400")
+        summary = live.run_live(net, tmp_path / "run", "realsense", RunSettings(), plan)
     finally:
         board.close()
     rows = list(csvmod.DictReader((tmp_path / "run" / "log.csv").open()))

@@ -2,10 +2,12 @@
 
 The library in a few names (``docs/api.md`` has runnable examples):
 
-- ``repair(depth, depth_scale=None, **options)``: one frame detected and repaired (``Repaired``).
-- ``Pipeline(depth_scale=None, **options)``: one sensor's loop; ``.process(depth, timestamp_ns=None)``.
-- ``recover_recording(input, out, ...)``, ``detect_recording(input, out, ...)``: a recording in, a
-  recording out (what ``d2sr recover`` and ``d2sr detect`` run); ``fill_recording(input, out,
+- ``RunSettings``: how a run judges and repairs (model, threshold, scene, ...), one frozen object that
+  every entry point below takes (``settings=``), its fields also by keyword.
+- ``repair(depth, depth_scale=None, settings=None, **fields)``: one frame detected and repaired.
+- ``Pipeline(depth_scale=None, settings=None, **fields)``: one sensor's loop; ``.process(depth)``.
+- ``recover_recording(input, out, settings)``, ``detect_recording(input, out, settings)``: a recording in,
+  a recording out (what ``d2sr recover`` and ``d2sr detect`` run); ``fill_recording(input, out,
   active_frames, ...)``: the frames a duty-cycled laser skipped, synthesized (``d2sr fill``).
 - ``open_frames(path)``: read any supported recording; ``make_controller(name, ...)``: a de-synchronization
   controller on its own.
@@ -29,6 +31,8 @@ _WHERE = {
     "recover_recording": "d2sr.runtime.batch",
     "detect_recording": "d2sr.runtime.batch",
     "Summary": "d2sr.runtime.batch",
+    "Written": "d2sr.runtime.batch",
+    "RunSettings": "d2sr.runtime.settings",
     "fill_recording": "d2sr.synth",
     "open_frames": "d2sr.frames",
     "make_controller": "d2sr.desync",
@@ -45,8 +49,10 @@ __all__ = [
     "OutputError",
     "Pipeline",
     "Repaired",
+    "RunSettings",
     "Summary",
     "Window",
+    "Written",
     "__version__",
     "detect_recording",
     "fill_recording",
@@ -60,8 +66,9 @@ if TYPE_CHECKING:
     from d2sr.desync import make_controller
     from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
     from d2sr.frames import open_frames
-    from d2sr.runtime.batch import Summary, detect_recording, recover_recording
+    from d2sr.runtime.batch import Summary, Written, detect_recording, recover_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
+    from d2sr.runtime.settings import RunSettings
     from d2sr.synth import fill_recording
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import D2SRError
 from d2sr.provenance import cpu, stamp
+from d2sr.runtime.settings import RunSettings
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingConfig, simulate
 
@@ -313,7 +314,7 @@ def bench_pipeline(
     from d2sr.train.synth import TEST_SEED
 
     say = progress or (lambda s: None)
-    net = open_backend("unet8", "onnx", threads=threads)
+    net = open_backend(RunSettings(model="unet8", backend="onnx", threads=threads))
     say("generating frames")
     clean = [frame_4000(TEST_SEED + 50_000 + i, interfered=False) for i in range(8)]
     bad = [frame_4000(TEST_SEED + 60_000 + i, interfered=True) for i in range(8)]
@@ -330,7 +331,9 @@ def bench_pipeline(
             per_frame, flagged = [], 0
             for _ in range(repeats):
                 loop = SensorLoop(
-                    net, make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0), repair=repair
+                    net,
+                    make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0),
+                    settings=RunSettings(repair=repair, scene=False),
                 )
                 for d in seq[:3]:  # warm-up
                     loop.process(Capture(Frame("w", d), 4000.0))
@@ -354,7 +357,11 @@ def bench_pipeline(
                 worst_640 = med
     # The controller and the flag buffer alone, per frame (a loop whose models cost nothing).
     say("controller overhead")
-    loop = SensorLoop(net, make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0), repair="none")
+    loop = SensorLoop(
+        net,
+        make_controller(DEFAULT_CONTROLLER, TOTAL_FRAMES, 15, seed=0),
+        settings=RunSettings(repair="none", scene=False),
+    )
     n = 30_000
     rng = np.random.default_rng(0)
     flags = rng.random(n) < 0.2

@@ -25,7 +25,9 @@ class Settings(BaseModel):
         try:
             super().__init__(**values)
         except ValidationError as exc:
-            raise ConfigError(one_line(exc, type(self).__name__)) from None
+            errors = exc.errors()
+            field = str(errors[0]["loc"][0]) if errors and errors[0]["loc"] else None
+            raise ConfigError(one_line(exc, type(self).__name__), field) from None
 
     @classmethod
     def make(cls: type[M], **values: Any) -> M:
@@ -40,7 +42,8 @@ def one_line(exc: ValidationError, what: str) -> str:
         field = ".".join(str(p) for p in err["loc"]) or "value"
         got = err.get("input")
         shown = "" if isinstance(got, dict) else f" (got {got!r})"
-        parts.append(f"{field}: {err['msg']}{shown}")
+        msg = err["msg"].removeprefix("Value error, ")  # a validator's own words need no label
+        parts.append(f"{field}: {msg}{shown}")
     return f"{what}: " + "; ".join(parts)
 
 

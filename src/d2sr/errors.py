@@ -6,7 +6,12 @@ __all__ = ["ConfigError", "D2SRError", "InputError", "OutputError"]
 
 
 class D2SRError(Exception):
-    """Base of every error d2sr raises on purpose (bad input, bad settings)."""
+    """Base of every error d2sr raises on purpose (bad input, bad settings). ``setting``: the settings field
+    at fault, where one is (the command line names the flag that sets it)."""
+
+    def __init__(self, message: str = "", setting: str | None = None) -> None:
+        super().__init__(message)
+        self.setting = setting
 
 
 class ConfigError(D2SRError, ValueError):

@@ -113,7 +113,7 @@ def main() -> None:
     except typer.Abort:
         _fail("aborted")
     except D2SRError as exc:
-        _fail(str(exc))
+        _fail(_with_flag(exc))
     except ModuleNotFoundError as exc:
         top = (exc.name or "").split(".")[0]
         if top not in EXTRAS:
@@ -136,6 +136,22 @@ def main() -> None:
 
 def _terminated(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
+
+
+# A run's setting and the flag that sets it, where the flag is not its name with dashes.
+_FLAG = {"repair": "--repair (recover: --all)", "scene": "--scene/--no-scene", "fill": "--fill"}
+_NO_FLAG = {"settings", "scene_settings"}
+
+
+def _with_flag(exc: D2SRError) -> str:
+    """The library's error, and which flag sets the setting it names (a run's settings only)."""
+    from d2sr.runtime.settings import LoopSettings, RunSettings
+
+    name = exc.setting
+    known = set(RunSettings.model_fields) | set(LoopSettings.model_fields) | {"format", "colour_topic"}
+    if name is None or name not in known or name in _NO_FLAG:
+        return str(exc)
+    return f"{exc} (set by {_FLAG.get(name, '--' + name.replace('_', '-'))})"
 
 
 def _fail(line: str) -> NoReturn:

@@ -200,19 +200,23 @@ def generalization(
     from d2sr.eval.model_plots import generalization as plot
     from d2sr.eval.plots import save
     from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.settings import RunSettings
 
     if not data.is_dir():
         raise InputError(f"{data}: not a folder")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[data])
-    net = open_backend(model, backend, models)
+    net = open_backend(RunSettings(model=model, backend=backend, models=models))
 
     def finished(root: Path | None, names: tuple[str, ...], name: str) -> dict[str, Path]:
         folders = {n: root / (n if n == "all" else f"no-{n}") for n in names} if root else {}
         return {n: f for n, f in folders.items() if (f / f"{name}.safetensors").is_file()}  # finished runs
 
-    left = {k: open_backend(None, backend, f) for k, f in finished(lofo, FAMILIES, "detector").items()}
+    left = {
+        k: open_backend(RunSettings(backend=backend, models=f), recovery=False)
+        for k, f in finished(lofo, FAMILIES, "detector").items()
+    }
     left_rec = {
-        k: open_backend(model, backend, f, detector=None)
+        k: open_backend(RunSettings(model=model, backend=backend, models=f), detector=False)
         for k, f in finished(lofo_recovery, ("all", *FAMILIES), model).items()
     }
     sets = g.real_clean_sets(data)

@@ -22,7 +22,7 @@ from d2sr.cli.common import (
 )
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
-from d2sr.runtime.pipeline import DEFAULT_ACTIVE
+from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
 from d2sr.ui import print_line
 
 __all__ = ["ros2"]
@@ -66,10 +66,13 @@ def ros2(
 
     if seconds is not None and not (0 < seconds < float("inf")):
         raise ConfigError(f"--seconds must be a positive number, got {seconds}")
+    settings = RunSettings(
+        repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
+        passes=passes, scene=scene,
+    )  # fmt: skip
     node = Ros2Node(
         topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,
-        active_frames=active_frames, trigger=trigger, repair=repair, model=model, models=Path(models),
-        threshold=threshold, mask_logit=mask_logit, passes=passes, scene=scene,
+        active_frames=active_frames, trigger=trigger, settings=settings,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())

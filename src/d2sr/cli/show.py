@@ -34,11 +34,12 @@ def demo(
     """
     from d2sr.eval.demo import CAPTION, DEMO_CONTROLLERS, HEADERS, run_demo, table_rows
     from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.settings import RunSettings
 
     if not seconds > 0:
         raise ConfigError(f"--seconds must be positive, got {seconds}")
     check_out(out, is_dir=True, overwrite=overwrite)
-    net = open_backend(DEFAULT_MODEL, backend)
+    net = open_backend(RunSettings(model=DEFAULT_MODEL, backend=backend))
     t = time.perf_counter()
     with progress_bar() as bar:
         tasks = {c: bar.add_task(f"{c:8s} 3 sensors, {seconds:g} s", total=1.0) for c in DEMO_CONTROLLERS}

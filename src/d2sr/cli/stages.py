@@ -29,7 +29,7 @@ from d2sr.cli.common import (
 from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.batch import Progress
-from d2sr.runtime.loop import PRIME_FRAMES
+from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.ui import print_line, progress_bar
 
 __all__ = ["detect", "recover"]
@@ -62,12 +62,12 @@ def detect(
     """
     from d2sr.runtime.batch import detect_recording
 
+    settings = RunSettings(
+        depth_scale=depth_scale, topic=topic, threshold=threshold, models=models, backend=backend,
+        max_range=max_range, scene=scene, prime=prime,
+    )  # fmt: skip
     with _bar("detecting") as progress:
-        s = detect_recording(
-            input, out, depth_scale=depth_scale, topic=topic, threshold=threshold, models=models,
-            backend=backend, max_range=max_range, scene=scene, prime=prime, overwrite=overwrite,
-            progress=progress, say=print_line,
-        )  # fmt: skip
+        s = detect_recording(input, out, settings, overwrite=overwrite, progress=progress, say=print_line)
     typer.echo(f"{s.flagged} of {s.frames} frames interfered{s.scene_note()} -> {out}")
 
 
@@ -123,14 +123,15 @@ def recover(
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
-    from d2sr.runtime.batch import recover_recording
+    from d2sr.runtime.batch import Written, recover_recording
 
+    settings = RunSettings(
+        depth_scale=depth_scale, topic=topic, repair="all" if every else "flagged", model=model,
+        models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
+        max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime,
+    )  # fmt: skip
+    written = Written(format, rerun, colour_topic, overwrite)
     with _bar(f"recovering ({model})") as progress:
-        s = recover_recording(
-            input, out, depth_scale=depth_scale, topic=topic, every=every, model=model, models=models,
-            threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend, format=format,
-            max_range=max_range, rerun=rerun, scene=scene, scene_repair=scene_repair, prime=prime,
-            colour_topic=colour_topic, overwrite=overwrite, progress=progress, say=print_line,
-        )  # fmt: skip
+        s = recover_recording(input, out, settings, written, progress=progress, say=print_line)
     made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""
     typer.echo(f"repaired {s.repaired} of {s.frames} frames{made}{s.scene_note()} -> {out}")

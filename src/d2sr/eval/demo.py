@@ -28,6 +28,7 @@ from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.timing import TimingConfig
 
 __all__ = ["CAPTION", "DEMO_CONTROLLERS", "HEADERS", "markdown_table", "read_log", "run_demo", "table_rows"]
@@ -101,8 +102,11 @@ def run_demo(
     with atomic_dir(out) as tmp:
         for name in DEMO_CONTROLLERS:
             t = time.perf_counter()
+            plan = LoopSettings(
+                controller=name, sensors=sensors, seconds=seconds, active_frames=active_frames, seed=seed
+            )
             results[name] = run_sim(
-                net, tmp / "runs" / name, name, sensors, seconds, active_frames, seed,
+                net, tmp / "runs" / name, RunSettings(scene=False), plan,
                 progress=functools.partial(progress, name) if progress else None,
                 on_result=keep if name == "static" else None,
             )  # fmt: skip

@@ -39,7 +39,8 @@ from d2sr.contract import (
     pair_path,
     recover_passes,
 )
-from d2sr.errors import InputError
+from d2sr.errors import ConfigError, InputError
+from d2sr.runtime.settings import BACKENDS, RunSettings
 
 __all__ = ["BACKENDS", "Backend", "Gated", "OnnxBackend", "open_backend"]
 
@@ -322,7 +323,6 @@ class Gated:
 
 # Opening models: onnxruntime where it is installed and the ONNX files exist, torch otherwise (imported only
 # then, so the edge install never loads it).
-BACKENDS = ("auto", "onnx", "torch")
 
 
 def _has(weights: Path, name: str) -> bool:
@@ -331,37 +331,35 @@ def _has(weights: Path, name: str) -> bool:
 
 
 def open_backend(
-    model: str | None = DEFAULT_RECOVERY,
-    backend: str = "auto",
-    weights: Path = WEIGHTS,
-    detector: str | None = DETECTOR,
-    threads: int | None = None,
-    int8: bool = False,
-    mask_logit: float | None = None,
-    passes: int = REPAIR_PASSES,
+    settings: RunSettings | None = None, *, detector: bool = True, recovery: bool = True
 ) -> Backend:
-    """The shipped (or given folder's) detector and recovery model ``model`` (None: the detector only;
-    ``detector=None``: the recovery model only). ``mask_logit`` overrides the recovery model's own mask
-    threshold (a logit); ``passes``: runs of the recovery model per frame (``contract.recover_passes``).
-    ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up, at auto's own mask logit
-    (``AUTO_TEMPORAL_LOGIT``, unless ``mask_logit`` is given), ``unet8`` elsewhere
-    (``runtime.backends.Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
-    if model == AUTO_RECOVERY:
-        single = open_backend(DEFAULT_RECOVERY, backend, weights, detector, threads, int8, mask_logit, passes)
-        if not _has(weights, TEMPORAL_RECOVERY):
+    """The detector (``detector``) and the recovery model (``recovery``) that ``settings`` name, from its
+    ``models`` folder [the shipped ones], on its ``backend``, with its ``threads``, ``int8``, ``mask_logit``
+    (overrides the model's own mask threshold, a logit) and ``passes`` (runs of the recovery model per frame,
+    ``contract.recover_passes``). ``model="auto"``: ``unet8-temporal`` where the last clean frame lines up,
+    at auto's own mask logit (``AUTO_TEMPORAL_LOGIT``, unless ``mask_logit`` is given), ``unet8`` elsewhere
+    (``Gated``); ``unet8`` alone in a folder without ``unet8-temporal`` (d2sr adapt's)."""
+    s = settings if settings is not None else RunSettings()
+    if s.model == AUTO_RECOVERY and recovery:
+        single = open_backend(s.model_copy(update={"model": DEFAULT_RECOVERY}), detector=detector)
+        if not _has(s.models, TEMPORAL_RECOVERY):
             return single
-        own = AUTO_TEMPORAL_LOGIT if mask_logit is None else mask_logit
-        temporal = open_backend(TEMPORAL_RECOVERY, backend, weights, None, threads, int8, own, passes)
-        return Gated(single, temporal)
-    if backend not in BACKENDS:
-        raise InputError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
-    if mask_logit is not None and not np.isfinite(mask_logit):
-        raise InputError(f"--mask-logit must be a finite number, got {mask_logit}")
+        own = AUTO_TEMPORAL_LOGIT if s.mask_logit is None else s.mask_logit
+        pair = s.model_copy(update={"model": TEMPORAL_RECOVERY, "mask_logit": own})
+        return Gated(single, open_backend(pair, detector=False))
+    det = DETECTOR if detector else None
+    model = s.model if recovery else None
+    return _open(det, model, s)
+
+
+def _open(detector: str | None, model: str | None, s: RunSettings) -> Backend:
+    """The models named (None: not that one) of ``s.models``, on ``s.backend``."""
+    backend, weights, int8, mask_logit, passes = s.backend, s.models, s.int8, s.mask_logit, s.passes
     if not weights.is_dir():
-        raise InputError(f"{weights}: no such weights folder")
+        raise InputError(f"{weights}: no such models folder")
     names = ([detector] if detector else []) + ([model] if model else [])
     if not names:
-        raise InputError("open_backend needs a detector, a recovery model or both")
+        raise ConfigError("open_backend needs a detector, a recovery model or both")
     for name in names:
         if not _has(weights, name):
             hint = f" (shipped: {', '.join(SHIPPED_RECOVERY)}; `make weights` trains the others)"
@@ -371,14 +369,14 @@ def open_backend(
     rec_onnx = weights / f"{model}{ext}" if model else None
     onnx_files = [f for f in (det_onnx, rec_onnx) if f is not None]
     if int8 and backend == "torch":
-        raise InputError("int8 models run on onnxruntime (--backend onnx)")
+        raise ConfigError("int8 models run on onnxruntime (backend onnx)", "int8")
     if int8:
         backend = "onnx"
     if backend == "auto":
         has_ort = importlib.util.find_spec("onnxruntime") is not None
         backend = "onnx" if has_ort and all(f.is_file() for f in onnx_files) else "torch"
     if backend == "onnx":
-        return OnnxBackend(det_onnx, rec_onnx, threads, mask_logit, passes)
+        return OnnxBackend(det_onnx, rec_onnx, s.threads, mask_logit, passes)
     if importlib.util.find_spec("torch") is None:
         raise InputError(f"no ONNX models in {weights} and torch is not installed")
     from d2sr.models.inference import TorchBackend

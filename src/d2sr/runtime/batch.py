@@ -24,23 +24,25 @@ from typing import Any, Protocol
 import numpy as np
 
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
-from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_PASSES, WEIGHTS, check_probability
+from d2sr.contract import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame, Intrinsics, detect_format, open_colours
-from d2sr.frames.base import PLAUSIBLE_M, to_metres, to_units
+from d2sr.frames import Frame, Intrinsics, Reader, detect_format, open_colours
+from d2sr.frames.base import to_metres, to_units
 from d2sr.frames.checks import checked, checked_counts, open_input
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
-from d2sr.runtime.loop import PRIME_FRAMES, Capture, Result, SensorLoop
+from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
-from d2sr.runtime.pipeline import check_options, open_models
+from d2sr.runtime.pipeline import model_settings, open_models
+from d2sr.runtime.settings import RunSettings
 
 __all__ = [
     "CSV_HEADER",
     "FORMATS",
     "Progress",
     "Summary",
+    "Written",
     "detect_recording",
     "in_order",
     "recover_recording",
@@ -179,46 +181,34 @@ def _open_sink(
 def detect_recording(
     input: Path,
     out: Path,
+    settings: RunSettings | None = None,
     *,
-    depth_scale: float | None = None,
-    topic: str | None = None,
-    threshold: float | None = None,
-    models: Path = WEIGHTS,
-    backend: str = "auto",
-    max_range: float = PLAUSIBLE_M[1],
-    scene: bool = True,
-    prime: int = PRIME_FRAMES,
     overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
     """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
     detector's probability that the frame is interfered, exact for every frame, so that any threshold can
-    be applied to it later; interfered: 1 at or above ``threshold``, and with
-    ``scene`` only if the frame also deviates from the still sensor's own scene, ``SensorLoop.scene``).
-    ``prime``: with ``scene``, the recording's first frames the scene learns from before the first is
-    judged (``SensorLoop.primed``; 0: none, as a live sensor starts).
-    ``progress(done, total)`` follows the frames; ``say`` gets the one line on the input and its scale."""
-    if threshold is not None:
-        check_probability(threshold, "--threshold")
+    be applied to it later; interfered: 1 at or above ``settings.threshold``, and with ``settings.scene``
+    only if the frame also deviates from the still sensor's own scene, primed on the recording's first
+    ``settings.prime`` frames). ``progress(done, total)`` follows the frames; ``say`` gets the one line on
+    the input and its scale."""
+    s = settings if settings is not None else RunSettings()
     check_out(out, is_dir=False, overwrite=overwrite, inputs=_inputs(input))
     reuse_freed_memory()
-    net = open_models(None, Path(models), backend)
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
+    net = open_models(model_settings(s), recovery=False)
+    reader, scale = _read(input, s, say)
+    judge = s.model_copy(update={"repair": "none"})
+    # exact_scores: the CSV's scores serve any threshold the user picks later
     loop = SensorLoop(
-        net,
-        make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
-        threshold=threshold,
-        repair="none",
-        scene=scene,
-        exact_scores=True,  # the CSV's scores serve any threshold the user picks later
+        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), settings=judge, exact_scores=True
     )
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_HEADER)
     flagged = done = used = 0
     caps = (Capture(f, scale) for f in prefetch(checked(reader, scale)))
-    for res in map(loop.process, loop.primed(caps, prime)):
+    for res in map(loop.process, loop.primed(caps, s.prime)):
         flagged += res.flagged
         used += bool(res.scene)
         w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged)])
@@ -226,94 +216,97 @@ def detect_recording(
         if progress is not None:
             progress(done, len(reader))
     atomic_write(out, buf.getvalue())
-    return Summary(done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale, 0, used if scene else None)
+    return Summary(
+        done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale, 0, used if s.scene else None
+    )
+
+
+@dataclass(frozen=True)
+class Written:
+    """How ``recover_recording`` writes: ``format`` ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind,
+    anything else a PNG folder), ``png`` or ``bag``; ``rerun``: also log the run to a ``.rrd`` file or the
+    ``live`` viewer; ``colour_topic`` (a bag in and out, 16-bit depth): every colour message no depth
+    message joins gets a synthesized frame (``d2sr.frames.bagcopy``); ``overwrite``: replace an output d2sr
+    made."""
+
+    format: str = "auto"
+    rerun: str | None = None
+    colour_topic: str | None = None
+    overwrite: bool = False
 
 
 def recover_recording(
     input: Path,
     out: Path,
+    settings: RunSettings | None = None,
+    written: Written | None = None,
     *,
-    depth_scale: float | None = None,
-    topic: str | None = None,
-    every: bool = False,
-    model: str = DEFAULT_MODEL,
-    models: Path = WEIGHTS,
-    threshold: float | None = None,
-    mask_logit: float | None = None,
-    passes: int = REPAIR_PASSES,
-    backend: str = "auto",
-    format: str = "auto",
-    max_range: float = PLAUSIBLE_M[1],
-    rerun: str | None = None,
-    scene: bool = True,
-    scene_repair: bool | None = None,
-    prime: int = PRIME_FRAMES,
-    colour_topic: str | None = None,
-    overwrite: bool = False,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
-    """Repair a recording: only the frames the detector flags (with ``scene``, weighed against the still
-    sensor's own scene, ``SensorLoop.scene``), or ``every`` frame; ``scene_repair`` (with ``scene``): the
-    scene's own depth where it is trusted, ``SensorLoop.scene_repair`` [None: on where frames are judged,
-    off with ``every``, where it would have the scene judge every frame]; ``prime``: with the scene, the
-    recording's first frames it learns from before the first is judged (``SensorLoop.primed``; 0: none).
-    ``format``:
-    ``auto`` (a ROS 1 or ROS 2 bag gives a bag of its kind, anything else a PNG folder), ``png`` or ``bag``.
-    ``rerun``: also log the run to a ``.rrd`` file or ``live`` viewer. Frames that are not flagged (without
-    ``every``) come out bit for bit as they went in. ``colour_topic`` (a bag in and out, 16-bit depth): every
-    colour message no depth message joins gets a synthesized frame (``d2sr.frames.bagcopy``)."""
+    """Repair a recording as ``settings`` say: only the frames the detector flags (with ``scene``, weighed
+    against the still sensor's own scene), or every frame (``repair="all"``); the scene's own depth where it
+    is trusted (``RunSettings.repairs_scene``); the recording's first ``prime`` frames primed into the
+    scene. ``written``: how the output is written (``Written``). Frames that are not flagged (unless every
+    frame is repaired) come out bit for bit as they went in."""
     from d2sr.runtime.viewer import LIVE, RerunLog
 
-    check_options(model, "all" if every else "flagged", threshold, "--")
-    kind = _out_format(input, format)
-    if colour_topic is not None and kind == "png":
-        raise ConfigError("--colour-topic: frames are synthesized into a bag; give a ROS bag and a bag out")
-    check_out(out, is_dir=kind != "ros1", overwrite=overwrite, inputs=_inputs(input))
-    if rerun is not None and rerun != LIVE:
+    s = settings if settings is not None else RunSettings()
+    wr = written if written is not None else Written()
+    if s.repair == "none":
+        raise ConfigError("recover repairs frames: repair must be flagged or all", "repair")
+    every = s.repair == "all"
+    kind = _out_format(input, wr.format)
+    if wr.colour_topic is not None and kind == "png":
+        raise ConfigError(
+            "colour_topic: frames are synthesized into a bag; give a ROS bag and a bag out", "colour_topic"
+        )
+    check_out(out, is_dir=kind != "ros1", overwrite=wr.overwrite, inputs=_inputs(input))
+    if wr.rerun is not None and wr.rerun != LIVE:
         check_out(
-            Path(rerun), is_dir=False, overwrite=overwrite, inputs=[*_inputs(input), out], option="--rerun"
+            Path(wr.rerun),
+            is_dir=False,
+            overwrite=wr.overwrite,
+            inputs=[*_inputs(input), out],
+            option="--rerun",
         )
     reuse_freed_memory()
     workers, threads = repair_workers()
-    # --all needs no detector (its verdict would go unused) unless a view shows it or a temporal model
-    # needs to know which frames were clean.
-    if scene_repair and not scene:
-        raise ConfigError("--scene-repair needs the scene (drop --no-scene)")
-    scene_repair = scene and (not every if scene_repair is None else scene_repair)
-    # Repairing every frame, the scene's verdicts would go unused too: it is judged only for its repair.
-    scene = scene and (not every or scene_repair)
-    # The scene is judged on every frame (its upkeep needs them all), so it needs the detector's verdicts.
-    judged = not every or bool(rerun) or scene
-    net = open_models(model, Path(models), backend, mask_logit, passes, threads, detector=judged)
-    if every and not rerun and net.frames > 1:
-        net = open_models(model, Path(models), backend, mask_logit, passes, threads)
+    # Repairing every frame, the scene's verdicts would go unused: it is judged only for its repair.
+    scene_repair = s.repairs_scene
+    scene = s.scene and (not every or scene_repair)
+    # --all needs no detector (its verdict would go unused) unless a view shows it, a temporal model needs
+    # to know which frames were clean, or the scene is judged (its upkeep needs every verdict).
+    judged = not every or bool(wr.rerun) or scene
+    models = model_settings(s.model_copy(update={"threads": s.threads if s.threads is not None else threads}))
+    net = open_models(models, detector=judged)
+    if every and not wr.rerun and net.frames > 1:
+        net = open_models(models)
     if net.name != "onnxruntime":
         workers = 1
-    reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, max_range, say or _quiet)
+    reader, scale = _read(input, s, say)
     filler = None
-    if colour_topic is not None:
-        open_colours(Path(input), colour_topic)  # a topic the bag has, of images
+    if wr.colour_topic is not None:
+        open_colours(Path(input), wr.colour_topic)  # a topic the bag has, of images
         if getattr(reader, "msgtype", "") != "sensor_msgs/msg/Image":
-            raise InputError(f"{input}: --colour-topic needs the depth as sensor_msgs/Image")
-        filler = _BagFiller(colour_topic, scale, reader.intrinsics)
+            raise InputError(f"{input}: a colour topic needs the depth as sensor_msgs/Image")
+        filler = _BagFiller(wr.colour_topic, scale, reader.intrinsics)
     loop = SensorLoop(
         net,
         make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES),
-        threshold=threshold,
-        repair="all" if every else "flagged",
+        settings=s.model_copy(update={"scene": scene, "scene_repair": scene_repair}),
         detect=judged or net.frames > 1,
         # Repairing every frame, a temporal model's detector only picks the last clean frame (unless a view
         # shows its scores or the scene is judged): it runs where that can change.
         judge_every=judged or net.frames == 1,
-        scene=scene,
-        scene_repair=scene_repair,
     )
-    log: AbstractContextManager[Any] = RerunLog(rerun, 1, f"d2sr recover {input}") if rerun else nullcontext()
+    log: AbstractContextManager[Any] = (
+        RerunLog(wr.rerun, 1, f"d2sr recover {input}") if wr.rerun else nullcontext()
+    )
     flagged = repaired = done = used = 0
     with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
-        caps = loop.primed((Capture(f, scale) for f in frames), prime)
+        caps = loop.primed((Capture(f, scale) for f in frames), s.prime)
         for res in in_order(loop, caps, workers):
             if view is not None:
                 view.write(0, res)
@@ -328,8 +321,13 @@ def recover_recording(
         sink.finish(scale, reader.intrinsics)
     made = getattr(sink, "synthesized", 0)
     return Summary(
-        done, flagged, repaired, Path(out), kind, model, net.name, scale, made, used if scene else None
+        done, flagged, repaired, Path(out), kind, s.model, net.name, scale, made, used if scene else None
     )
+
+
+def _read(input: Path, s: RunSettings, say: Callable[[str], object] | None) -> tuple[Reader, float]:
+    """The recording's reader and its depth scale, as ``s`` says (topic, scale, range)."""
+    return open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say or _quiet)
 
 
 def _inputs(input: Path) -> list[Path]:
@@ -343,10 +341,10 @@ def _inputs(input: Path) -> list[Path]:
 def _out_format(input: Path, format: str) -> str:
     """png, ros1 or ros2: what recover writes for this input."""
     if format not in FORMATS:
-        raise InputError(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
+        raise ConfigError(f"format must be one of {', '.join(FORMATS)}, got {format!r}", "format")
     kind = detect_format(Path(input))
     if format == "png" or (format == "auto" and kind not in ("ros1", "ros2")):
         return "png"
     if kind not in ("ros1", "ros2"):
-        raise InputError(f"{input}: --format bag needs a ROS 1 or ROS 2 bag in (this is a {kind} recording)")
+        raise InputError(f"{input}: a bag out needs a ROS 1 or ROS 2 bag in (this is a {kind} recording)")
     return kind

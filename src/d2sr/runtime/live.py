@@ -21,7 +21,8 @@ from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder
-from d2sr.runtime.session import RunFiller, summarize
+from d2sr.runtime.session import RunFiller, live_settings, summarize
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.runtime.shots import Shot, host_arrival, rgbd_shots
 from d2sr.runtime.stats import RunStats
 from d2sr.triggers import Actuator, open_trigger, parse_trigger
@@ -122,25 +123,22 @@ def run_live(
     backend: Backend,
     out: Path,
     source: str,
-    trigger: str | None,
-    controller: str,
-    seconds: float,
-    active_frames: int,
-    repair: str,
-    threshold: float | None,
-    seed: int,
+    settings: RunSettings | None = None,
+    loop_settings: LoopSettings | None = None,
+    *,
     on_result: Callable[[int, Result], None] | None = None,
-    scene: bool = True,
-    fill: bool = False,
 ) -> dict[str, Any]:
-    """A live camera (``realsense[:SERIAL]`` or ``orbbec[:SERIAL]``) through one loop for ``seconds``;
-    closed through ``trigger`` (a ``d2sr.triggers`` spec) when given; with ``scene``, a still camera's
-    frames are also judged against its scene (``SensorLoop.scene``). With ``fill`` (a RealSense), its colour
-    stream is read too, and every colour frame that no depth frame joins (the laser was off) gets a frame
-    synthesized from the last one, written into the run with its confidence (``d2sr.synth``)."""
+    """A live camera (``realsense[:SERIAL]`` or ``orbbec[:SERIAL]``) through one loop for
+    ``loop_settings.seconds``; closed through its ``trigger`` (a ``d2sr.triggers`` spec) when given; with
+    ``settings.scene``, a still camera's frames are also judged against its scene. With its ``fill`` (a
+    RealSense), the colour stream is read too, and every colour frame that no depth frame joins (the laser
+    was off) gets a frame synthesized from the last one, written into the run with its confidence."""
+    s = settings if settings is not None else RunSettings()
+    ls = loop_settings if loop_settings is not None else LoopSettings()
+    trigger, controller, seconds, fill, scene = ls.trigger, ls.controller, ls.seconds, ls.fill, s.scene
     camera, serial = check_camera(source, trigger, fill)
     stats = RunStats()
-    settings = {
+    logged = {
         "source": source,
         "trigger": trigger,
         "controller": controller,
@@ -148,30 +146,30 @@ def run_live(
         "scene": scene,
         "fill": fill,
     }
-    actuator = open_trigger(trigger, active_frames) if trigger is not None else None
+    actuator = open_trigger(trigger, ls.active_frames) if trigger is not None else None
     with contextlib.ExitStack() as stack:
         if actuator is not None:
             stack.callback(actuator.close)
         shots, intrinsics = _camera(camera, serial, seconds, actuator, trigger, fill)
-        folder = stack.enter_context(RunFolder(out, settings, resumable=False, fill=fill))
-        ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
-        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
-        closed = ClosedLoop(loop, actuator) if actuator is not None else None
+        folder = stack.enter_context(RunFolder(out, logged, resumable=False, fill=fill))
+        ctrl = make_controller(controller, TOTAL_FRAMES, ls.active_frames, seed=ls.seed)
+        one = SensorLoop(backend, ctrl, None, folder.sink(0), settings=live_settings(s))
+        closed = ClosedLoop(one, actuator) if actuator is not None else None
         filler = RunFiller(folder, intrinsics)
         for shot in shots:
             if shot.depth is None:  # colour alone: a moment the laser skipped
                 if fill and shot.colour is not None:
-                    where = actuator.locate(shot.arrival) if actuator is not None else (loop.period, None)
-                    filler.skipped(shot.colour, shot.stamp, (*where, loop.controller.offset), shot.scale)
+                    where = actuator.locate(shot.arrival) if actuator is not None else (one.period, None)
+                    filler.skipped(shot.colour, shot.stamp, (*where, one.controller.offset), shot.scale)
                 continue
             cap = Capture(shot.depth, shot.scale)
-            res = loop.process(cap) if closed is None else closed.process(cap, shot.arrival)
+            res = one.process(cap) if closed is None else closed.process(cap, shot.arrival)
             stats.add(res)
             if on_result is not None:
                 on_result(0, res)
             if fill:
                 filler.real(shot.depth.name, res, shot.scale, shot.colour)
-        summary = summarize(settings, [stats])
+        summary = summarize(logged, [stats])
         if fill:
             summary["synthesized"] = [filler.made]
         folder.finish(summary)

@@ -22,16 +22,10 @@ from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth, to_metres
 from d2sr.runtime.backends import Backend
-from d2sr.scene import Evidence, SceneReference, SceneSettings
-
-REPAIR = ("flagged", "all", "none")
-# Frames a recording's loop judges ahead of its first to warm the scene (``SensorLoop.primed``): twice the
-# scene's ring, so that with every other frame interfered its 16 clean frames are all judged warm.
-PRIME_FRAMES = 32
+from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
+from d2sr.scene import Evidence, SceneReference
 
 __all__ = [
-    "PRIME_FRAMES",
-    "REPAIR",
     "Capture",
     "Decision",
     "PeriodEnd",
@@ -95,7 +89,7 @@ class Decision:
     period: int
     offset: int
     started: float  # perf_counter at decide
-    # What the scene knows of the frame (``SensorLoop.scene_repair``).
+    # What the scene knows of the frame (``RunSettings.repairs_scene``).
     scene: SceneRepair | None = None
     scene_used: bool | None = None  # ``Result.scene``
 
@@ -110,34 +104,30 @@ class Sink(Protocol):
     def write(self, result: Result) -> None: ...
 
 
+def _detector_alone() -> RunSettings:
+    return RunSettings(scene=False)
+
+
 @dataclass
 class SensorLoop:
-    """The three stages on one sensor. ``repair``: "flagged" (the paper: frames the detector flags), "all"
-    (every frame, the worst case for speed) or "none" (detection and timing only)."""
+    """The three stages on one sensor, as ``settings`` say: which frames are repaired (``repair``: the
+    flagged ones, the paper's; all, the worst case for speed; none, detection and timing only), the
+    detector's threshold, and whether a still sensor's frames are also judged against its own scene
+    (``scene``: a flag on a frame in which nothing deviates from the scene is a false alarm and is dropped;
+    a frame with fresh deviations in patches is interfered, flagged or not) and repaired from it where it is
+    trusted (``repairs_scene``). [The detector alone, as the paper's evaluations measure it.]"""
 
     backend: Backend
     controller: Controller
     trigger: Trigger | None = None
     sink: Sink | None = None
-    threshold: float | None = None  # None: the detector's own (backend.threshold)
-    repair: str = "flagged"
+    settings: RunSettings = field(default_factory=_detector_alone)
     # False: no detector runs (score NaN, never flagged). Only with repair="all" and a single-frame
     # recovery model, where no verdict is used: a temporal one needs to know which frames were clean.
     detect: bool = True
     # False (recover --all with a temporal model): the detector runs only where its verdict can change the
     # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
     judge_every: bool = True
-    # True: a still sensor's frames are also judged against its own scene (``d2sr.scene``): a flag on
-    # a frame in which nothing deviates from the scene is a false alarm, and is dropped; a frame with fresh
-    # deviations in patches (not something that moved) is interfered, flagged or not. On in d2sr.Pipeline and
-    # the commands; off here, where the paper's evaluations measure the detector alone.
-    scene: bool = False
-    # The scene reference's settings (as shipped unless given).
-    scene_settings: SceneSettings = field(default_factory=SceneSettings)
-    # True (with ``scene``): where the scene is trusted, a repaired frame's fresh deviations take the scene's
-    # own depth and the pixels that read as the scene are left alone (``SceneReference.repair``), beside the
-    # model's repair.
-    scene_repair: bool = True
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below
     # the threshold either way (contract.gate), for half the detector's work on a clean frame.
@@ -151,22 +141,24 @@ class SensorLoop:
     _last: tuple[tuple[int, ...], np.ndarray] | None = None  # the previous frame's size and metres (padded)
     _cut: float = THRESHOLD  # the threshold in use
     _unjudged: int = 0  # frames since the detector last ran
+    _mode: str = "flagged"  # the repair in use (none while priming)
 
     @property
     def offset(self) -> int:
         return self.controller.offset
 
     def __post_init__(self) -> None:
-        if self.repair not in REPAIR:
-            raise ConfigError(f"repair must be one of {', '.join(REPAIR)}, got {self.repair!r}")
-        if not self.detect and (self.repair != "all" or getattr(self.backend, "frames", 1) > 1):
+        if not isinstance(self.settings, RunSettings):
+            raise ConfigError(f"settings must be RunSettings, got {type(self.settings).__name__}")
+        self._mode = self.settings.repair
+        if not self.detect and (self._mode != "all" or getattr(self.backend, "frames", 1) > 1):
             raise ConfigError("detect=False needs repair='all' and a single-frame recovery model")
-        if not self.judge_every and (self.repair != "all" or getattr(self.backend, "frames", 1) == 1):
+        if not self.judge_every and (self._mode != "all" or getattr(self.backend, "frames", 1) == 1):
             raise ConfigError("judge_every=False needs repair='all' and a temporal recovery model")
         if self.trigger is not None:
             self.trigger.set_offset(0, self.controller.offset)
         own = float(getattr(self.backend, "threshold", THRESHOLD))
-        self._cut = self.threshold if self.threshold is not None else own
+        self._cut = self.settings.threshold if self.settings.threshold is not None else own
 
     def step(self, item: Capture | PeriodEnd) -> Result | None:
         if isinstance(item, PeriodEnd):
@@ -200,7 +192,8 @@ class SensorLoop:
         # A temporal detector also weighs the previous frame as delivered, flagged or not.
         before = self._last[1] if self._last is not None and self._last[0] == raw.shape else None
         cut = None if self.exact_scores else self._cut
-        units, ev = self._scene_evidence(raw, cap.scale, metres) if self.scene and judge else (None, None)
+        scene = self.settings.scene
+        units, ev = self._scene_evidence(raw, cap.scale, metres) if scene and judge else (None, None)
         if ev is not None and _decides(ev) and not self.exact_scores:
             # The scene's verdict stands whatever the detector would say: it is not run (score NaN).
             score, flagged = float("nan"), ev.evident
@@ -209,9 +202,9 @@ class SensorLoop:
             flagged = score >= self._cut  # False for NaN
         if ev is not None and units is not None:
             flagged = self._weigh(units, flagged, ev)
-        fix = self.repair == "all" or (flagged and self.repair == "flagged")
+        fix = self._mode == "all" or (flagged and self._mode == "flagged")
         known = None
-        if ev is not None and self._reference is not None and self.scene_repair and fix:
+        if ev is not None and self._reference is not None and self.settings.repairs_scene and fix:
             known = self._reference.repair(ev)
         used = ev.usable if ev is not None else None
         d = Decision(
@@ -230,15 +223,15 @@ class SensorLoop:
         changes: no result, no flag for the controller, no frame the models remember. A scene that is not
         settled at the end (``SceneReference.settled``: the sensor moved) is dropped, since priming a moving
         camera's scene flags its clean frames."""
-        if not self.scene or len(captures) < 2:
+        if not self.settings.scene or len(captures) < 2:
             return
-        kept = (self.repair, self._last, self._last_clean, self._unjudged)
-        self.repair = "none"
+        kept = (self._mode, self._last, self._last_clean, self._unjudged)
+        self._mode = "none"
         try:
             for cap in reversed(captures[1:]):
                 self.decide(replace(cap, counted=False))
         finally:
-            self.repair, self._last, self._last_clean, self._unjudged = kept
+            self._mode, self._last, self._last_clean, self._unjudged = kept
         if self._reference is not None and not self._reference.settled:
             self._reference = None  # the sensor moved over the frames ahead: start cold, as a live one does
 
@@ -247,7 +240,7 @@ class SensorLoop:
         0: none, the loop starts cold as a live sensor's does)."""
         if frames < 0:
             raise ConfigError(f"frames to prime the scene must be >= 0, got {frames}")
-        return self._primed(iter(captures), frames if self.scene else 0)
+        return self._primed(iter(captures), frames if self.settings.scene else 0)
 
     def _primed(self, captures: Iterator[Capture], frames: int) -> Iterator[Capture]:
         ahead = list(itertools.islice(captures, frames))
@@ -276,7 +269,7 @@ class SensorLoop:
             raw = cap.frame.depth
             metres = padded(to_metres(raw, cap.scale)[None])
             self._remember(raw, metres, not flagged)
-            if self.scene:  # the reference learns as it did the first time (the flag is the same)
+            if self.settings.scene:  # the reference learns as it did the first time (the flag is the same)
                 units, ev = self._scene_evidence(raw, cap.scale, metres)
                 self._weigh(units, flagged, ev)
         self._buffer(flagged, slot)
@@ -290,7 +283,7 @@ class SensorLoop:
         units, scale = _in_units(raw, scale)
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, units.shape):
-            ref = self._reference = SceneReference(scale, self.scene_settings)
+            ref = self._reference = SceneReference(scale, self.settings.scene_settings)
         own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None
         return units, ref.evidence(units, own)
 
@@ -298,7 +291,7 @@ class SensorLoop:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference
         takes the frame if clean."""
         if ev.usable:
-            quiet = ev.dense < self.scene_settings.quiet  # a flag on a quiet frame is a false alarm
+            quiet = ev.dense < self.settings.scene_settings.quiet  # a flag on a quiet frame is a false alarm
             flagged = (flagged and not quiet) or ev.evident
         if not flagged:
             assert self._reference is not None

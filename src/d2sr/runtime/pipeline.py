@@ -14,25 +14,31 @@ import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, TypedDict, Unpack
+from typing import Any
 
 import numpy as np
 
-from d2sr.contract import DEFAULT_MODEL, DETECTOR, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS, check_probability
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe, to_units
 from d2sr.frames.encoded import check_pixels
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
-from d2sr.runtime.loop import REPAIR, Capture, Decision, Result, SensorLoop, Trigger
+from d2sr.runtime.loop import Capture, Decision, Result, SensorLoop, Trigger
+from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
 from d2sr.synth import Filler, Pose, Synthesized
 from d2sr.triggers import Actuator, open_trigger
 
-__all__ = ["Decided", "Options", "Pipeline", "Repaired", "Window", "check_options", "open_models", "repair"]
-
-DEFAULT_ACTIVE = 6  # frames per 1 s period that `d2sr run` and a Pipeline run by default (the paper's 20%)
+__all__ = [
+    "Decided",
+    "Pipeline",
+    "Repaired",
+    "Window",
+    "model_settings",
+    "open_models",
+    "repair",
+    "settings_of",
+]
 
 
 @dataclass(frozen=True)
@@ -84,109 +90,65 @@ class Decided:
     decision: Decision
 
 
-class Options(TypedDict, total=False):
-    """How ``repair`` and ``Pipeline`` repair (defaults in brackets):
-
-    - ``model``: ``auto``, ``unet8``, ``unet16``, ``unet32`` or ``unet8-temporal`` [``auto``];
-      ``models``: the folder holding them (``d2sr adapt`` writes one) [the shipped models];
-    - ``repair``: ``flagged`` (frames the detector flags), ``all`` or ``none`` [``flagged``];
-    - ``threshold``: detector probability that flags a frame [the detector's own, 0.5];
-      ``mask_logit``: the recovery mask's threshold, lower repairs more [the model's own];
-      ``passes``: model runs per frame [2];
-    - ``backend``: ``auto`` (onnxruntime when installed), ``onnx`` or ``torch`` [``auto``].
-    """
-
-    model: str
-    models: Path | str
-    repair: str
-    threshold: float | None
-    mask_logit: float | None
-    passes: int
-    backend: str
-
-
-def check_options(model: str, repair: str, threshold: float | None, flag: str = "") -> None:
-    """The model's name, the repair mode and the detector threshold, or a ConfigError naming the option
-    (``flag``: ``--`` where the command line's names are meant)."""
-    if model not in REPAIR_MODELS:
-        raise ConfigError(f"{flag}model: unknown {model!r}; choose from {', '.join(REPAIR_MODELS)}")
-    if repair not in REPAIR:
-        raise ConfigError(f"{flag}repair must be one of {', '.join(REPAIR)}, got {repair!r}")
-    if threshold is not None:
-        check_probability(threshold, f"{flag}threshold")
-
-
-# The type each argument of ``repair`` and ``Pipeline`` must have (None allowed where its default is None).
+# The type each argument of ``repair`` and ``Pipeline`` outside the settings must have.
 _TYPES: dict[str, tuple[type, ...]] = {
-    "model": (str,), "models": (str, Path), "repair": (str,), "backend": (str,), "controller": (str,),
-    "threshold": (int, float), "mask_logit": (int, float), "depth_scale": (int, float),
-    "passes": (int,), "active_frames": (int,), "seed": (int,), "threads": (int,),
-    "int8": (bool,), "scene": (bool,), "scene_repair": (bool,),
+    "depth_scale": (int, float), "controller": (str,), "active_frames": (int,), "seed": (int,),
 }  # fmt: skip
-_OPTIONAL = {"threshold", "mask_logit", "depth_scale", "threads"}
+_OPTIONAL = {"depth_scale"}
 
 
 def check_types(**arguments: object) -> None:
     """Each argument of the library's entry points of its type (a ConfigError naming it otherwise), numbers
     finite: a caller's mistake is one of d2sr's errors, not a TypeError from deep inside."""
     for name, value in arguments.items():
-        want = _TYPES.get(name)
-        if want is None or (value is None and name in _OPTIONAL):
+        want = _TYPES[name]
+        if value is None and name in _OPTIONAL:
             continue
         numeric = want[0] is int or want[0] is float
         if (numeric and isinstance(value, bool)) or not isinstance(value, want):
             kind = ("a number" if numeric else " or ".join(t.__name__ for t in want)) + (
                 " or None" if name in _OPTIONAL else ""
             )
-            raise ConfigError(f"{name} must be {kind}, got {type(value).__name__} {str(value)[:40]!r}")
+            raise ConfigError(f"{name} must be {kind}, got {type(value).__name__} {str(value)[:40]!r}", name)
         if numeric and not np.isfinite(float(value)):  # type: ignore[arg-type]
-            raise ConfigError(f"{name} must be a finite number, got {value}")
+            raise ConfigError(f"{name} must be a finite number, got {value}", name)
 
 
-def _open(options: Options, threads: int | None = None, int8: bool = False) -> tuple[Backend, str]:
-    """The models ``options`` ask for, checked, and the repair mode."""
-    unknown = set(options) - set(Options.__annotations__)
+def settings_of(settings: RunSettings | None, options: dict[str, Any]) -> RunSettings:
+    """``settings`` [the defaults] with ``options`` (``RunSettings`` fields by keyword) over it."""
+    if settings is not None and not isinstance(settings, RunSettings):
+        raise ConfigError(f"settings must be RunSettings, got {type(settings).__name__}", "settings")
+    unknown = sorted(set(options) - set(RunSettings.model_fields))
     if unknown:
-        raise ConfigError(
-            f"unknown option {sorted(unknown)[0]!r}; options: {', '.join(Options.__annotations__)}"
-        )
-    check_types(threads=threads, int8=int8, **options)
-    model, mode = options.get("model", DEFAULT_MODEL), options.get("repair", "flagged")
-    check_options(model, mode, options.get("threshold"))
-    models = Path(options.get("models", WEIGHTS))
-    if not models.is_dir():
-        raise InputError(f"{models}: no such models folder")
-    net = open_models(
-        model if mode != "none" else None,
-        models,
-        options.get("backend", "auto"),
-        options.get("mask_logit"),
-        options.get("passes", REPAIR_PASSES),
-        threads,
-        int8,
-    )
-    return net, mode
+        raise ConfigError(f"unknown setting {unknown[0]!r}; settings: {', '.join(RunSettings.model_fields)}")
+    if not options:
+        return settings if settings is not None else RunSettings()
+    given = {k: getattr(settings, k) for k in settings.model_fields_set} if settings is not None else {}
+    return RunSettings(**(given | options))
 
 
 @functools.lru_cache(maxsize=4)
 def open_models(
-    model: str | None = DEFAULT_MODEL,
-    models: Path = WEIGHTS,
-    backend: str = "auto",
-    mask_logit: float | None = None,
-    passes: int = REPAIR_PASSES,
-    threads: int | None = None,
-    int8: bool = False,
-    detector: bool = True,
+    settings: RunSettings | None = None, *, detector: bool = True, recovery: bool = True
 ) -> Backend:
-    """The detector (``detector``) and recovery model ``model`` (None: the detector only) of folder
-    ``models``, opened once per set of arguments and shared (sessions are safe to run from several
-    threads)."""
+    """``open_backend``'s models, opened once per set of arguments and shared (sessions are safe to run
+    from several threads)."""
     from d2sr.runtime.backends import open_backend
 
-    return open_backend(
-        model, backend, Path(models), DETECTOR if detector else None, threads, int8, mask_logit, passes
-    )
+    return open_backend(settings, detector=detector, recovery=recovery)
+
+
+def _models(s: RunSettings) -> Backend:
+    """The models a frame-by-frame repair in ``s`` needs: no recovery model when it repairs none."""
+    if not s.models.is_dir():
+        raise InputError(f"{s.models}: no such models folder")
+    return open_models(model_settings(s), recovery=s.repair != "none")
+
+
+def model_settings(s: RunSettings) -> RunSettings:
+    """``s`` with only the fields that choose and open models set: one cache entry per set of models."""
+    keep = ("model", "models", "backend", "mask_logit", "passes", "threads", "int8")
+    return RunSettings(**{k: getattr(s, k) for k in keep})
 
 
 def _as_frame(depth: object, depth_scale: float | None, name: str) -> tuple[np.ndarray, float]:
@@ -253,35 +215,36 @@ class Pipeline:
     - ``scene_repair`` [True]: with ``scene``, a repaired frame takes the scene's own depth where it deviates
       freshly from a still scene that is trusted there, and the model leaves alone what reads as the scene
       (``SensorLoop.scene_repair``). False: the model alone repairs.
-    - the repair's ``options``: ``Options``.
+    - ``settings``: ``RunSettings`` [the defaults], and its fields by keyword (``model="unet8"``,
+      ``threshold=0.6``, ``threads=2``, ...) over it. ``scene_repair`` [on with the scene, whatever
+      ``repair``]: a repaired frame takes the scene's own depth where it deviates freshly from a still scene
+      that is trusted there, and the model leaves alone what reads as the scene.
     """
 
     def __init__(
         self,
         depth_scale: float | None = None,
         *,
+        settings: RunSettings | None = None,
         controller: str = DEFAULT_CONTROLLER,
         active_frames: int = DEFAULT_ACTIVE,
         seed: int = 0,
         trigger: Trigger | str | None = None,
-        threads: int | None = None,
-        int8: bool = False,
         intrinsics: Intrinsics | None = None,
-        scene: bool = True,
-        scene_repair: bool = True,
-        **options: Unpack[Options],
+        **options: Any,
     ) -> None:
-        check_types(
-            depth_scale=depth_scale, controller=controller, active_frames=active_frames, seed=seed,
-            scene=scene, scene_repair=scene_repair,
-        )  # fmt: skip
+        check_types(depth_scale=depth_scale, controller=controller, active_frames=active_frames, seed=seed)
         if controller not in CONTROLLERS or controller == "oracle":
             names = ", ".join(c for c in CONTROLLERS if c != "oracle")
             raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")
         if not 1 <= active_frames <= TOTAL_FRAMES:
             raise ConfigError(f"active_frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
-        self.depth_scale = depth_scale
-        self.backend, mode = _open(options, threads, int8)
+        s = settings_of(settings, options)
+        if s.scene_repair is None:  # a live stream's scene repairs whatever it repairs
+            s = s.model_copy(update={"scene_repair": s.scene})
+        self.settings = s
+        self.depth_scale = depth_scale if depth_scale is not None else s.depth_scale
+        self.backend = _models(s)
         if isinstance(trigger, str):
             trigger = open_trigger(trigger, active_frames)
         actuator = trigger if isinstance(trigger, Actuator) else None
@@ -289,10 +252,7 @@ class Pipeline:
             self.backend,
             make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed),
             None if actuator is not None else trigger,
-            threshold=options.get("threshold"),
-            repair=mode,
-            scene=scene,
-            scene_repair=scene_repair,
+            settings=s,
         )
         self.closed = ClosedLoop(self.loop, actuator) if actuator is not None else None
         self._count = itertools.count()
@@ -443,23 +403,26 @@ class Pipeline:
         return self.window
 
 
-def repair(depth: np.ndarray, depth_scale: float | None = None, **options: Unpack[Options]) -> Repaired:
+def repair(
+    depth: np.ndarray, depth_scale: float | None = None, settings: RunSettings | None = None, **options: Any
+) -> Repaired:
     """Detect and repair one depth frame: the repair ``d2sr recover`` gives that frame alone.
 
     ``depth``: uint16 in sensor units (``depth_scale`` units per metre; default 1000, millimetres) or float
     metres. Returns ``Repaired``: ``.depth`` (the input's dtype and units), ``.mask``, ``.interfered``,
-    ``.score``. ``options``: ``Options`` (``repair="all"`` repairs the frame even when the detector passes
-    it). Models are opened on the first call and kept for the next ones; the depth scale is checked on the
-    first frame given at that scale."""
-    net, mode = _open(options)
-    frame, scale = _as_frame(depth, depth_scale, "depth")
+    ``.score``. ``settings``: ``RunSettings`` [the defaults], and its fields by keyword over it
+    (``repair="all"`` repairs the frame even when the detector passes it); a single frame has no scene.
+    Models are opened on the first call and kept for the next ones; the depth scale is checked on the first
+    frame given at that scale."""
+    s = settings_of(settings, options)
+    net = _models(s)
+    frame, scale = _as_frame(depth, depth_scale if depth_scale is not None else s.depth_scale, "depth")
     units = (frame.dtype.str, scale)
     if units not in _PROBED:  # checked once per kind of units: a per-frame check would cost ~8 ms a frame
         _probe(frame, scale, "depth")
         _PROBED.add(units)
-    loop = SensorLoop(
-        net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), None, None, options.get("threshold"), mode
-    )
+    alone = s.model_copy(update={"scene": False, "scene_repair": False})  # one frame: no scene to judge by
+    loop = SensorLoop(net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), settings=alone)
     res = loop.process(Capture(Frame("frame", frame), scale))
     return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds, res.scene)
 

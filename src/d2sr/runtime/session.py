@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ from d2sr.frames.base import Frames, Intrinsics, to_metres, to_units
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder, SynthFrame
+from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.runtime.sources import RoomTrigger, run_room
 from d2sr.runtime.stats import RunStats
 from d2sr.sim.record import EPOCH_NS
@@ -26,7 +28,7 @@ from d2sr.sim.world import Rig, make_rig
 from d2sr.synth import Filler, Pose
 from d2sr.synth.gaps import interleave
 
-__all__ = ["odometry", "rig_intrinsics", "run_recording", "run_sim", "summarize", "synth_frame"]
+__all__ = ["Recording", "odometry", "rig_intrinsics", "run_recording", "run_sim", "summarize", "synth_frame"]
 
 Progress = Callable[[float], None]
 
@@ -34,31 +36,30 @@ Progress = Callable[[float], None]
 def run_sim(
     backend: Backend,
     out: Path | None,
-    controller: str,
-    sensors: int = 3,
-    seconds: float = 20.0,
-    active_frames: int = 6,
-    seed: int = 0,
-    moving: bool = False,
-    repair: str = "flagged",
-    threshold: float | None = None,
+    settings: RunSettings | None = None,
+    loop_settings: LoopSettings | None = None,
+    *,
     timing: TimingConfig | None = None,
     render: bool = True,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
-    fill: bool = False,
 ) -> dict[str, Any]:
-    """``sensors`` simulated L515s in one room, each its own loop; returns the summary (per sensor and
-    all together). With ``out``, every sensor's frames, masks and log are written (a rerun starts clean:
-    the world's state is not resumable). ``fill``: every slot without a frame (the laser off, or a frame
-    dropped) is synthesized from the sensor's last frame and its odometry (``d2sr.synth``) and written
-    with the others (needs ``out``)."""
+    """``loop_settings.sensors`` simulated L515s in one room, each its own loop (``settings``: its repair
+    and threshold; the scene is not judged); returns the summary (per sensor and all together). With
+    ``out``, every sensor's frames, masks and log are written (a rerun starts clean: the world's state is
+    not resumable). With its ``fill``: every slot without a frame (the laser off, or a frame dropped) is
+    synthesized from the sensor's last frame and its odometry (``d2sr.synth``) and written with the others
+    (needs ``out``)."""
+    s = settings if settings is not None else RunSettings()
+    ls = loop_settings if loop_settings is not None else LoopSettings()
+    controller, sensors, seconds, active_frames = ls.controller, ls.sensors, ls.seconds, ls.active_frames
+    seed, moving, fill, repair, threshold = ls.seed, ls.moving, ls.fill, s.repair, s.threshold
     if fill and (out is None or not render):
         raise ConfigError("fill writes synthesized frames into a run folder: it needs out and rendering")
     cfg = TimingConfig.make(**((timing or TimingConfig()).model_dump() | {"active_frames": active_frames}))
     rig = make_rig(seed, sensors=sensors, moving_robot=moving)
     room = SimRoom(rig, cfg, seed=seed, seconds=seconds, render=render)
-    settings = {
+    logged = {
         "source": "sim",
         "controller": controller,
         "sensors": sensors,
@@ -74,7 +75,7 @@ def run_sim(
     }
     stats = [RunStats() for _ in range(sensors)]
     offsets: list[list[int]] = [[] for _ in range(sensors)]
-    folder = RunFolder(out, settings, resumable=False, fill=fill) if out is not None else None
+    folder = RunFolder(out, logged, resumable=False, fill=fill) if out is not None else None
     fillers = [Filler(rig_intrinsics(rig)) for _ in range(sensors)] if fill else []
     synthesized = [0] * sensors
     with folder or contextlib.nullcontext():
@@ -84,8 +85,7 @@ def run_sim(
                 make_controller(controller, cfg.total_frames, active_frames, seed=seed * 1_000_003 + i),
                 RoomTrigger(room, i),
                 sink=folder.sink(i) if folder is not None else None,
-                threshold=threshold,
-                repair=repair if render else "none",
+                settings=RunSettings(threshold=threshold, repair=repair if render else "none", scene=False),
             )
             for i in range(sensors)
         ]
@@ -99,7 +99,7 @@ def run_sim(
                 synthesized[ev.sensor] += res is None
             if ev.period_end:
                 offsets[ev.sensor].append(room.offset(ev.sensor, ev.slot // cfg.total_frames))
-        summary = summarize(settings, stats)
+        summary = summarize(logged, stats)
         summary["offsets"] = offsets
         summary["phases_s"] = [round(float(t), 6) for t in room.t0]
         summary["drifts"] = [float(d) for d in room.drift]
@@ -186,33 +186,43 @@ class RunFiller:
         self.made += 1
 
 
+@dataclass(frozen=True)
+class Recording:
+    """A recording ``run_recording`` replays: its frames (``scale`` units per metre), what the log calls it
+    (``source``), and its colour stream where frames are synthesized for the slots the laser skipped:
+    ``(stamp ns, image)`` in time order, depth aligned to it."""
+
+    frames: Frames
+    scale: float
+    source: str
+    colours: Iterable[tuple[int, np.ndarray]] | None = None
+
+
 def run_recording(
     backend: Backend,
-    reader: Frames,
-    scale: float,
+    recording: Recording,
     out: Path,
-    controller: str,
-    source: str,
-    active_frames: int = 6,
-    repair: str = "flagged",
-    threshold: float | None = None,
-    seed: int = 0,
+    settings: RunSettings | None = None,
+    loop_settings: LoopSettings | None = None,
+    *,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
-    scene: bool = True,
-    colours: Iterable[tuple[int, np.ndarray]] | None = None,
-    intrinsics: Intrinsics | None = None,
 ) -> dict[str, Any]:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied); with
-    ``scene``, a still sensor's frames are also judged against its scene (``SensorLoop.scene``).
+    ``settings.scene``, a still sensor's frames are also judged against its scene and repaired from it.
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags.
 
-    ``colours``: the recording's colour stream, ``(stamp ns, image)`` in time order (depth aligned to it);
-    every colour frame no depth frame joins (a slot the laser skipped, ``d2sr.synth.interleave``) gets a frame
-    synthesized from the last one and the colour stream, written with the others; such a run starts over
-    when killed. ``intrinsics``: the depth camera's, for that synthesis [guessed]."""
+    With the recording's colours, every colour frame no depth frame joins (a slot the laser skipped,
+    ``d2sr.synth.interleave``) gets a frame synthesized from the last one and the colour stream (with the
+    reader's intrinsics, else guessed), written with the others; such a run starts over when killed."""
+    s = settings if settings is not None else RunSettings()
+    ls = loop_settings if loop_settings is not None else LoopSettings()
+    reader, scale, colours, intrinsics = recording.frames, recording.scale, recording.colours, None
+    intrinsics = getattr(reader, "intrinsics", None)
+    controller, active_frames, seed = ls.controller, ls.active_frames, ls.seed
+    repair, threshold, scene, source = s.repair, s.threshold, s.scene, recording.source
     fill = colours is not None
-    settings = {
+    logged = {
         "source": source,
         "frames": len(reader),
         "depth_scale": scale,
@@ -227,9 +237,15 @@ def run_recording(
     }
     stats = RunStats()
     total = len(reader)
-    with RunFolder(out, settings, resumable=not fill, fill=fill) as folder:
+    with RunFolder(out, logged, resumable=not fill, fill=fill) as folder:
         ctrl = make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed)
-        loop = SensorLoop(backend, ctrl, None, folder.sink(0), threshold, repair, scene=scene)
+        loop = SensorLoop(
+            backend,
+            ctrl,
+            None,
+            folder.sink(0),
+            settings=live_settings(s),
+        )
         filler = RunFiller(folder, intrinsics)
         done = folder.done
         frames = interleave(reader, colours) if colours is not None else ((f, None, 0) for f in reader)
@@ -253,7 +269,7 @@ def run_recording(
             k += 1
             if progress is not None:
                 progress(k / total)
-        summary = summarize(settings, [stats]) | {"resumed_frames": len(done)}
+        summary = summarize(logged, [stats]) | {"resumed_frames": len(done)}
         if fill:
             summary["synthesized"] = [filler.made]
         folder.finish(summary)
@@ -266,3 +282,8 @@ def summarize(settings: dict[str, Any], stats: list[RunStats]) -> dict[str, Any]
     for s in stats[1:]:
         allst = allst.merge(s)
     return {"settings": settings, "all": allst.summary(), "sensors": [s.summary() for s in stats]}
+
+
+def live_settings(s: RunSettings) -> RunSettings:
+    """A stream's settings for its loop: the scene repairs whatever is repaired, unless told otherwise."""
+    return s if s.scene_repair is not None else s.model_copy(update={"scene_repair": s.scene})

@@ -105,10 +105,11 @@ def agreement(folder: Path, frames: list[tuple[np.ndarray, np.ndarray | None]], 
     clean frame over the frames that have one."""
     from d2sr.contract import THRESHOLD, repair_frame
     from d2sr.runtime.backends import open_backend
+    from d2sr.runtime.settings import RunSettings
 
     nets = {
-        "fp32": open_backend("unet8", "onnx", folder),
-        "int8": open_backend("unet8", "onnx", folder, int8=True),
+        "fp32": open_backend(RunSettings(model="unet8", backend="onnx", models=folder)),
+        "int8": open_backend(RunSettings(model="unet8", backend="onnx", models=folder, int8=True)),
     }
     differ, diffs, se, n = 0, [0.0], {"fp32": 0.0, "int8": 0.0}, 0.0
     for frame, clean in frames:
