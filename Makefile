@@ -18,7 +18,7 @@ demo: $(STAMP)
 	$(BIN)/d2sr demo --out out/demo --overwrite
 
 test: $(STAMP)
-	$(BIN)/ruff check src tests bench
+	$(BIN)/ruff check src tests bench tools lab
 	$(BIN)/python -m pytest
 
 # Under a minute: no training, no subprocess CLI, no DDP (tests marked slow are left out).
@@ -30,8 +30,8 @@ edge-check:
 	.ci/edge-check
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests bench
-	$(BIN)/ruff format --check src tests bench
+	$(BIN)/ruff check src tests bench tools lab
+	$(BIN)/ruff format --check src tests bench tools lab
 	$(BIN)/mypy
 
 # Long jobs: their results are committed under docs/results/.
@@ -84,41 +84,41 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	# The shipped unet16 (since 2026-11-26): that unet8 widened to unet16 (models.widen), trained on.
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
-	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (docs/research/decisions.md).
+	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (lab/notes/decisions.md).
 	$(BIN)/d2sr train recovery --config configs/unet32-wide.toml --out runs/unet32-wide
 	mkdir -p $(SHIP)
 	# Only the models whose shipped weights come from this data version are copied. The shipped detector and
 	# paper-detector were trained on data version 3 by the same configs (code of b0d36d6 and ebe0a54); on
 	# version 4 the detector flags 16-19% of the clean L515 frames and the Azure Kinect frames (CHANGELOG
-	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does configs/trials/unet16.toml's.
+	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does lab/trials/unet16.toml's.
 	for m in unet8-shell/unet8 unet16-wide/unet16 unet32-wide/unet32 unet8-temporal/unet8-temporal; do \
 	  cp runs/$$m.safetensors runs/$$m.card.json runs/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
-# Trials that did not ship (configs/trials/; each one's rule, written before it ran, and its outcome are in
-# docs/research/trials.md): the older unet16 and unet32 lines and the shipped
+# Trials that did not ship (lab/trials/; each one's rule, written before it ran, and its outcome are in
+# lab/notes/trials.md): the older unet16 and unet32 lines and the shipped
 # models one more cycle on data versions 5 and 6, unet8-temporal also gated as auto uses it. They start
 # from `make weights`'s runs.
 trials: $(STAMP)
 	test -f runs/unet8-temporal/unet8-temporal.safetensors -a -f runs/unet16-0.4.0/unet16.safetensors || \
 	  { echo "make trials: run make weights first (it trains and extracts their starting points)"; exit 2; }
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-v6.toml --out runs/unet8-v6
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-v6.toml --out runs/unet8-temporal-v6
-	$(BIN)/d2sr train recovery --config configs/trials/unet16-v5.toml --out runs/unet16-v5
-	$(BIN)/d2sr train recovery --config configs/trials/unet16-v6.toml --out runs/unet16-v6
-	$(BIN)/d2sr train recovery --config configs/trials/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-temporal-gated-stage2.toml --out runs/unet8-temporal-gated-stage2
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-missweight.toml --out runs/unet8-missweight
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-warp.toml --out runs/unet8-warp
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-stack.toml --out runs/unet8-stack
-	$(BIN)/d2sr train recovery --config configs/trials/unet8-mirror.toml --out runs/unet8-mirror
-	$(BIN)/d2sr train detector --config configs/trials/detector-clean-previous.toml --out runs/detector-clean-previous
-	$(BIN)/d2sr train recovery --config configs/trials/unet16.toml --out runs/unet16
-	$(BIN)/d2sr train recovery --config configs/trials/unet32.toml --out runs/unet32
-	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage2.toml --out runs/unet32-stage2
-	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage3.toml --out runs/unet32-stage3
-	$(BIN)/d2sr train recovery --config configs/trials/unet32-stage4.toml --out runs/unet32-stage4
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-v6.toml --out runs/unet8-v6
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-temporal-v6.toml --out runs/unet8-temporal-v6
+	$(BIN)/d2sr train recovery --config lab/trials/unet16-v5.toml --out runs/unet16-v5
+	$(BIN)/d2sr train recovery --config lab/trials/unet16-v6.toml --out runs/unet16-v6
+	$(BIN)/d2sr train recovery --config lab/trials/unet16-v6-stage2.toml --out runs/unet16-v6-stage2
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-temporal-gated.toml --out runs/unet8-temporal-gated
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-temporal-gated-stage2.toml --out runs/unet8-temporal-gated-stage2
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-missweight.toml --out runs/unet8-missweight
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-warp.toml --out runs/unet8-warp
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-stack.toml --out runs/unet8-stack
+	$(BIN)/d2sr train recovery --config lab/trials/unet8-mirror.toml --out runs/unet8-mirror
+	$(BIN)/d2sr train detector --config lab/trials/detector-clean-previous.toml --out runs/detector-clean-previous
+	$(BIN)/d2sr train recovery --config lab/trials/unet16.toml --out runs/unet16
+	$(BIN)/d2sr train recovery --config lab/trials/unet32.toml --out runs/unet32
+	$(BIN)/d2sr train recovery --config lab/trials/unet32-stage2.toml --out runs/unet32-stage2
+	$(BIN)/d2sr train recovery --config lab/trials/unet32-stage3.toml --out runs/unet32-stage3
+	$(BIN)/d2sr train recovery --config lab/trials/unet32-stage4.toml --out runs/unet32-stage4
 
 # The shipped recovery models' mask thresholds chosen again by today's rule (0.9.0: for the repair recover
 # writes, two passes, under the 10% guard), without retraining; then `make eval-models results` refreshes the cards.
@@ -136,10 +136,10 @@ eval-models: $(STAMP)
 	$(BIN)/d2sr eval detector --real $(REAL) --out docs/results/detector --overwrite
 	$(BIN)/d2sr eval recovery --real $(REAL) --out docs/results/recovery --limit 60 --overwrite
 
-# The README's results table and the models' cards, written from docs/results (`d2sr results --check`
-# says where they disagree; the tests run it).
+# The README's results table and the models' cards, written from docs/results (`--check` says where they
+# disagree; the tests run it). Repository tooling: not part of the installed package.
 results: $(STAMP)
-	$(BIN)/d2sr results
+	$(BIN)/python tools/results.py
 
 # Leave-one-family-out: a detector trained without each interference family (runs/lofo/no-<family>),
 # then false alarms on every real clean frame in ../shared/data and each family on real L515 frames.
@@ -155,21 +155,21 @@ lofo: $(STAMP)
 	for f in $(FAMILIES); do \
 	  $(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --leave-out $$f --out runs/lofo-recovery/no-$$f || exit 1; done
 
-# Every outside set of bench/held_out.py (real L515 frames, interference the generator does not make) with
+# Every outside set of lab/held_out.py (real L515 frames, interference the generator does not make) with
 # recover's default and each shipped recovery model; then the summary across sets (about 12 min on 2 cores).
 SETS := a b c d e f g h i
 OUTSIDE := docs/results/outside
 outside: $(STAMP)
 	mkdir -p $(OUTSIDE)
 	for s in $(SETS); do for m in auto unet8 unet16 unet32; do \
-	  $(BIN)/python bench/held_out.py --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
+	  $(BIN)/python -m lab.held_out --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
 	    --overwrite > /dev/null || exit 1; done; done
-	$(BIN)/python bench/outside_summary.py --json docs/results/outside_sets.json \
+	$(BIN)/python -m lab.outside_summary --json docs/results/outside_sets.json \
 	  --plot docs/results/outside_sets.png --overwrite
 
 # Issue 45's calibration overlap: the simulator fitted to one L515 view at a time, a detector and unet8 (two
 # stages) trained from scratch on each fit's data (configs/overlap/), each judged on the view its fit never
-# saw and on the one it did (bench/calibration_overlap.py). About 5 h on 2 cores; training resumes from
+# saw and on the one it did (lab/calibration_overlap.py). About 5 h on 2 cores; training resumes from
 # runs/overlap/.
 VIEWS := dev0 dev1
 overlap: $(STAMP)
@@ -179,14 +179,14 @@ overlap: $(STAMP)
 	  $(BIN)/d2sr train detector --config configs/overlap/detector-$$v.toml --out runs/overlap/detector-$$v || exit 1; \
 	  for r in unet8-stage1 unet8; do \
 	    $(BIN)/d2sr train recovery --config configs/overlap/$$r-$$v.toml --out runs/overlap/$$r-$$v || exit 1; done; done
-	$(BIN)/python bench/calibration_overlap.py --real $(REAL) --runs runs/overlap \
+	$(BIN)/python -m lab.calibration_overlap --real $(REAL) --runs runs/overlap \
 	  --json docs/results/overlap/overlap.json --overwrite
 
 # d2sr adapt's bar on the D435 with interference hidden in its later frames, three runs (each must meet it;
 # adapt is deterministic at one thread count, so they should agree): about 10 min each on 2 cores.
 adapt-runs: $(STAMP)
 	mkdir -p docs/results/adapt
-	for r in 1 2 3; do $(BIN)/python bench/held_out.py --data $(DATA) --adapt \
+	for r in 1 2 3; do $(BIN)/python -m lab.held_out --data $(DATA) --adapt \
 	  --json docs/results/adapt/run-$$r.json --overwrite > /dev/null || exit 1; done
 
 eval-generalization: $(STAMP)

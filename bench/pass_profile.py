@@ -3,7 +3,7 @@
 with the rate it reaches (GFLOP/s), for the shipped fp32 unet8 and detector, the int8 unet8 the runtime
 offers (``d2sr.models.onnx.quantize``: QDQ, per-channel), one in onnxruntime's other format (QOperator) and
 one with only its convolutions quantized. The int8 files are written to a temporary folder and calibrated
-as ``d2sr export --int8`` calibrates (their accuracy on real frames: ``bench/int8_real.py``). Medians over
+as ``d2sr export --int8`` calibrates (their accuracy on real frames: ``lab/int8_real.py``). Medians over
 ``--runs`` passes after 3 warm-up passes; the profile is onnxruntime's own, over the same passes.
 
 Run:  .venv/bin/python bench/pass_profile.py --json docs/results/pass_profile.json
@@ -22,9 +22,10 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
-from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import WEIGHTS
+from d2sr.contract.catalog import WEIGHTS
+from d2sr.eval.speed import write_result
 from d2sr.models.onnx.quantize import quantize
+from harness import check_output, output_args
 
 SIZE = (480, 640)
 

@@ -16,11 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.bench import check_output, output_args, write_result
-from d2sr.contract import WEIGHTS, model_files, repair_frame
+from d2sr.contract.catalog import WEIGHTS, model_files
+from d2sr.contract.repair import repair_frame
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
+from d2sr.eval.speed import write_result
 from d2sr.models.onnx.quantize import int8_path, quantize
 from d2sr.runtime.backends import open_backend
+from harness import check_output, output_args
 
 
 def ms(fn: object, repeats: int = 20) -> float:

@@ -14,11 +14,12 @@ import tempfile
 import time
 from pathlib import Path
 
-from d2sr.bench import check_output, output_args, write_result
+from d2sr.eval.speed import write_result
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 from d2sr.runtime.viewer import RerunLog
+from harness import check_output, output_args
 
 
 def _once(net: Backend, seconds: float, sensors: int, rrd: Path | None) -> tuple[float, int]:

@@ -16,17 +16,18 @@ import argparse
 import resource
 import time
 
-from d2sr.bench import check_output, frame_4000, output_args, write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
+from d2sr.eval.speed import frame_4000, write_result
 from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.sources import RoomTrigger
 from d2sr.runtime.stats import RunStats
+from d2sr.sim.dataset import TEST_SEED
 from d2sr.sim.room import SimRoom
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import make_rig
-from d2sr.train.synth import TEST_SEED
+from harness import check_output, output_args
 
 
 def rss_mb() -> float:

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from d2sr.contract import WEIGHTS
+from d2sr.contract.catalog import WEIGHTS
 from helpers import d2sr_inprocess
 
 
@@ -190,7 +190,7 @@ def test_a_budget_is_planned_from_frames_not_from_the_clock():
 
 
 def test_threshold_takes_the_widest_margin_and_else_the_false_alarm_target():
-    from d2sr.contract import THRESHOLD
+    from d2sr.contract.catalog import THRESHOLD
     from d2sr.train.adapt import choose_threshold
 
     clean = np.linspace(0.0, 0.3, 100)

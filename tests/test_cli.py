@@ -175,7 +175,7 @@ def test_bench_worst_runs_again_until_the_long_run_takes_longer(monkeypatch):
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_bench_typical_and_worst_on_a_recording(tmp_path):
-    from d2sr.bench import frame_4000
+    from d2sr.eval.speed import frame_4000
     from d2sr.frames.png import encode_png, write_meta
 
     rec = tmp_path / "rec"
@@ -223,7 +223,7 @@ def test_bench_json(tmp_path):
 
 def test_bench_typical_times_only_the_frames_after_settle():
     """``settle``: a sensor that has run a while; its first frames are run untimed and the rest timed."""
-    from d2sr.bench import bench_typical, frame_4000
+    from d2sr.eval.speed import bench_typical, frame_4000
 
     frames = [frame_4000(7 + i, interfered=i == 2)[::4, ::4].copy() for i in range(8)]
     out = bench_typical(frames, 4000.0, repeats=1, warmup=0, settle=5, scene=False)

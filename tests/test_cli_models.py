@@ -12,7 +12,8 @@ import cv2
 import numpy as np
 import pytest
 
-from d2sr.contract import padded, repair_frame
+from d2sr.contract.catalog import padded
+from d2sr.contract.repair import repair_frame
 from d2sr.frames.png import encode_png
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from d2sr.contract import DETECTOR_NAMES, MASK_DETECTOR, RECOVERY_NAMES
+from d2sr.contract.catalog import DETECTOR_NAMES, MASK_DETECTOR, RECOVERY_NAMES
 from d2sr.errors import InputError
 from d2sr.models import MODELS, build, check_input_size
 from d2sr.models.store import load_model, save_model, warm_start
@@ -106,7 +106,7 @@ def test_corrupt_missing_and_mismatched_weights(tmp_path):
 def test_onnx_export_matches_torch_at_any_batch_and_size(tmp_path, name):
     import onnxruntime as ort
 
-    from d2sr.contract import code_path, pair_path
+    from d2sr.contract.catalog import code_path, pair_path
     from d2sr.models.onnx.export import export, parity
 
     torch.manual_seed(3)
@@ -191,7 +191,7 @@ def test_a_cut_scores_the_pair_only_where_the_frame_alone_reaches_it(tmp_path):
 def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):
     # Codes are looked up by the earlier frame's value: a frame changed in place, or another frame, is
     # encoded again; a missing encoder file or a two-frame file of the old layout is a clear error.
-    from d2sr.contract import code_path
+    from d2sr.contract.catalog import code_path
     from d2sr.models.detector import Scored
     from d2sr.models.onnx.export import _onnx, export
     from d2sr.runtime.backends import OnnxBackend
@@ -427,7 +427,7 @@ def test_large_models_are_stored_in_float16_and_exported_with_the_same_function(
 
 
 def test_one_catalogue_of_model_names():
-    from d2sr.contract import CATALOG, WEIGHTS
+    from d2sr.contract.catalog import CATALOG, WEIGHTS
 
     assert set(MODELS) == set(CATALOG)  # the registry builds exactly the catalogue's names
     for name, entry in CATALOG.items():

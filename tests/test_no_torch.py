@@ -93,7 +93,7 @@ import numpy as np
 from pathlib import Path
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import LoopSettings, RunSettings
-from d2sr.contract import repair_frame
+from d2sr.contract.repair import repair_frame
 from d2sr.eval.baselines import BASELINES
 net = open_backend(RunSettings(model='unet8', models=Path({str(tmp_path)!r})))
 assert net.name == 'onnxruntime'

@@ -174,7 +174,7 @@ def test_outputs_get_ordinary_permissions(tmp_path):
 def test_benchmark_scripts_refuse_an_existing_json_or_plot_without_overwrite(tmp_path):
     import argparse
 
-    from d2sr.bench import check_output, output_args
+    from bench.harness import check_output, output_args
 
     ap = argparse.ArgumentParser()
     output_args(ap, plot="the plot")
@@ -230,12 +230,14 @@ def test_a_result_records_the_run_that_made_it(tmp_path):
     """write_result stamps the command as typed again, the commit, the models' hashes and the data."""
     import hashlib
 
-    from d2sr.bench import write_result
-    from d2sr.contract import WEIGHTS
-    from d2sr.provenance import command_line
+    from d2sr.contract.catalog import WEIGHTS
+    from d2sr.eval.speed import write_result
+    from d2sr.provenance import ROOT, command_line
 
     assert command_line(["bench/x.py", "--json", "r j.json"]) == "python bench/x.py --json 'r j.json'"
     assert command_line([".venv/bin/d2sr", "eval", "labels"]) == "d2sr eval labels"
+    # a module of the lab, run with -m from the checkout: typed again the same way
+    assert command_line([str(ROOT / "lab" / "held_out.py"), "--set", "a"]) == "python -m lab.held_out --set a"
     out = tmp_path / "r.json"
     write_result({"figure": 1.5}, out, models=["unet8", "no-such-model"], data={"set": "x"})
     got = json.loads(out.read_text())

@@ -1,5 +1,5 @@
 """d2sr ros2: the messages' CDR bytes against rosbags' serializer, topic and domain rules, and the node in a
-process of its own against a separate DDS participant with its own IDL (bench/ros2_peer.py)."""
+process of its own against a separate DDS participant with its own IDL (tools/ros2_peer.py)."""
 
 from __future__ import annotations
 
@@ -9,20 +9,17 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
+from tools import ros2_peer
 
 from d2sr.errors import ConfigError
 from d2sr.ros2 import dds_topic
 from d2sr.ros2.msgs import DiagnosticStatus, Header, Image, KeyValue, Time
 from d2sr.ros2.node import domain_id
 from helpers import d2sr_inprocess, room
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-import ros2_peer
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types

@@ -11,7 +11,8 @@ import cv2
 import numpy as np
 import pytest
 
-from d2sr.contract import THRESHOLD, agreement
+from d2sr.contract.catalog import THRESHOLD
+from d2sr.contract.repair import agreement
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
@@ -135,7 +136,7 @@ def test_temporal_backend_gets_the_last_frame_the_detector_passed():
 def test_repairing_every_frame_the_detector_runs_only_where_the_last_clean_frame_can_change():
     # With repair="all" and a temporal model the detector only picks the last clean frame: it runs while
     # there is none, where a frame stops lining up with it, and every REFRESH_FRAMES frames.
-    from d2sr.contract import REFRESH_FRAMES
+    from d2sr.contract.repair import REFRESH_FRAMES
 
     net = FakeNet(frames=2)
     loop = SensorLoop(
@@ -486,7 +487,7 @@ def test_detect_writes_every_score_exact_with_the_shipped_temporal_detector(tmp_
     # The live loop may report a frame's score alone below the threshold; d2sr detect's CSV, which a user
     # thresholds later, holds the exact score: the lower of alone and with the frame before.
     from d2sr.runtime.batch import detect_recording
-    from d2sr.train.synth import synth_sequence_frame
+    from d2sr.sim.dataset import synth_sequence_frame
 
     frames = []
     for i in range(6):
@@ -547,7 +548,7 @@ def test_frame_buffers_freed_in_a_loop_are_reused_not_faulted_in_again():
 
 def test_auto_runs_the_temporal_model_at_its_own_operating_point():
     # auto: unet8-temporal at AUTO_TEMPORAL_LOGIT, unet8 at its own logit; a given --mask-logit sets both.
-    from d2sr.contract import AUTO_TEMPORAL_LOGIT
+    from d2sr.contract.catalog import AUTO_TEMPORAL_LOGIT
 
     net = open_backend(RunSettings(backend="onnx"))
     assert isinstance(net, Gated)

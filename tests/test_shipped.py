@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 import torch
 
-from d2sr.contract import DETECTOR_NAMES, repair_frame
-from d2sr.contract import WEIGHTS as SHIPPED
+from d2sr.contract.catalog import DETECTOR_NAMES
+from d2sr.contract.catalog import WEIGHTS as SHIPPED
+from d2sr.contract.repair import repair_frame
 from d2sr.models.store import load_model
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
-from d2sr.train.synth import TEST_SEED, synth_frame, synth_sequence_frame
+from d2sr.sim.dataset import TEST_SEED, synth_frame, synth_sequence_frame
 
 NAMES = sorted(p.stem for p in SHIPPED.glob("*.safetensors"))
 
@@ -127,7 +128,7 @@ def int8_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The shipped detector and unet8 beside their int8 forms (``d2sr export --int8``'s quantizer)."""
     import shutil
 
-    from d2sr.contract import model_files
+    from d2sr.contract.catalog import model_files
     from d2sr.models.onnx.quantize import quantize
 
     folder = tmp_path_factory.mktemp("int8")
@@ -152,7 +153,7 @@ def _frames_4000(n: int) -> list[tuple[np.ndarray, np.ndarray | None]]:
 def test_int8_stays_experimental_while_it_misses_its_tolerance_against_fp32(int8_folder):
     """int8 is offered as experimental (``--int8``) because it misses ``TOLERANCE`` against fp32 (verdicts
     differing on at most 5% of frames, repair RMSE at most 5% above): on 20 held-out generated frames, and
-    on real L515 frames where ../shared/data is present (bench/int8_real.py). When it meets the tolerance,
+    on real L515 frames where ../shared/data is present (lab/int8_real.py). When it meets the tolerance,
     this fails: then the docs and ``--int8``'s help must stop calling it experimental."""
     from d2sr.models.onnx.quantize import agreement, within_tolerance
 
@@ -160,12 +161,8 @@ def test_int8_stays_experimental_while_it_misses_its_tolerance_against_fp32(int8
     assert got["frames"] == 20 and got["rmse_cm"]["fp32"] > 0
     assert not within_tolerance(got), got
     if REAL_L515.is_dir():
-        import sys
-
         import cv2
-
-        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-        from held_out import outside_interference  # the outside set A interference
+        from lab.held_out import outside_interference  # the outside set A interference
 
         files = sorted(REAL_L515.glob("*.png"))[:20]
         real = []

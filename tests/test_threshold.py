@@ -7,7 +7,7 @@ import onnx
 import pytest
 from safetensors.torch import load_file
 
-from d2sr.contract import WEIGHTS
+from d2sr.contract.catalog import WEIGHTS
 from d2sr.models.store import mask_logit, read_card
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED
 from helpers import d2sr
@@ -68,9 +68,9 @@ def test_a_gated_temporal_model_is_chosen_for_on_lined_up_frames_only(tmp_path):
     import numpy as np
 
     from d2sr.models.store import load_model
+    from d2sr.sim.dataset import VALIDATION_SEED
     from d2sr.train.data import lines_up, synth_set
     from d2sr.train.loop import choose_mask_logit
-    from d2sr.train.synth import VALIDATION_SEED
 
     model, _ = load_model(WEIGHTS / "unet8-temporal.safetensors")
     ss = synth_set(tmp_path, 20, VALIDATION_SEED, progress=False, previous=True)

@@ -15,10 +15,10 @@ from safetensors.torch import load_file
 
 from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
+from d2sr.sim.dataset import synth_frame
 from d2sr.train.config import TrainConfig
 from d2sr.train.data import Batch, Pool, Source, mirror_pattern, synth_set, warp_interference
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
-from d2sr.train.synth import synth_frame
 from helpers import d2sr
 
 
@@ -409,8 +409,8 @@ def test_a_fine_tune_card_names_the_whole_chain_it_started_from(tmp_path):
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_a_fitted_sensor_changes_the_l515_frames_only_and_keeps_its_own_data_set(tmp_path):
+    from d2sr.sim.dataset import synth_sequence_frame
     from d2sr.sim.scene import L515
-    from d2sr.train.synth import synth_sequence_frame
 
     dim = L515.model_copy(update={"signal_ref": L515.signal_ref * 20})  # far fewer returns
     kinds: dict[str, int] = {}

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import glob
 import os
-import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+from tools.trigger_board import Board
 
 import d2sr
 from d2sr.errors import ConfigError, InputError
@@ -21,9 +20,6 @@ from d2sr.sim.interference import corrupt
 from d2sr.triggers import SYNC_INPUTS, device_window, open_trigger, parse_trigger
 from d2sr.triggers.firmware.d2sr_trigger import Core
 from helpers import d2sr_inprocess, room
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-from trigger_board import Board
 
 SCALE = 4000.0
 

@@ -2,8 +2,8 @@
 figure to one run: the exact command, the git commit of the tree it ran in, the d2sr version, the models
 and their hashes, the data set and its status, the CPU and the date (issue 45).
 
-Every JSON result d2sr writes (``bench.write_result``, the folders' manifests, ``eval`` outputs) calls
-``record``; ``d2sr results --check`` (``d2sr.results``) fails on a result under ``docs/results`` without it.
+Every JSON result d2sr writes (``eval.speed.write_result``, the folders' manifests, ``eval`` outputs) calls
+``record``; ``python tools/results.py --check`` fails on a result under ``docs/results`` without it.
 """
 
 from __future__ import annotations
@@ -20,8 +20,7 @@ from collections.abc import Iterable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
-from d2sr.contract import WEIGHTS
-from d2sr.version import __version__
+from d2sr.version import WEIGHTS, __version__
 
 __all__ = ["KEYS", "MADE_BY", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
 
@@ -29,7 +28,7 @@ MADE_BY = "made_by"  # the key heading every JSON file d2sr writes ("d2sr <versi
 # The keys ``record`` writes; a result holding at least "command" and "commit" is traceable.
 KEYS = ("command", "commit", "version", "models", "data", "cpu", "date")
 ROOT = Path(__file__).resolve().parents[2]  # the checkout, when d2sr runs from one (else no commit)
-TRACKED = ("src", "bench", "configs")  # a change here changes what a run computes
+TRACKED = ("src", "bench", "configs", "lab", "tools")  # a change here changes what a run computes
 
 
 def cpu() -> str:
@@ -68,7 +67,8 @@ def git_commit() -> str:
 
 def command_line(argv: Sequence[str] | None = None) -> str:
     """The command as a user would type it again: ``d2sr ...`` for the CLI, ``python SCRIPT ...`` for a
-    script (its path relative to the checkout)."""
+    script (its path relative to the checkout), ``python -m PACKAGE.MODULE ...`` for a module of a package
+    in the checkout (the lab's, run from its root)."""
     argv = list(sys.argv if argv is None else argv)
     if not argv:
         return ""
@@ -77,9 +77,15 @@ def command_line(argv: Sequence[str] | None = None) -> str:
     if name in ("d2sr", "__main__.py") or head in ("-m", "-c"):
         words = ["d2sr", *rest]
     else:
-        with contextlib.suppress(ValueError):
-            head = str(Path(head).resolve().relative_to(ROOT))
         words = ["python", head, *rest]
+        with contextlib.suppress(ValueError):
+            rel = Path(head).resolve().relative_to(ROOT)
+            packaged = len(rel.parts) > 1 and (ROOT / rel.parts[0] / "__init__.py").is_file()
+            words = (
+                ["python", "-m", ".".join(rel.with_suffix("").parts), *rest]
+                if packaged
+                else ["python", str(rel), *rest]
+            )
     return shlex.join(words)
 
 

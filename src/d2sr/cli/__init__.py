@@ -12,7 +12,7 @@ from typing import Annotated, NoReturn
 
 import typer
 
-from d2sr.cli import bench, data, desync, evaluate, fill, results, ros2, run, show, stages, train, trigger
+from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train, trigger
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 from d2sr.version import __version__
@@ -45,7 +45,6 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "export": train.export,
     "adapt": train.adapt,
     "bench": bench.bench,
-    "results": results.results,
 }
 DESYNC: dict[str, Callable[..., None]] = {
     "run": desync.run,

@@ -51,7 +51,7 @@ def bench(
 
     Example: d2sr bench --what models,pipeline --json out/bench.json
     """
-    from d2sr.bench import (
+    from d2sr.eval.speed import (
         bench_models,
         bench_pipeline,
         bench_simulate,

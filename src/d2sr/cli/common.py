@@ -10,7 +10,7 @@ from typing import Annotated, TypeVar
 import typer
 
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.contract import MODEL_HELP
+from d2sr.contract.catalog import MODEL_HELP
 from d2sr.errors import ConfigError
 from d2sr.ui import warn
 

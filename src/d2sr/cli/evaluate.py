@@ -13,7 +13,7 @@ from rich.table import Table
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import BackendOpt, Cache, ModelDir, Overwrite, Real, out_dir, split_list
-from d2sr.contract import DEFAULT_RECOVERY, MODEL_HELP, THRESHOLD, WEIGHTS, check_probability
+from d2sr.contract.catalog import DEFAULT_RECOVERY, MODEL_HELP, THRESHOLD, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.provenance import stamp
 from d2sr.sim.families import FAMILIES

@@ -25,7 +25,8 @@ from d2sr.cli.common import (
     Topic,
     TriggerOpt,
 )
-from d2sr.contract import DEFAULT_MODEL, REPAIR_PASSES, WEIGHTS
+from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
+from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.settings import DEFAULT_ACTIVE, LoopSettings, RunSettings

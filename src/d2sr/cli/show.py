@@ -13,7 +13,7 @@ from rich.table import Table
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import BackendOpt, Overwrite
-from d2sr.contract import DEFAULT_MODEL
+from d2sr.contract.catalog import DEFAULT_MODEL
 from d2sr.errors import ConfigError
 from d2sr.ui import console, progress_bar
 

@@ -11,7 +11,7 @@ import typer
 
 from d2sr.atomic import check_out
 from d2sr.cli.common import Cache, Overwrite, Scale, Topic, out_dir, split_list
-from d2sr.contract import RECOVERY_NAMES, WEIGHTS, check_probability
+from d2sr.contract.catalog import RECOVERY_NAMES, WEIGHTS, check_probability
 from d2sr.errors import ConfigError, InputError
 from d2sr.train.config import VALIDATION_FRAMES
 from d2sr.ui import console

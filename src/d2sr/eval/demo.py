@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from d2sr.atomic import atomic_dir
-from d2sr.contract import DEFAULT_MODEL
+from d2sr.contract.catalog import DEFAULT_MODEL
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.runtime.backends import Backend

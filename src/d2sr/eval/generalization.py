@@ -21,9 +21,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from d2sr.contract import padded, repair_frame
+from d2sr.contract.catalog import padded
+from d2sr.contract.metrics import RepairSums
+from d2sr.contract.repair import repair_frame
 from d2sr.errors import InputError
-from d2sr.eval.metrics import RepairSums
 from d2sr.frames import open_frames
 from d2sr.frames.base import to_metres
 from d2sr.runtime.backends import Backend

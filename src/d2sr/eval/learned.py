@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d2sr.contract import repair_frame
+from d2sr.contract.repair import repair_frame
 from d2sr.errors import ConfigError
 from d2sr.eval.model_plots import error_cdf, gallery, operating_curves, pr_curves
 from d2sr.eval.models import (

@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.contract import Raw, scale_at
+from d2sr.contract.catalog import scale_at
+from d2sr.contract.metrics import RepairSums, threshold_curve
+from d2sr.contract.repair import Raw
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.baselines import BASELINES, last_clean
 from d2sr.eval.labels import drifting_interference
-from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.frames import open_frames
 
 __all__ = [
@@ -156,8 +157,8 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
 
 
 def generated_set(cache: Path, count: int = 600) -> TestSet:
+    from d2sr.sim.dataset import TEST_SEED
     from d2sr.train.data import synth_set
-    from d2sr.train.synth import TEST_SEED
 
     ss = synth_set(cache, count, TEST_SEED)
     return TestSet("generated", list(ss.frames), list(ss.clean), ss.scales, np.zeros(count, bool))

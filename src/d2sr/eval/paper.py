@@ -207,7 +207,7 @@ def markdown(res: dict, detector: dict, recovery: dict, latency: dict, command: 
 
 
 def latency_ms(bench: dict) -> dict[str, dict[str, float]]:
-    """ms per frame by model and backend from ``d2sr.bench.bench_models``'s result."""
+    """ms per frame by model and backend from ``d2sr.eval.speed.bench_models``'s result."""
     out: dict[str, dict[str, float]] = {}
     for backend, models in bench.get("fps", {}).items():
         for name, fps in models.items():
@@ -233,9 +233,9 @@ def report(
 ) -> None:
     """The whole paper report into ``folder``: report.md, results.json, the figures, and the detector and
     recovery evaluations in detector/ and recovery/."""
-    from d2sr.bench import bench_models
-    from d2sr.contract import DETECTOR_NAMES, THRESHOLD
+    from d2sr.contract.catalog import DETECTOR_NAMES, THRESHOLD
     from d2sr.eval.learned import evaluate_detectors, evaluate_recovery, write_detectors
+    from d2sr.eval.speed import bench_models
 
     res = run_all(folder, steps, rooms)
     detector = steps(

@@ -8,15 +8,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from d2sr.contract import (
-    REPAIR_PASSES,
-    THRESHOLD,
-    check_passes,
-    detector_input,
-    gate,
-    model_input,
-    recover_passes,
-)
+from d2sr.contract.catalog import THRESHOLD, detector_input, gate, model_input
+from d2sr.contract.repair import REPAIR_PASSES, check_passes, recover_passes
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector
 from d2sr.models.registry import check_input_size

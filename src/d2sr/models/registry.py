@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from torch import nn
 
-from d2sr.contract import CATALOG, DEFAULT_RECOVERY, MASK_DETECTOR, check_size
+from d2sr.contract.catalog import CATALOG, DEFAULT_RECOVERY, MASK_DETECTOR, check_size
 from d2sr.errors import InputError
 from d2sr.models.detector import FastDetector, MaskDetector, PaperDetector
 from d2sr.models.unet import UNet

@@ -11,7 +11,7 @@ from safetensors.torch import load_file, save_file
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write
-from d2sr.contract import THRESHOLD
+from d2sr.contract.catalog import THRESHOLD
 from d2sr.errors import InputError
 from d2sr.models.registry import MODELS, build
 from d2sr.models.unet import UNet
@@ -185,7 +185,7 @@ def render_card(card: dict, stem: str) -> str:
         ("evaluation", "Evaluation command"),
         ("outside", "From outside: real L515 frames, interference the generator does not make"),
         ("limits", "Limits"),
-        ("sources", "Files these figures are written from (d2sr results)"),
+        ("sources", "Files these figures are written from (make results)"),
         ("date", "Date"),
     ):
         if key not in card:

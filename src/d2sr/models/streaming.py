@@ -22,7 +22,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from d2sr.contract import code_path, pair_path
+from d2sr.contract.catalog import code_path, pair_path
 from d2sr.models.detector import FastDetector, features
 from d2sr.models.unet import UNet, push_pull, space_to_depth
 

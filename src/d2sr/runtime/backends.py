@@ -1,7 +1,7 @@
 """The inference protocol the runtime runs on; its torch-free implementation, ``OnnxBackend``
 (``pip install d2sr[edge]``); ``Gated`` (``--model auto``); and ``open_backend``, which opens the shipped
-or a given folder's models on onnxruntime or on ``d2sr.models.inference.TorchBackend``. Both work in
-metres (``d2sr.contract``)."""
+or a given folder's models on onnxruntime or on ``d2sr.models.inference.TorchBackend`` (found by name).
+Both work in metres (``d2sr.contract.catalog``)."""
 
 from __future__ import annotations
 
@@ -15,30 +15,26 @@ from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 
-from d2sr.contract import (
+from d2sr.contract.catalog import (
     ALONE,
     AUTO_RECOVERY,
     AUTO_TEMPORAL_LOGIT,
     DEFAULT_RECOVERY,
     DETECTOR,
-    LINES_UP,
     PAIR_INPUTS,
-    REPAIR_PASSES,
     SHIPPED_RECOVERY,
     STREAM_INPUTS,
     TEMPORAL_RECOVERY,
     THRESHOLD,
     WEIGHTS,
-    agreement,
-    check_passes,
     check_size,
     code_path,
     detector_input,
     gate,
     model_input,
     pair_path,
-    recover_passes,
 )
+from d2sr.contract.repair import LINES_UP, REPAIR_PASSES, agreement, check_passes, recover_passes
 from d2sr.errors import ConfigError, InputError
 from d2sr.runtime.settings import BACKENDS, RunSettings
 
@@ -325,6 +321,11 @@ class Gated:
 # then, so the edge install never loads it).
 
 
+# The torch backend lives with the torch models, a layer above the runtime: the runtime finds it by name,
+# and only when torch is asked for, so the edge runtime never depends on it (docs/architecture.md).
+TORCH_BACKEND = "d2sr.models.inference"
+
+
 def _has(weights: Path, name: str) -> bool:
     """The folder holds model ``name`` (ONNX or safetensors)."""
     return any((weights / f"{name}{e}").is_file() for e in (".onnx", ".safetensors"))
@@ -379,8 +380,8 @@ def _open(detector: str | None, model: str | None, s: RunSettings) -> Backend:
         return OnnxBackend(det_onnx, rec_onnx, s.threads, mask_logit, passes)
     if importlib.util.find_spec("torch") is None:
         raise InputError(f"no ONNX models in {weights} and torch is not installed")
-    from d2sr.models.inference import TorchBackend
-
+    torch_backend = importlib.import_module(TORCH_BACKEND).TorchBackend
     rec = weights / f"{model}.safetensors" if model else None
     det = weights / f"{detector}.safetensors" if detector else None
-    return TorchBackend(det, rec, mask_logit, passes)
+    backend_: Backend = torch_backend(det, rec, mask_logit, passes)
+    return backend_

@@ -24,7 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
-from d2sr.contract import DETECTOR
+from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame, Intrinsics, Reader, detect_format, open_colours

@@ -17,13 +17,14 @@ from typing import Protocol
 
 import numpy as np
 
-from d2sr.contract import LINES_UP, REFRESH_FRAMES, THRESHOLD, SceneRepair, agreement, padded, repair_frame
+from d2sr.contract.catalog import THRESHOLD, padded
+from d2sr.contract.repair import LINES_UP, REFRESH_FRAMES, agreement, repair_frame
 from d2sr.desync import Controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, check_depth, to_metres
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
-from d2sr.scene import Evidence, SceneReference
+from d2sr.scene import Evidence, SceneReference, SceneRepair
 
 __all__ = [
     "Capture",

@@ -9,7 +9,8 @@ from pathlib import Path
 from pydantic import ConfigDict, Field, ValidationInfo, field_validator
 
 from d2sr.config import Settings
-from d2sr.contract import DEFAULT_MODEL, REPAIR_MODELS, REPAIR_PASSES, WEIGHTS
+from d2sr.contract.catalog import DEFAULT_MODEL, REPAIR_MODELS, WEIGHTS
+from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.scene import SceneSettings

@@ -2,7 +2,7 @@
 frame through the colour frames (pyramidal Lucas-Kanade), and each frame's pose found by PnP of the real
 frame's own 3-D points on their tracks. No depth is read from a synthesized frame, so errors do not
 compound as they did when each step was matched against the previous synthesized frame (ORB, until
-0.11; docs/research/decisions.md, 2026-11-27). Colour keeps streaming while the laser is off, and laser
+0.11; lab/notes/decisions.md, 2026-11-27). Colour keeps streaming while the laser is off, and laser
 interference does not touch it."""
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ import numpy as np
 import torch
 
 from d2sr.atomic import atomic_file, atomic_write, listed, record_manifest
-from d2sr.contract import (
+from d2sr.contract.catalog import (
     DEFAULT_RECOVERY,
     DETECTOR,
     MASK_DETECTOR,
@@ -50,10 +50,10 @@ from d2sr.frames.png import decode_png
 from d2sr.models.detector import MaskDetector
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
 from d2sr.models.store import threshold as read_threshold
+from d2sr.sim.dataset import Synth, synth_sequence_frame
 from d2sr.sim.families import wide_interference
 from d2sr.train.data import Pool, Source
 from d2sr.train.loop import deterministic, load_checkpoint, loss_fn, pick_as_recovered, recovered_sums
-from d2sr.train.synth import Synth, synth_sequence_frame
 
 __all__ = [
     "COSTS",
@@ -137,7 +137,7 @@ class AdaptData:
 @dataclass(frozen=True)
 class Costs:
     """Seconds each part of adapt takes on a 2-core machine at 640x480, what turns a budget into a plan
-    (``docs/research/adapt_costs.py`` on the shared D435 frames, 2-core Xeon, 2026-11-28: 7.0-9.2 steps a
+    (``lab/adapt_costs.py`` on the shared D435 frames, 2-core Xeon, 2026-11-28: 7.0-9.2 steps a
     second, 0.066-0.071 s a corrupted copy, 0.19-0.21 s a generated frame; loading, judging 20-40 held-out
     copies and two exports 21-30 s, not growing with the copies at that size, so a small share a copy)."""
 

@@ -130,7 +130,7 @@ class TrainConfig(Settings):
 
     @model_validator(mode="after")
     def _check(self) -> TrainConfig:
-        from d2sr.contract import DETECTOR_NAMES, PAD, RECOVERY_NAMES, TEMPORAL_RECOVERY
+        from d2sr.contract.catalog import DETECTOR_NAMES, PAD, RECOVERY_NAMES, TEMPORAL_RECOVERY
 
         if self.model not in DETECTOR_NAMES + RECOVERY_NAMES:
             raise ValueError(

@@ -11,14 +11,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from d2sr.contract import LINES_UP, agreement, scale_at
+from d2sr.contract.catalog import scale_at
+from d2sr.contract.repair import LINES_UP, agreement
 from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe, to_units
+from d2sr.sim.dataset import VERSION, SynthSet, generate
 from d2sr.sim.families import shell_interference
 from d2sr.sim.scene import L515, SensorModel
 from d2sr.train.config import TrainConfig
-from d2sr.train.synth import VERSION, SynthSet, generate
 from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "Source", "synth_set"]

@@ -19,16 +19,16 @@ import torch.nn.functional as F
 from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
-from d2sr.contract import REPAIR_PASSES, refill, repair_frame
+from d2sr.contract.metrics import RepairSums, threshold_curve
+from d2sr.contract.repair import REPAIR_PASSES, refill, repair_frame
 from d2sr.errors import ConfigError, InputError
-from d2sr.eval.metrics import RepairSums, threshold_curve
 from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
+from d2sr.sim.dataset import VERSION
 from d2sr.sim.scene import SensorModel
 from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
 from d2sr.train.data import Batch, Pool
-from d2sr.train.synth import VERSION
 from d2sr.ui import console, progress_bar
 
 __all__ = [
@@ -400,8 +400,8 @@ def choose_mask_logit(
     ``rmse_cm`` and ``clean_changed`` curves are of one pass. ``gate_previous``: only the frames whose last
     clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainConfig.gate_previous``).
     ``sensor``: the L515 fit the validation frames are drawn around (``TrainConfig.sensor``)."""
+    from d2sr.sim.dataset import VALIDATION_SEED
     from d2sr.train.data import lines_up, synth_set
-    from d2sr.train.synth import VALIDATION_SEED
 
     frames = int(getattr(model, "frames", 1))
     ss = synth_set(cache, count, VALIDATION_SEED, progress, frames > 1, sensor)
@@ -448,7 +448,7 @@ def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
     parts = []
     if cfg.synthetic:
         parts.append(
-            f"{cfg.synthetic} generated 640x480 frames (d2sr.train.synth version {VERSION}, "
+            f"{cfg.synthetic} generated 640x480 frames (d2sr.sim.dataset version {VERSION}, "
             f"seeds {cfg.seed}..{cfg.seed + cfg.synthetic - 1}; "
             "simulated rooms of any size, people; L515, stereo, time-of-flight and structured-light "
             "sensor models; the wide interference generator (d2sr.sim.families) on every other frame"

@@ -17,7 +17,7 @@ import torch
 from torch import nn
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import (
+from d2sr.contract.catalog import (
     ALONE,
     DETECTOR_NAMES,
     MASK_DETECTOR,

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from d2sr.atomic import atomic_file
-from d2sr.contract import code_path, pair_path
+from d2sr.contract.catalog import code_path, pair_path
 from d2sr.errors import InputError
 from d2sr.models.onnx.half import float_weights
-from d2sr.train.synth import VALIDATION_SEED as CALIBRATION_SEED
+from d2sr.sim.dataset import VALIDATION_SEED as CALIBRATION_SEED
 
 __all__ = ["CALIBRATION_SEED", "TOLERANCE", "agreement", "int8_path", "quantize", "within_tolerance"]
 
@@ -33,7 +33,7 @@ def _calibration(onnx: Path, frames: int) -> Iterator[dict[str, np.ndarray]]:
     """Generated validation frames as the runtime feeds them to ``onnx`` (a temporal model: with each one's
     last clean frame; a streaming one: with its code, from the fp32 files)."""
     from d2sr.runtime.backends import OnnxBackend
-    from d2sr.train.synth import synth_sequence_frame
+    from d2sr.sim.dataset import synth_sequence_frame
 
     detector = "score" in _outputs(onnx)
     net = OnnxBackend(onnx, None) if detector else OnnxBackend(None, onnx)
@@ -103,7 +103,8 @@ def agreement(folder: Path, frames: list[tuple[np.ndarray, np.ndarray | None]], 
     ``frames`` (a uint16 frame, and the frame without interference or None): the share of detector
     verdicts that differ, the largest score difference, and each one's repair RMSE (cm) against the
     clean frame over the frames that have one."""
-    from d2sr.contract import THRESHOLD, repair_frame
+    from d2sr.contract.catalog import THRESHOLD
+    from d2sr.contract.repair import repair_frame
     from d2sr.runtime.backends import open_backend
     from d2sr.runtime.settings import RunSettings
 

@@ -1,0 +1,32 @@
+"""What the benchmark scripts share: their --json / --plot / --overwrite options, checked before they run
+(the output policy of every d2sr command). Results are written with ``d2sr.eval.speed.write_result``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["check_output", "output_args"]
+
+
+def output_args(ap: argparse.ArgumentParser, plot: str | None = None) -> None:
+    """The benchmark scripts' --json FILE and --overwrite (the output policy of every d2sr command); with
+    ``plot`` (its help), also --plot FILE (a PNG)."""
+    ap.add_argument("--json", type=Path, default=None, help="write the result to this JSON file")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --json (or --plot) file")
+    if plot is not None:
+        ap.add_argument("--plot", type=Path, default=None, help=plot)
+
+
+def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, before the benchmark runs, a --json or --plot that would replace a file without --overwrite."""
+    from d2sr.atomic import check_out
+    from d2sr.errors import D2SRError
+
+    for option in ("json", "plot"):
+        path = getattr(args, option, None)
+        if path is not None:
+            try:
+                check_out(path, is_dir=False, overwrite=args.overwrite, option=f"--{option}")
+            except D2SRError as exc:
+                ap.error(str(exc))

@@ -1,0 +1,159 @@
+"""Benchmark: ``d2sr ros2`` in a process of its own against a separate Cyclone DDS participant with its own
+IDL (tools/ros2_peer.py), on one ROS_DOMAIN_ID picked at random.
+
+* ``bar``: the peer publishes ``--frames`` (40) real L515 dev1 frames at 10 Hz on
+  /camera/depth/image_rect_raw, every other one corrupted by the outside interference (``held_out``), the
+  project's generator never made; counts what comes back on /repaired and /mask with the stamps kept, the
+  RMSE of the corrupted frames before and after (against the frame before corruption, over its returns),
+  and the node's exit code on SIGINT.
+* ``rate``: ``--seconds`` (10) of 640x480 L515 frames at 30 Hz, every other one corrupted: frames back, the
+  time each spent in the node (from taken off its reader to its last message written) and the time from
+  the peer's write to the repaired frame reaching the peer, median and p99.
+
+Run:  .venv/bin/python lab/ros2_loopback.py --data ../shared/data --json docs/results/ros2_loopback.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from bench.harness import check_output, output_args
+from tools import ros2_peer
+
+from d2sr.eval.speed import write_result
+from d2sr.runtime.stats import median_p99_ms
+from lab.held_out import outside_interference
+
+TOPIC = "/camera/depth/image_rect_raw"
+
+
+def frames(data: Path, n: int) -> list[tuple[np.ndarray, np.ndarray, bool]]:
+    """(sent, clean, corrupted) for the first ``n`` dev1 frames, every other one corrupted."""
+    import cv2
+
+    files = sorted((data / "l515" / "dev1").glob("*.png"))[:n]
+    if len(files) < n:
+        raise SystemExit(f"{data}/l515/dev1: needs {n} frames, found {len(files)}")
+    out = []
+    for i, f in enumerate(files):
+        clean = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
+        bad = i % 2 == 1
+        out.append((outside_interference(clean, 4000.0, 7 + i) if bad else clean, clean, bad))
+    return out
+
+
+def exchange(domain: int, sent: list[np.ndarray], hz: float) -> tuple[dict, dict[int, float], str, int]:
+    """Start the node, publish ``sent`` at ``hz``, SIGINT it: (replies by kind, write time by stamp,
+    the node's stdout, its exit code)."""
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    cmd = [sys.executable, "-m", "d2sr", "ros2", "--topic", TOPIC, "--depth-scale", "4000"]
+    node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    peer = ros2_peer.Peer(domain, TOPIC)
+    msgs = [ros2_peer.image(f, 1000 + k) for k, f in enumerate(sent)]  # serialized ahead of time
+    written: dict[int, float] = {}
+    try:
+        end = time.monotonic() + 60
+        while not peer.matched():
+            if time.monotonic() > end:
+                raise SystemExit("the node never matched the peer")
+            time.sleep(0.05)
+        time.sleep(0.5)
+        peer.listen()
+        t0 = time.monotonic()
+        for k, m in enumerate(msgs):
+            time.sleep(max(0.0, t0 + k / hz - time.monotonic()))
+            written[1000 + k] = time.monotonic()
+            peer.writer.write(m)
+        end = time.monotonic() + 10
+        while time.monotonic() < end and len(peer.got["repaired"]) < len(msgs):
+            time.sleep(0.05)
+        peer.stop()
+    finally:
+        node.send_signal(signal.SIGINT)
+        out, err = node.communicate(timeout=60)
+    if node.returncode:
+        print(err, file=sys.stderr)
+    lag = {s: peer.arrived[s] - written[s] for s in peer.arrived if s in written}
+    return peer.got, lag, out, node.returncode
+
+
+def ms(values: list[float]) -> dict[str, float]:
+    median, p99 = median_p99_ms(values)
+    return {"median_ms": round(median, 2), "p99_ms": round(p99, 2)}
+
+
+def node_latency(stdout: str) -> dict[str, float]:
+    m = re.search(r"in the node ([\d.]+) ms median, ([\d.]+) ms\s+p99", stdout)
+    return {"median_ms": float(m.group(1)), "p99_ms": float(m.group(2))} if m else {}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--frames", type=int, default=40)
+    ap.add_argument("--seconds", type=float, default=10.0, help="length of the 30 Hz run")
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    result: dict = {
+        "data": "L515 dev1 (real captures), every other frame with outside interference (lab/held_out.py)",
+    }
+    rng = random.Random()
+    # The bar: 40 real frames at 10 Hz.
+    items = frames(args.data, args.frames)
+    domain = rng.randint(100, 232)
+    got, lag, out, code = exchange(domain, [s for s, _, _ in items], 10.0)
+    stamps = {m.header.stamp.sec for m in got["repaired"]}
+    mask_stamps = {m.header.stamp.sec for m in got["mask"]}
+    repaired = {m.header.stamp.sec: ros2_peer.pixels(m) for m in got["repaired"]}
+    se_in = se_out = n = 0.0
+    for k, (sent, clean, bad) in enumerate(items):
+        if not bad or 1000 + k not in repaired:
+            continue
+        ok = clean > 0
+        se_in += float((((sent.astype(np.float64) - clean) / 4000)[ok] ** 2).sum())
+        se_out += float((((repaired[1000 + k].astype(np.float64) - clean) / 4000)[ok] ** 2).sum())
+        n += float(ok.sum())
+    rmse_in, rmse_out = 100 * np.sqrt(se_in / n), 100 * np.sqrt(se_out / n)
+    result["bar"] = {
+        "domain": domain,
+        "published": len(items),
+        "repaired_received": len(got["repaired"]),
+        "mask_received": len(got["mask"]),
+        "status_received": len(got["status"]),
+        "stamps_kept": stamps <= set(range(1000, 1000 + len(items))) and stamps == mask_stamps,
+        "rmse_corrupted_in_cm": round(rmse_in, 2),
+        "rmse_corrupted_out_cm": round(rmse_out, 2),
+        "rmse_change_pct": round(100 * (rmse_out / rmse_in - 1), 1),
+        "exit_code_on_sigint": code,
+        "node_latency": node_latency(out),
+        "write_to_repaired": ms(list(lag.values())) if lag else {},
+    }
+    # The rate: 640x480 at 30 Hz.
+    pool = [s for s, _, _ in items[:10]]
+    sent = [pool[k % len(pool)] for k in range(round(30 * args.seconds))]
+    domain = rng.randint(100, 232)
+    got, lag, out, code = exchange(domain, sent, 30.0)
+    result["rate_30hz"] = {
+        "domain": domain,
+        "published": len(sent),
+        "repaired_received": len(got["repaired"]),
+        "mask_received": len(got["mask"]),
+        "exit_code_on_sigint": code,
+        "node_latency": node_latency(out),
+        "write_to_repaired": ms(list(lag.values())) if lag else {},
+    }
+    print(write_result(result, args.json))
+
+
+if __name__ == "__main__":
+    main()
