@@ -28,7 +28,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.speed import write_result
-from d2sr.synth import fill_recording
+from d2sr.synth import FillSettings, fill_recording
 from lab.fill_d435 import read
 from lab.fill_eval import Pool
 from lab.held_out import used_models
@@ -87,7 +87,7 @@ def main() -> None:
             t = time.perf_counter()
             subprocess.run(cmd, check=True, capture_output=True)
             seconds = time.perf_counter() - t
-            fill_recording(seq, ref, n, rgb=seq / "rgb")
+            fill_recording(seq, ref, FillSettings(active_frames=n, rgb=seq / "rgb"))
             rows = list(csv.DictReader((out / "log.csv").open()))
             synth = [r for r in rows if r["synthesized"] == "1"]
             ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)

@@ -23,7 +23,7 @@ from bench.harness import check_output, output_args
 
 from d2sr.eval.speed import write_result
 from d2sr.provenance import command_line
-from d2sr.synth import fill_recording
+from d2sr.synth import FillSettings, fill_recording
 from lab.fill_eval import Pool, plot_curves
 
 FAR_MM = 8000
@@ -50,7 +50,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "filled"
             t = time.perf_counter()
-            summary = fill_recording(seq, out, n, rgb=seq / "rgb")
+            summary = fill_recording(seq, out, FillSettings(active_frames=n, rgb=seq / "rgb"))
             seconds = time.perf_counter() - t
             ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)
             by_gap: dict[int, Pool] = {}

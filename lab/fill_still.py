@@ -23,7 +23,7 @@ import numpy as np
 from bench.harness import check_output, output_args
 
 from d2sr.eval.speed import write_result
-from d2sr.synth import Filler, fill_recording
+from d2sr.synth import Filler, FillSettings, fill_recording
 from lab.fill_eval import Pool
 
 ACTIVE = 6
@@ -36,7 +36,7 @@ def l515(seq: Path) -> dict:
     real = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64) for f in files]
     ours, hold = Pool(4000, 8 * 4000), Pool(4000, 8 * 4000)
     with tempfile.TemporaryDirectory() as tmp:
-        fill_recording(seq, Path(tmp) / "f", ACTIVE, depth_scale=4000.0)
+        fill_recording(seq, Path(tmp) / "f", FillSettings(active_frames=ACTIVE, depth_scale=4000.0))
         for i, f in enumerate(files):
             if i % 30 < ACTIVE:
                 continue

@@ -6,6 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import cv2
+import numpy as np
+
+from d2sr.frames import Intrinsics
+from d2sr.frames.png import encode_png
+
 
 def d2sr(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """Run the real console entry point in a fresh interpreter, as a user would."""
@@ -52,3 +58,73 @@ def room(seed: int = 0, shape: tuple[int, int] = (480, 640), scale: float = 4000
     metres += rng.normal(0, 0.003, shape).astype(np.float32)
     metres[rng.random(shape) < 0.3] = 0
     return (metres * scale).astype(np.uint16)
+
+
+class FakeNet:
+    """Flags frames whose top-left pixel is 1; repairs by writing 2 m into the left half."""
+
+    name = "fake"
+    threshold = 0.5
+    passes = 1
+
+    def __init__(self, frames: int = 1) -> None:
+        self.recovered = 0
+        self.frames = frames
+        self.previous: list[np.ndarray | None] = []
+        self.before: list[np.ndarray | None] = []  # what the detector was given as the previous frame
+        self.cuts: list[float | None] = []  # the threshold it was told its scores are held to
+
+    def scores(
+        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
+    ) -> np.ndarray:
+        self.before.append(previous)
+        self.cuts.append(cut)
+        return (metres[:, 0, 0] * 4000 == 1).astype(np.float32)
+
+    def recover(
+        self, metres: np.ndarray, previous: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        self.recovered += 1
+        self.previous.append(previous)
+        mask = np.zeros(metres.shape, bool)
+        mask[..., : metres.shape[-1] // 2] = True
+        return np.full(metres.shape, 2.0, np.float32), mask
+
+
+# A camera and a textured wall the fill tests and the ROS 2 node's colour tests share.
+K = Intrinsics(320, 240, 300.0, 300.0, 159.5, 119.5)
+
+
+def texture(seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    small = rng.integers(0, 255, (60, 80), dtype=np.uint8)
+    return cv2.GaussianBlur(
+        cv2.resize(small, (K.width * 2, K.height * 2), interpolation=cv2.INTER_NEAREST), (3, 3), 0
+    )
+
+
+def colour_of_wall(t: np.ndarray, tex: np.ndarray) -> np.ndarray:
+    """A textured wall at z = 3 seen by a camera translated by ``t``: the texture mapped through the plane's
+    homography (the texture spans 2x the first view, centred)."""
+    z = 3.0 - t[2]
+    # pixel -> wall point -> texture pixel
+    v, u = np.mgrid[0 : K.height, 0 : K.width].astype(np.float32)
+    x = (u - K.px) / K.fx * z + t[0]
+    y = (v - K.py) / K.fy * z + t[1]
+    tu = (x / 3.0 * K.fx + K.px) + K.width / 2
+    tv = (y / 3.0 * K.fy + K.py) + K.height / 2
+    return cv2.remap(tex, tu.astype(np.float32), tv.astype(np.float32), cv2.INTER_LINEAR)
+
+
+def good_folder(root: Path, n: int = 4, shape: tuple[int, int] = (96, 128), scale: float = 1000) -> Path:
+    root.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    for i in range(n):
+        d = (rng.uniform(1.0, 4.0, shape) * scale).astype(np.uint16)
+        (root / f"f{i:03d}.png").write_bytes(encode_png(d, "x"))
+    return root
+
+
+def run_cli(args: list[str]) -> tuple[int, str]:
+    code, _, err = d2sr_inprocess(*args)
+    return code, err

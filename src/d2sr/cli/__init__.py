@@ -143,12 +143,10 @@ _NO_FLAG = {"settings", "scene_settings"}
 
 
 def _with_flag(exc: D2SRError) -> str:
-    """The library's error, and which flag sets the setting it names (a run's settings only)."""
-    from d2sr.runtime.settings import LoopSettings, RunSettings
-
+    """The library's error, and which flag sets the setting it names: a settings field is named as its flag
+    (with dashes), except those in ``_FLAG``."""
     name = exc.setting
-    known = set(RunSettings.model_fields) | set(LoopSettings.model_fields) | {"format", "colour_topic"}
-    if name is None or name not in known or name in _NO_FLAG:
+    if name is None or name in _NO_FLAG or not name.isidentifier():
         return str(exc)
     return f"{exc} (set by {_FLAG.get(name, '--' + name.replace('_', '-'))})"
 

@@ -56,7 +56,7 @@ def simulate(
     Example: d2sr simulate --sensors 3 --seconds 10 --active-frames 15 --out out/room
     """
     from d2sr.desync import CONTROLLERS
-    from d2sr.sim.record import record, to_ros2
+    from d2sr.sim.record import RecordSettings, record, to_ros2
     from d2sr.sim.scene import L515
     from d2sr.sim.world import make_rig
 
@@ -80,8 +80,11 @@ def simulate(
         def tick(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
+        settings = RecordSettings(
+            seconds=seconds, active_frames=fps, controller=controller, seed=seed, workers=workers or None
+        )
         summary = record(
-            rig, out, seconds, fps, controller, seed, model, workers=workers or None, progress=tick,
+            rig, out, settings, model, progress=tick,
             finish=(lambda tmp: to_ros2(tmp, sensors)) if fmt == "ros2" else None,
         )  # fmt: skip
     n, bad = summary["frames"], summary["interfered_frames"]

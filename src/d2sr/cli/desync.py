@@ -79,7 +79,8 @@ def run(
     where = "a robot among fixed sensors" if scenario == "moving" else "one room"
     with out_dir(out, overwrite) as tmp, progress_bar() as bar:
         task = bar.add_task("simulating", total=len(names))
-        rows = compare(tmp, scenario, sensors, rooms, seconds, names, timing, seed, lambda: bar.advance(task))
+        grid = ev.Cell(scenario, fps, sensors, names[0], replicas=rooms, duration_s=seconds, seed=seed)
+        rows = compare(tmp, grid, names, timing, lambda: bar.advance(task))
     table = Table(
         title=f"{sensors} sensors in {where}, {fps} of {timing.total_frames} frames per second, "
         f"{seconds:g} s, {rooms} rooms"

@@ -33,14 +33,16 @@ def fill(
 
     Example: d2sr fill d435/ --rgb d435/rgb --active-frames 6 --out filled/
     """
-    from d2sr import fill_recording
+    from d2sr.synth import FillSettings, fill_recording
 
+    settings = FillSettings(
+        active_frames=active_frames, offset=offset, rgb=rgb, depth_scale=depth_scale, topic=topic
+    )
     with progress_bar() as bar:
         task = bar.add_task(f"{input.name}: filling", total=1.0)
         summary = fill_recording(
-            input, out, active_frames, offset=offset, rgb=rgb, depth_scale=depth_scale, topic=topic,
-            overwrite=overwrite, progress=lambda done, total: bar.update(task, completed=done / total),
-            say=print_line,
+            input, out, settings, overwrite=overwrite, say=print_line,
+            progress=lambda done, total: bar.update(task, completed=done / total),
         )  # fmt: skip
     print_line(
         f"{summary.frames} frames: {summary.kept} kept, {summary.synthesized} synthesized ({summary.method}; "

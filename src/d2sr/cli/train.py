@@ -198,7 +198,7 @@ def adapt(
     Example: d2sr adapt --clean my_room/ --depth-scale 1000 --out models/my_room
     """
     from d2sr.frames.checks import checked_counts, open_input
-    from d2sr.train.adapt import adapt_recordings
+    from d2sr.train.adapt import AdaptSettings, adapt_recordings
 
     if not minutes > 0:
         raise ConfigError(f"--minutes must be > 0, got {minutes}")
@@ -212,6 +212,5 @@ def adapt(
         recordings.append([f.depth for f in checked_counts(reader, s, "clean frame")])
     assert scale is not None
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    adapt_recordings(
-        recordings, scale, out, minutes, false_alarm, command, labelled or [], models, console.print
-    )
+    settings = AdaptSettings(minutes=minutes, false_alarm=false_alarm, labelled=labelled or [], models=models)
+    adapt_recordings(recordings, scale, out, settings, command, console.print)

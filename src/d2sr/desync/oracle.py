@@ -44,6 +44,8 @@ class OracleScheduler:
     """
 
     bins_per_slot = 8
+    max_search = 8  # components up to this size get a searched layout, larger ones a packed one
+    refresh_s = 30.0  # seconds before the targets are derived again as the slot grids drift
 
     def __init__(
         self,
@@ -55,13 +57,10 @@ class OracleScheduler:
         total_frames: int,
         hit_prob: float = 0.9,
         seed: int = 0,
-        max_search: int = 8,
-        refresh_s: float = 30.0,
     ) -> None:
         self.t0, self.tau, self.n = np.asarray(t0, float), np.asarray(tau, float), np.asarray(n)
         self.setup, self.total = int(setup), int(total_frames)
         self.miss = 1.0 - hit_prob
-        self.max_search, self.refresh_s = max_search, refresh_s
         self.rng = np.random.default_rng(seed)
         size = len(self.t0)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)

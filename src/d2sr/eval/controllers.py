@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -22,21 +23,18 @@ NOTES = {"d2sr": " (paper Alg. 1)", "oracle": " (global knowledge)", DEFAULT_CON
 
 def compare(
     folder: Path,
-    scenario: str,
-    sensors: int,
-    rooms: int,
-    seconds: float,
+    rooms: ev.Cell,
     controllers: list[str],
     config: TimingConfig,
-    seed: int,
     progress: Callable[[], None] | None = None,
 ) -> list[ev.CellResult]:
-    """Each controller on the same ``rooms`` rooms; per controller a timeline of room 0's slots, and the
-    ratio over time of all of them, go into ``folder``."""
-    fps = config.active_frames
+    """Each controller on the same rooms (``rooms``: the scenario, sensors, rooms as replicas, seconds and
+    seed; its controller is each of ``controllers`` in turn); per controller a timeline of room 0's slots,
+    and the ratio over time of all of them, go into ``folder``."""
+    scenario, sensors = rooms.scenario, rooms.sensors
     series, rows = {}, []
     for name in controllers:
-        cell = ev.Cell(scenario, fps, sensors, name, replicas=rooms, duration_s=seconds, seed=seed)
+        cell = dataclasses.replace(rooms, controller=name)
         cfg, graph, run = ev.simulate_cell(cell, config, record_frames=True)
         result, ratios = ev.summarize(cell, cfg, graph, run)
         series[name] = ratios.mean(axis=0)
@@ -49,7 +47,7 @@ def compare(
         plots.save(timeline, folder / f"timeline_{name}.png")
         if progress:
             progress()
-    ratio = plots.ratio_over_time(series, DEFAULT_CONTROLLER, f"mean over {rooms} rooms")
+    ratio = plots.ratio_over_time(series, DEFAULT_CONTROLLER, f"mean over {rooms.replicas} rooms")
     plots.save(ratio, folder / "ratio_over_time.png")
     return rows
 

@@ -104,7 +104,7 @@ def bench_simulate(frames: int = 1000, repeats: int = 3, workers: int = 2, seed:
     import tempfile
     from pathlib import Path
 
-    from d2sr.sim.record import record
+    from d2sr.sim.record import RecordSettings, record
     from d2sr.sim.world import make_rig
 
     rig = make_rig(seed, 2, people=2)
@@ -113,7 +113,8 @@ def bench_simulate(frames: int = 1000, repeats: int = 3, workers: int = 2, seed:
     for r in range(repeats):
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            summary = record(rig, Path(tmp) / "sim", seconds, 25, "static", seed + r, workers=workers)
+            plan = RecordSettings(seconds=seconds, active_frames=25, seed=seed + r, workers=workers)
+            summary = record(rig, Path(tmp) / "sim", plan)
             times.append(time.perf_counter() - t0)
             written = summary["frames"]
     med = float(np.median(times))

@@ -33,8 +33,20 @@ __all__ = ["METHODS", "THRESHOLDS", "Labeller", "f1", "label_frames"]
 METHODS = ("stats", "paper")
 THRESHOLDS = ("mu", "mu+sigma", "mu+2sigma")
 
-#: The window (px) ``Labeller.mask`` weighs a raw pixel's neighbours in (``min_density``).
+#: The window (px) ``Labeller.mask`` weighs a raw pixel's neighbours in (``MIN_DENSITY``).
 DENSITY_PX = 7
+#: A pixel returning in this share of the clean frames is reliable: its dropout is interference.
+RELIABLE = 0.9
+#: A pixel returning in at most this share seldom returns: a return there is spurious unless near its depth.
+RARE = 0.02
+#: A raw deviation counts where this share of its ``DENSITY_PX`` window deviates too: interference comes in
+#: bands and clusters, a sensor's flicker in single pixels.
+MIN_DENSITY = 0.15
+#: Inside a clear interference region (twice ``MIN_DENSITY``), a dropout where the pixel returns at least
+#: this often is the interference more likely than its own flicker.
+LIKELY = 0.45
+#: (m, share of the range) beyond a pixel's clean range that a return deviates by.
+TOLERANCE = (0.02, 0.01)
 
 
 class Labeller:
@@ -45,33 +57,23 @@ class Labeller:
         stats: CleanStats,
         method: str = "stats",
         threshold: str = "mu+sigma",
-        reliable: float = 0.9,
-        rare: float = 0.02,
-        tol_abs: float = 0.02,
-        tol_rel: float = 0.01,
-        min_density: float = 0.15,
-        likely: float = 0.45,
+        tolerance: tuple[float, float] = TOLERANCE,
     ) -> None:
+        """``tolerance``: (m, share of the range) beyond a pixel's clean range that a return deviates by."""
         if method not in METHODS:
             raise ConfigError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
         if threshold not in THRESHOLDS:
             raise ConfigError(f"unknown threshold {threshold!r}; choose from {', '.join(THRESHOLDS)}")
-        self.s, self.method, self.threshold, self.likely = stats, method, threshold, likely
-        self.reliable, self.rare, self.tol_abs, self.tol_rel, self.min_density = (
-            reliable,
-            rare,
-            tol_abs,
-            tol_rel,
-            min_density,
-        )
+        self.s, self.method, self.threshold = stats, method, threshold
+        self.tol_abs, self.tol_rel = tolerance
         e = stats.mean_err
         mu, sd = float(e.mean()), float(e.std())
         self.thr = {"mu": mu, "mu+sigma": mu + sd, "mu+2sigma": mu + 2 * sd}[threshold]
         self.random_error = e > self.thr
-        # A DENSITY_PX window's share of raw pixels, as cv2.blur gives it, reaches min_density (or twice
+        # A DENSITY_PX window's share of raw pixels, as cv2.blur gives it, reaches MIN_DENSITY (or twice
         # it) from these counts on: the integer count then decides as the float share would.
         self._dense_from, self._likely_from = (
-            count_from(t, DENSITY_PX) for t in (min_density, 2 * min_density)
+            count_from(t, DENSITY_PX) for t in (MIN_DENSITY, 2 * MIN_DENSITY)
         )
         self._limits: dict[str, np.ndarray] = {}
         self.refresh()
@@ -89,11 +91,11 @@ class Labeller:
         lim["tol"][rows] = tol
         lim["below"][rows] = s.lo[rows] - tol
         lim["above"][rows] = s.hi[rows] + tol
-        lim["reliable"][rows] = rate >= self.reliable
-        lim["rare"][rows] = rate <= self.rare
+        lim["reliable"][rows] = rate >= RELIABLE
+        lim["rare"][rows] = rate <= RARE
         lim["never"][rows] = rate == 0
-        lim["common"][rows] = rate > self.rare
-        lim["likely"][rows] = rate >= self.likely
+        lim["common"][rows] = rate > RARE
+        lim["likely"][rows] = rate >= LIKELY
 
     def mask(self, frame_m: np.ndarray) -> np.ndarray:
         """Boolean interference mask of one frame (metres, 0 = no return)."""
@@ -115,8 +117,6 @@ class Labeller:
         spurious.ravel()[at] = lim["never"].ravel()[at] | far
         wrong = has & lim["common"] & ((frame_m < lim["below"]) | (frame_m > lim["above"]))
         raw = dropout | spurious | wrong
-        if self.min_density <= 0:
-            return raw
         count = cv2.boxFilter(raw.view(np.uint8), -1, (DENSITY_PX, DENSITY_PX), normalize=False)
         # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
         # the interference than the pixel's own flicker.

@@ -147,7 +147,7 @@ class SceneReference:
         assert self._ring is not None
         s = self.settings
         self._stats = _stats(self._ring[: self.count], self.scale)
-        self._labeller = Labeller(self._stats, tol_abs=s.tol_abs, tol_rel=s.tol_rel)
+        self._labeller = Labeller(self._stats, tolerance=(s.tol_abs, s.tol_rel))
         self._steady = np.zeros(shape, bool)
         # At trust_rate the shifted windows' pixels are the steady ones: the same array, kept once.
         self._shift_px = self._steady if s.shift_rate == s.trust_rate else np.zeros(shape, bool)

@@ -17,8 +17,11 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+from pydantic import Field
 
 from d2sr.atomic import atomic_dir
+from d2sr.config import Settings
+from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
 from d2sr.sim.interference import InterferenceConfig
@@ -80,27 +83,34 @@ def _work(args: tuple) -> list[dict]:
     return rows
 
 
+class RecordSettings(Settings):
+    """How ``record`` runs the simulated room: for ``seconds``, each sensor's laser on ``active_frames`` of
+    every 30-slot period under ``controller``, seeded by ``seed``, rendered on ``workers`` processes
+    [up to 2]."""
+
+    seconds: float = Field(10.0, gt=0, allow_inf_nan=False)
+    active_frames: int = Field(15, ge=1, le=TOTAL_FRAMES)
+    controller: str = "static"
+    seed: int = 0
+    workers: int | None = Field(None, ge=1)
+
+
 def record(
     rig: Rig,
     out: Path,
-    seconds: float,
-    active_frames: int = 15,
-    controller: str = "static",
-    seed: int = 0,
+    settings: RecordSettings | None = None,
     model: SensorModel = L515,
-    interference: InterferenceConfig | None = None,
-    timing: TimingConfig | None = None,
-    workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     finish: Callable[[Path], None] | None = None,
 ) -> dict:
     """Write the recordings of every sensor of ``rig`` into ``out`` (atomically); returns the summary.
     ``finish`` runs on the complete temporary folder before it is moved into place."""
-    cfg = interference or InterferenceConfig()
-    tcfg = timing or TimingConfig(fps=30.0, active_frames=active_frames)
-    if active_frames < 1 or active_frames > tcfg.total_frames:
-        raise ConfigError(f"active frames must be in 1..{tcfg.total_frames}, got {active_frames}")
-    tcfg = tcfg.model_copy(update={"active_frames": active_frames})
+    rs = settings if settings is not None else RecordSettings()
+    seconds, active_frames, controller, seed, workers = (
+        rs.seconds, rs.active_frames, rs.controller, rs.seed, rs.workers
+    )  # fmt: skip
+    cfg = InterferenceConfig()
+    tcfg = TimingConfig(fps=30.0, active_frames=active_frames)
     graph = overlap_graph(rig, seconds)
     run = simulate(graph, controller, tcfg, duration_s=seconds, seed=seed, record_frames=True)
     assert run.frames is not None

@@ -16,6 +16,7 @@ import functools
 import heapq
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -106,6 +107,15 @@ def _laser_slots(offset: int, n: int, setup: int, total: int) -> frozenset[int]:
     return frozenset(int(s) for s in (offset - setup + np.arange(min(n + setup, total))) % total)
 
 
+class Start(NamedTuple):
+    """How a room starts, where a caller fixes it (None: as the rig and seed give it): the overlap graph,
+    each sensor's first window offset, each sensor's phase (s into the first period)."""
+
+    graph: OverlapGraph | None = None
+    offsets: list[int] | None = None
+    phases: Sequence[float] | None = None
+
+
 class SimRoom:
     """Sensors of a rig in one room; ``set_offset`` is each sensor's trigger, ``slots`` the world's clock.
 
@@ -120,12 +130,11 @@ class SimRoom:
         seed: int = 0,
         model: SensorModel = L515,
         interference: InterferenceConfig | None = None,
-        graph: OverlapGraph | None = None,
-        offsets: list[int] | None = None,
+        start: Start | None = None,
         seconds: float = 60.0,
         render: bool | Sequence[int] = True,
-        phases: Sequence[float] | None = None,
     ) -> None:
+        graph, offsets, phases = start if start is not None else Start()
         self.rig, self.seed, self.model = rig, seed, model
         self.cfg = timing or TimingConfig()
         self.n = rig.n
@@ -140,10 +149,10 @@ class SimRoom:
             raise ConfigError(f"phases need one value per sensor ({self.n})")
         self.drift = rng.uniform(-1, 1, self.n) * self.cfg.drift_ppm * 1e-6
         self.tau = (1.0 + self.drift) / self.cfg.fps
-        start = offsets or [0] * self.n
-        if len(start) != self.n:
-            raise ConfigError(f"{len(start)} offsets for {self.n} sensors")
-        self._offsets: list[dict[int, int]] = [{0: int(o) % self.cfg.total_frames} for o in start]
+        first = offsets or [0] * self.n
+        if len(first) != self.n:
+            raise ConfigError(f"{len(first)} offsets for {self.n} sensors")
+        self._offsets: list[dict[int, int]] = [{0: int(o) % self.cfg.total_frames} for o in first]
         icfg = interference or InterferenceConfig()
         shown = set(range(self.n)) if render is True else set() if render is False else set(render)
         self.cameras = [

@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -123,23 +124,30 @@ def _masks(offset: int, n: int, setup: int, total: int) -> tuple[np.ndarray, np.
     return active, laser
 
 
+class Clocks(NamedTuple):
+    """Each sensor's clock: ``phases`` (seconds into the first period when it starts) and ``drifts``
+    (fractional clock error); either None: drawn at random from the run's seed."""
+
+    phases: np.ndarray | None = None
+    drifts: np.ndarray | None = None
+
+
 def simulate(
     graph: OverlapGraph,
     controllers: str | Sequence[Controller],
     config: TimingConfig | None = None,
     duration_s: float = 60.0,
     seed: int = 0,
-    phases: np.ndarray | None = None,
-    drifts: np.ndarray | None = None,
+    clocks: Clocks | None = None,
     record_frames: bool = False,
     progress: Callable[[float], None] | None = None,
 ) -> TimingRun:
     """Run every sensor's controller in closed loop for ``duration_s`` seconds of each sensor's time.
 
     ``controllers`` is a registry name (one controller per sensor, seeded from ``seed``) or one
-    controller per sensor. ``phases`` (seconds into the first period when each sensor starts) and
-    ``drifts`` (fractional clock error) default to random draws from ``seed``.
+    controller per sensor. ``clocks``: each sensor's phase and drift [random draws from ``seed``].
     """
+    phases, drifts = clocks if clocks is not None else Clocks()
     cfg = config or TimingConfig()
     if duration_s <= 0 or not np.isfinite(duration_s):
         raise ConfigError(f"duration_s must be positive, got {duration_s}")
@@ -200,6 +208,7 @@ def simulate(
     edge_cnt = np.zeros(src.size, dtype=np.int32)
     sub_cnt = np.zeros(n_sens, dtype=np.int32)
     flags = np.zeros((n_sens, total), dtype=bool)
+    windows = _Windows(ctrls, flags, offset, n_act, active, laser, offsets, cfg)
     g_prev = np.full(n_sens, -1, dtype=np.int64)
     miss = 1.0 - cfg.hit_prob
     step = period_s / total / k_sub
@@ -242,9 +251,7 @@ def simulate(
                 np.bitwise_or.at(bits, owner[hit_e], np.left_shift(1, live_src[pos][hit_e]).astype(np.int64))
                 hits[done, gp] = np.where(cap, bits, 0)
             for i in done[slot == total - 1]:
-                _end_period(
-                    i, ctrls, flags, offset, n_act, active, laser, offsets, g, cfg, scheduler, here, t
-                )
+                _end_period(i, windows, g, scheduler, here, t)
         # a new frame starts counting from zero (also a sensor's very first frame)
         if done.size == np.count_nonzero(changed):  # the usual case: only finished frames restart
             if done.size:
@@ -291,22 +298,28 @@ def _edges_into(sensors: np.ndarray, indptr: np.ndarray) -> tuple[np.ndarray, np
     return np.arange(owner.size) + np.repeat(starts - first, counts), owner
 
 
+@dataclass
+class _Windows:
+    """Every sensor's controller and window as the run keeps them (arrays edited in place): the period's
+    flags, window offset and length, active slots and laser slots, and the offsets logged per period."""
+
+    ctrls: list[Controller]
+    flags: np.ndarray
+    offset: np.ndarray
+    n_act: np.ndarray
+    active: np.ndarray
+    laser: np.ndarray
+    offsets: np.ndarray
+    cfg: TimingConfig
+
+
 def _end_period(
-    i: int,
-    ctrls: list[Controller],
-    flags: np.ndarray,
-    offset: np.ndarray,
-    n_act: np.ndarray,
-    active: np.ndarray,
-    laser: np.ndarray,
-    offsets: np.ndarray,
-    g: np.ndarray,
-    cfg: TimingConfig,
-    scheduler: OracleScheduler | None,
-    here: np.ndarray | None,
-    now: float,
+    i: int, w: _Windows, g: np.ndarray, scheduler: OracleScheduler | None, here: np.ndarray | None, now: float
 ) -> None:
     """Sensor i finished a period: hand its flags to its controller and apply the new window."""
+    ctrls, flags, offset, n_act, active, laser, offsets, cfg = (
+        w.ctrls, w.flags, w.offset, w.n_act, w.active, w.laser, w.offsets, w.cfg
+    )  # fmt: skip
     total = cfg.total_frames
     nxt = int(g[i]) // total  # the period that starts now
     window = flags[i].take(_window_slots(int(offset[i]), int(n_act[i]), total))

@@ -9,7 +9,16 @@ s = f.synthesize(colour)    # every frame it skipped: s.depth, s.confidence, s.m
 """
 
 from d2sr.synth.fill import METHODS, Filler, Synthesized
-from d2sr.synth.recording import FillSummary, fill_recording
+from d2sr.synth.recording import FillSettings, FillSummary, fill_recording
 from d2sr.synth.warp import Pose, warp_depth
 
-__all__ = ["METHODS", "FillSummary", "Filler", "Pose", "Synthesized", "fill_recording", "warp_depth"]
+__all__ = [
+    "METHODS",
+    "FillSettings",
+    "FillSummary",
+    "Filler",
+    "Pose",
+    "Synthesized",
+    "fill_recording",
+    "warp_depth",
+]

@@ -14,8 +14,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from pydantic import Field
 
 from d2sr.atomic import atomic_dir, check_out
+from d2sr.config import Settings
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, to_metres, to_units
@@ -56,26 +58,34 @@ def colour_frames(folder: Path) -> list[Path]:
     return files
 
 
+class FillSettings(Settings):
+    """What ``fill_recording`` keeps and synthesizes: the window of ``active_frames`` from slot ``offset``
+    of every 30-slot period is kept; ``rgb``: a folder of the colour frames the others are synthesized from
+    [none: the last kept frame held]; ``depth_scale`` and ``topic``: how the recording is read."""
+
+    active_frames: int = Field(ge=1, le=TOTAL_FRAMES)
+    offset: int = Field(0, ge=0, lt=TOTAL_FRAMES)
+    rgb: Path | None = None
+    depth_scale: float | None = Field(None, gt=0, allow_inf_nan=False)
+    topic: str | None = None
+
+
 def fill_recording(
     input: Path,
     out: Path,
-    active_frames: int,
+    settings: FillSettings,
     *,
-    offset: int = 0,
-    rgb: Path | None = None,
-    depth_scale: float | None = None,
-    topic: str | None = None,
     overwrite: bool = False,
     progress: Callable[[int, int], None] | None = None,
     say: Callable[[str], object] | None = None,
 ) -> FillSummary:
     """Keep the window's frames of ``input`` and synthesize the others into the PNG folder ``out``: from the
-    colour frames of ``rgb`` (paired in name order; extra ones are ignored) when given, else by holding the
-    last kept frame."""
-    if not 1 <= active_frames <= TOTAL_FRAMES:
-        raise ConfigError(f"--active-frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
-    if not 0 <= offset < TOTAL_FRAMES:
-        raise ConfigError(f"--offset must be in 0..{TOTAL_FRAMES - 1}, got {offset}")
+    colour frames of ``settings.rgb`` (paired in name order; extra ones are ignored) when given, else by
+    holding the last kept frame."""
+    if not isinstance(settings, FillSettings):
+        raise ConfigError(f"settings must be FillSettings, got {type(settings).__name__}", "settings")
+    active_frames, offset, rgb = settings.active_frames, settings.offset, settings.rgb
+    depth_scale, topic = settings.depth_scale, settings.topic
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input, rgb])
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, say=say)
     colours = colour_frames(rgb) if rgb is not None else None

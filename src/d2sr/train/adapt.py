@@ -34,8 +34,10 @@ from typing import Any
 
 import numpy as np
 import torch
+from pydantic import Field
 
 from d2sr.atomic import atomic_file, atomic_write, listed, record_manifest
+from d2sr.config import Settings
 from d2sr.contract.catalog import (
     DEFAULT_RECOVERY,
     DETECTOR,
@@ -575,26 +577,40 @@ def adapt(
     return card
 
 
+class AdaptSettings(Settings):
+    """How ``d2sr adapt`` adapts: about ``minutes`` of work on 2 cores, the detector's false alarms held to
+    ``false_alarm`` of clean frames, ``labelled`` folders of frames with their interference marked (``d2sr
+    label``), starting from the models in ``models`` [the shipped ones]."""
+
+    minutes: float = Field(10.0, gt=0, allow_inf_nan=False)
+    false_alarm: float = Field(0.01, gt=0, lt=1)
+    labelled: list[Path] = Field(default_factory=list)
+    models: Path = WEIGHTS
+
+
 def adapt_recordings(
     recordings: list[list[np.ndarray]],
     scale: float,
     out: Path,
-    minutes: float,
-    false_alarm: float,
-    command: str,
-    labelled: list[Path],
-    weights: Path = WEIGHTS,
+    settings: AdaptSettings | None = None,
+    command: str = "",
     say: Callable[[str], object] = print,
 ) -> dict:
     """``d2sr adapt`` from clean recordings (uint16 frames, ``scale`` units per metre): plan the budget, say
     the plan, prepare, fit and judge with a progress bar, say the held-out figures (and a kept start)."""
     from d2sr.ui import progress_bar, warn
 
+    a = settings if settings is not None else AdaptSettings()
+    minutes, false_alarm, labelled, weights = a.minutes, a.false_alarm, a.labelled, a.models
     t0 = time.perf_counter()
     pairs = labelled_frames(labelled)
     plan = Plan.of(minutes, *split(recordings))
     check_resumable(out, plan)
-    over = "" if plan.seconds <= minutes * 60 * 1.05 else f" (over --minutes {minutes:g}: so many frames)"
+    over = (
+        ""
+        if plan.seconds <= minutes * 60 * 1.05
+        else f" (over the {minutes:g} minutes asked: so many frames)"
+    )
     say(f"plan: {plan.variants} corrupted copies of each frame, {plan.rehearsal} generated frames, "
         f"{plan.steps} training steps; about {plan.seconds / 60:.1f} min on 2 cores{over}")  # fmt: skip
     with progress_bar() as bar:

@@ -158,6 +158,21 @@ def warp_interference(
     return out, out != clean
 
 
+@dataclass(frozen=True)
+class Augment:
+    """How a pool varies its frames beyond the data (``TrainConfig``'s fields of the same meaning):
+    ``gate_previous`` (``gate_previous``), the shares of frames whose interference is warped (``warp``),
+    stacked (``stack``), mirrored (``mirror``) or shelled (``shell``), and a temporal detector scored
+    against its own last clean frame (``clean_previous``)."""
+
+    gate_previous: bool = False
+    warp: float = 0.0
+    stack: float = 0.0
+    mirror: float = 0.0
+    clean_previous: bool = False
+    shell: float = 0.0
+
+
 class Pool:
     """All training frames of a run. A temporal recovery model's second input is the sensor's last clean
     frame; a temporal detector's (``raw_previous``) is the sensor's previous frame as delivered, which may
@@ -168,24 +183,16 @@ class Pool:
         sources: list[Source],
         frames: int = 1,
         raw_previous: bool = False,
-        gate_previous: bool = False,
-        warp: float = 0.0,
-        stack: float = 0.0,
-        mirror: float = 0.0,
-        clean_previous: bool = False,
-        shell: float = 0.0,
+        augment: Augment = Augment(),
     ) -> None:
         if not sources:
             raise InputError("no training data")
         if frames > 1 and any(s.previous is None for s in sources):
             raise InputError("a temporal model needs each frame's last clean frame: generated data only")
         self.sources, self.frames, self.raw_previous = sources, frames, raw_previous
-        self.gate_previous = gate_previous  # TrainConfig.gate_previous
-        self.warp = warp  # TrainConfig.warp_interference
-        self.stack = stack  # TrainConfig.stack_interference
-        self.mirror = mirror  # TrainConfig.mirror_interference
-        self.clean_previous = clean_previous  # TrainConfig.clean_previous
-        self.shell = shell  # TrainConfig.shell_interference
+        a = augment
+        self.gate_previous, self.clean_previous = a.gate_previous, a.clean_previous
+        self.warp, self.stack, self.mirror, self.shell = a.warp, a.stack, a.mirror, a.shell
         self._shares: np.ndarray | None = None  # each drawable frame's share of pixels hit (stack's weights)
         self._lined_up: dict[tuple[int, int], bool] = {}  # (source, frame): each frame is drawn many times
         self.index = [
@@ -211,12 +218,14 @@ class Pool:
             sources + _folders(cfg),
             frames,
             raw_previous=cfg.task == "detector",
-            gate_previous=cfg.gate_previous,
-            warp=cfg.warp_interference,
-            stack=cfg.stack_interference,
-            mirror=cfg.mirror_interference,
-            clean_previous=cfg.clean_previous,
-            shell=cfg.shell_interference,
+            augment=Augment(
+                cfg.gate_previous,
+                cfg.warp_interference,
+                cfg.stack_interference,
+                cfg.mirror_interference,
+                cfg.clean_previous,
+                cfg.shell_interference,
+            ),
         )
 
     def _previous(self, rng: np.random.Generator, frame: np.ndarray, last: np.ndarray) -> np.ndarray:

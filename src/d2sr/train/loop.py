@@ -10,7 +10,7 @@ import os
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -149,17 +149,24 @@ def load_checkpoint(path: Path) -> dict[str, Any]:
     return state
 
 
+class _Done(NamedTuple):
+    """How far training has come: steps, minutes over every resumed part, and the losses so far."""
+
+    step: int
+    minutes: float
+    losses: list[float]
+
+
 def _save_checkpoint(
     path: Path,
     model: nn.Module,
     opt: torch.optim.Optimizer,
     sched: torch.optim.lr_scheduler.LRScheduler,
-    step: int,
     rng: np.random.Generator,
     cfg: TrainConfig,
-    minutes: float,
-    losses: list[float],
+    done: _Done,
 ) -> None:
+    step, minutes, losses = done
     state = {
         "minutes": minutes,  # training time over every resumed part
         "losses": losses,
@@ -269,7 +276,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 over = cfg.time_limit_min and time.perf_counter() - t0 > cfg.time_limit_min * 60
                 if rank == 0 and (done % cfg.checkpoint_every == 0 or done == cfg.steps or over):
                     spent = before + (time.perf_counter() - t0) / 60
-                    _save_checkpoint(ckpt, core, opt, sched, done, rng, cfg, spent, losses)
+                    _save_checkpoint(ckpt, core, opt, sched, rng, cfg, _Done(done, spent, losses))
                 if over:
                     stopped = True
                     break

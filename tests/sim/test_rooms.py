@@ -1,4 +1,4 @@
-"""Scenes, renderer, sensor model, interference and multi-sensor geometry."""
+"""Scenes (the simulator's rooms), renderer, sensor model, interference and multi-sensor geometry."""
 
 from __future__ import annotations
 
@@ -196,7 +196,7 @@ def test_sensor_defaults_are_the_committed_calibration():
     import json
     from pathlib import Path
 
-    fitted = json.loads((Path(__file__).parents[1] / "docs/results/sim/calibration.json").read_text())[
+    fitted = json.loads((Path(__file__).parents[2] / "docs/results/sim/calibration.json").read_text())[
         "model"
     ]
     for key, value in L515.model_dump().items():

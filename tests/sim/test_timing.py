@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.errors import ConfigError
 from d2sr.sim import OverlapGraph, TimingConfig, simulate
+from d2sr.sim.timing import Clocks
 
 EXACT = {"recall": 1.0, "false_alarm": 0.0, "hit_prob": 1.0, "drift_ppm": 0.0}
 
@@ -23,7 +24,7 @@ def test_one_sensor_is_never_interfered(n, seed, name):
 def test_identical_windows_full_overlap_every_frame_interfered(n, offset, setup, seed):
     cfg = TimingConfig.make(active_frames=n, setup=setup, **EXACT)
     ctrls = [make_controller("static", 30, n, offset=offset) for _ in range(2)]
-    run = simulate(OverlapGraph.complete(2), ctrls, cfg, 4, seed=seed, phases=np.array([0.3, 0.3]))
+    run = simulate(OverlapGraph.complete(2), ctrls, cfg, 4, seed=seed, clocks=Clocks(np.array([0.3, 0.3])))
     assert run.captured.sum() == 2 * 4 * n
     assert np.array_equal(run.interfered, run.captured)
 
@@ -40,7 +41,7 @@ def test_fig5_in_the_timing_world():
     """Two aligned sensors at n = 12, offsets 0 and 8: Algorithm 1 de-conflicts them after one period."""
     cfg = TimingConfig.make(active_frames=12, setup=0, **EXACT)
     ctrls = [make_controller("d2sr", 30, 12, offset=0), make_controller("d2sr", 30, 12, offset=8)]
-    run = simulate(OverlapGraph.complete(2), ctrls, cfg, 10, phases=np.array([0.0, 0.0]))
+    run = simulate(OverlapGraph.complete(2), ctrls, cfg, 10, clocks=Clocks(np.array([0.0, 0.0])))
     assert run.interfered[:, 0].tolist() == [4, 4]
     assert run.offsets[:, 1].tolist() == [26, 12]
     assert run.interfered[:, 1:].sum() == 0
@@ -58,7 +59,7 @@ def test_setup_slots_interfere_but_deliver_nothing():
     # B's window starts right after A's; B's start-up slots (3, 4) sit on A's last frames.
     cfg = TimingConfig.make(active_frames=5, setup=2, **EXACT)
     a, b = make_controller("static", 30, 5, offset=0), make_controller("static", 30, 5, offset=5)
-    run = simulate(OverlapGraph.complete(2), [a, b], cfg, 3, phases=np.zeros(2))
+    run = simulate(OverlapGraph.complete(2), [a, b], cfg, 3, clocks=Clocks(np.zeros(2)))
     assert run.interfered[0].tolist() == [2, 2, 2]  # A's frames 3, 4 lie under B's start-up (slots 5, 6)
     assert run.interfered[1].sum() == 0  # B's frames 5..9 see no laser (A's start-up is at 28, 29)
     assert run.captured.sum() == 2 * 3 * 5
@@ -108,7 +109,7 @@ def test_drift_moves_windows_apart_over_time():
     cfg = TimingConfig.make(active_frames=3, setup=0, **EXACT)
     ctrls = [make_controller("static", 30, 3, offset=0) for _ in range(2)]
     run = simulate(
-        OverlapGraph.complete(2), ctrls, cfg, 600, phases=np.zeros(2), drifts=np.array([2e-4, -2e-4])
+        OverlapGraph.complete(2), ctrls, cfg, 600, clocks=Clocks(np.zeros(2), np.array([2e-4, -2e-4]))
     )
     assert run.interfered[:, :10].sum() == 2 * 10 * 3  # aligned at first
     assert run.interfered[:, -10:].sum() == 0  # 7 slots apart by the end
@@ -154,7 +155,7 @@ def test_bad_run_arguments():
     with pytest.raises(ConfigError, match="unknown controller"):
         simulate(g, "nope", duration_s=2)
     with pytest.raises(ConfigError, match="phases"):
-        simulate(g, "static", duration_s=2, phases=np.zeros(3))
+        simulate(g, "static", duration_s=2, clocks=Clocks(np.zeros(3)))
 
 
 def test_disjoint_keeps_presence_schedules_longer_than_the_live_ones():

@@ -14,17 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from d2sr.frames.png import encode_png
-from helpers import d2sr_inprocess
-
-
-def _good(root: Path, n: int = 4, shape: tuple[int, int] = (96, 128), scale: float = 1000) -> Path:
-    root.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(0)
-    for i in range(n):
-        d = (rng.uniform(1.0, 4.0, shape) * scale).astype(np.uint16)
-        (root / f"f{i:03d}.png").write_bytes(encode_png(d, "x"))
-    return root
+from helpers import good_folder, run_cli
 
 
 def _then(root: Path, name: str, data: bytes) -> Path:
@@ -41,12 +31,17 @@ def _npz(path: Path, depth: np.ndarray) -> Path:
 CORPUS: dict[str, tuple[Callable[[Path], Path], str]] = {
     "missing path": (lambda p: p / "nothing", r"no such|does not exist|not found"),
     "empty folder": (lambda p: (p / "in").mkdir() or p / "in", r"no PNG depth frames|empty|no frames"),
-    "corrupt png": (lambda p: _then(_good(p / "in"), "f001.png", b"\x89PNG\r\n\x1a\nxxxxIEND"), r"f001"),
-    "truncated png": (
-        lambda p: _then(_good(p / "in"), "f001.png", (_good(p / "t", 1) / "f000.png").read_bytes()[:200]),
+    "corrupt png": (
+        lambda p: _then(good_folder(p / "in"), "f001.png", b"\x89PNG\r\n\x1a\nxxxxIEND"),
         r"f001",
     ),
-    "text named png": (lambda p: _then(_good(p / "in"), "f001.png", b"depth: 1.5 m\n"), r"f001"),
+    "truncated png": (
+        lambda p: _then(
+            good_folder(p / "in"), "f001.png", (good_folder(p / "t", 1) / "f000.png").read_bytes()[:200]
+        ),
+        r"f001",
+    ),
+    "text named png": (lambda p: _then(good_folder(p / "in"), "f001.png", b"depth: 1.5 m\n"), r"f001"),
     "8-bit png": (
         lambda p: (
             (p / "in").mkdir()
@@ -54,7 +49,7 @@ CORPUS: dict[str, tuple[Callable[[Path], Path], str]] = {
         ),
         r"8-bit",
     ),
-    "wrong scale": (lambda p: _good(p / "in", scale=10), r"scale"),
+    "wrong scale": (lambda p: good_folder(p / "in", scale=10), r"scale"),
     "nan npz": (lambda p: _npz(p / "in.npz", np.full((2, 96, 128), np.nan, np.float32)), r"NaN"),
     "float npz": (
         lambda p: _npz(p / "in.npz", np.full((2, 96, 128), 1.5, np.float64)),
@@ -101,11 +96,6 @@ def _commands(src: Path, out: Path, weights: Path) -> dict[str, list[str]]:
     }
 
 
-def _run(args: list[str]) -> tuple[int, str]:
-    code, _, err = d2sr_inprocess(*args)
-    return code, err
-
-
 @pytest.mark.parametrize("command", ["detect", "recover", "run", "label", "calibrate", "train"])
 @pytest.mark.parametrize("case", list(CORPUS))
 def test_every_command_turns_every_broken_input_into_one_line(tmp_path, weights, case, command):
@@ -114,7 +104,7 @@ def test_every_command_turns_every_broken_input_into_one_line(tmp_path, weights,
     out = tmp_path / "result"
     args = _commands(src, out, weights)[command]
     before = set(tmp_path.rglob("*"))
-    code, err = _run(args)
+    code, err = run_cli(args)
     lines = err.strip().splitlines()
     assert code == 2, err
     assert len(lines) == 1 and lines[0].startswith("d2sr: error:"), err

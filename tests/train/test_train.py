@@ -17,7 +17,7 @@ from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.sim.dataset import synth_frame
 from d2sr.train.config import TrainConfig
-from d2sr.train.data import Batch, Pool, Source, mirror_pattern, synth_set, warp_interference
+from d2sr.train.data import Augment, Batch, Pool, Source, mirror_pattern, synth_set, warp_interference
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from helpers import d2sr
 
@@ -106,7 +106,7 @@ def test_gated_temporal_recovery_gets_no_last_frame_that_does_not_line_up():
     src = Source(frames, frames, None, 1000.0, np.array([True, True]), previous)
     rng = np.random.default_rng(0)
     for gate in (False, True):
-        b = Pool([src], frames=2, gate_previous=gate).batch(rng, 200, None)
+        b = Pool([src], frames=2, augment=Augment(gate_previous=gate)).batch(rng, 200, None)
         first = b.x[:, 0].mean(axis=(1, 2)) < 2.4  # gain 0.85-1.15: frame 0 below, frame 1 above
         has_last = (b.x[:, 1] > 0).all(axis=(1, 2))
         assert first.any() and (~first).any()
@@ -122,7 +122,7 @@ def test_clean_previous_detector_sees_its_last_clean_frame_or_itself():
     f1 = np.full((32, 32), 3000, np.uint16)
     previous = [c0.copy(), np.full((32, 32), 5000, np.uint16)]
     src = Source([f0, f1], [c0, f1], None, 1000.0, np.array([True, False]), previous)
-    pool = Pool([src], frames=2, raw_previous=True, clean_previous=True)
+    pool = Pool([src], frames=2, raw_previous=True, augment=Augment(clean_previous=True))
     b = pool.batch(np.random.default_rng(0), 200, None)
     hit = b.label == 1
     itself = np.all(b.x[:, 1] == b.x[:, 0], axis=(1, 2))
@@ -154,7 +154,7 @@ def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
         return [np.array_equal(k, mask) or np.array_equal(k, mask[:, ::-1]) for k in b.m[:, 0] > 0]
 
     assert all(same(Pool([src]).batch(np.random.default_rng(0), 4, None)))  # no warp: the pattern as made
-    warped = Pool([src], warp=1.0).batch(np.random.default_rng(0), 4, None)
+    warped = Pool([src], augment=Augment(warp=1.0)).batch(np.random.default_rng(0), 4, None)
     assert np.array_equal(warped.m > 0, warped.x != warped.y)
     assert not any(same(warped))  # at share 1 every interfered frame is warped
     with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
@@ -169,7 +169,7 @@ def test_stacked_interference_lays_another_frames_pattern_over_the_scene():
     f1[:, :8] = 3000
     src = Source([f0, f1], [c0, c1], None, 1000.0, np.array([True, True]))
     plain = Pool([src]).batch(np.random.default_rng(0), 40, None)
-    stacked = Pool([src], stack=1.0).batch(np.random.default_rng(0), 40, None)
+    stacked = Pool([src], augment=Augment(stack=1.0)).batch(np.random.default_rng(0), 40, None)
     assert np.array_equal(stacked.m > 0, stacked.x != stacked.y)  # the mask is what differs from the scene
     assert stacked.m.mean() > plain.m.mean()  # more of each frame is hit
     # Each pixel is the scene times a ratio of one of the two patterns: 1/2 (frame 0's), 3/4 (frame 1's).
@@ -194,7 +194,7 @@ def test_mirrored_interference_reads_too_far_by_the_factor_it_read_too_short():
     near = np.full((4, 4), 60000, np.uint16)
     assert (mirror_pattern(near // 2, near) == 65535).all()  # beyond the unit's range: its top
     src = Source([frame, clean], [clean, clean], None, 1000.0, np.array([True, False]))
-    b = Pool([src], mirror=1.0).batch(np.random.default_rng(0), 20, None, clean_share=0.5)
+    b = Pool([src], augment=Augment(mirror=1.0)).batch(np.random.default_rng(0), 20, None, clean_share=0.5)
     hit = b.label == 1
     assert hit.any() and (~hit).any()
     # Every interfered frame is mirrored at share 1: its too-short row now reads twice the scene's depth.
@@ -223,7 +223,7 @@ def test_shell_interference_follows_the_scenes_depth_not_a_shape():
     frame = clean.copy()
     frame[:, 0] = 500  # the frame's own pattern: the first column, which must stay as it is
     src = Source([frame], [clean], None, 1000.0, np.array([True]))
-    b = Pool([src], shell=1.0).batch(np.random.default_rng(0), 8, None)
+    b = Pool([src], augment=Augment(shell=1.0)).batch(np.random.default_rng(0), 8, None)
     assert np.array_equal(b.m > 0, b.x != b.y)
     assert (b.m.sum(axis=(1, 2, 3)) > 32).mean() > 0.5  # most frames gain a shell's pixels
     assert (np.round(b.x / np.maximum(b.y, 1e-6), 2) == 0.5).any()  # the own pattern (0.5x) survives

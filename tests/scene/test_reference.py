@@ -14,7 +14,7 @@ from d2sr.frames import Frame
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.scene import SceneReference, SceneSettings
-from test_runtime import FakeNet
+from helpers import FakeNet
 
 SCALE = 4000.0
 SHIPPED = SceneSettings()

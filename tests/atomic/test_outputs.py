@@ -14,7 +14,7 @@ import pytest
 
 from d2sr.atomic import MANIFEST, atomic_dir, check_out, commit, record_manifest, temp_for
 from d2sr.errors import OutputError
-from test_corpus import _good, _run
+from helpers import good_folder, run_cli
 
 
 def _args(src: Path, out: str, weights: Path) -> dict[str, list[str]]:
@@ -58,7 +58,7 @@ def _snapshot(root: Path) -> dict[str, bytes]:
 
 def _refused(args: list[str], root: Path) -> str:
     before = _snapshot(root)
-    code, err = _run(args)
+    code, err = run_cli(args)
     lines = err.strip().splitlines()
     assert code == 2, err
     assert len(lines) == 1 and lines[0].startswith("d2sr: error:"), err
@@ -68,7 +68,7 @@ def _refused(args: list[str], root: Path) -> str:
 
 @pytest.mark.parametrize("command", COMMANDS)
 def test_an_existing_output_with_a_user_file_is_refused(tmp_path, weights, command):
-    src = _good(tmp_path / "in")
+    src = good_folder(tmp_path / "in")
     out = tmp_path / "out"
     out.mkdir()
     # export writes <model>.onnx into --out: the user's file has that name
@@ -79,7 +79,7 @@ def test_an_existing_output_with_a_user_file_is_refused(tmp_path, weights, comma
 
 @pytest.mark.parametrize("command", READS_INPUT)
 def test_out_equal_to_inside_or_around_the_input_is_refused(tmp_path, weights, command):
-    src = _good(tmp_path / "data" / "in")
+    src = good_folder(tmp_path / "data" / "in")
     (src / "notes.txt").write_text("beside the frames\n")
     for out in (src, src / "sub", src.parent):
         assert "input" in _refused(_args(src, str(out), weights)[command], tmp_path)
@@ -87,22 +87,24 @@ def test_out_equal_to_inside_or_around_the_input_is_refused(tmp_path, weights, c
 
 @pytest.mark.parametrize("command", [c for c in COMMANDS if c != "export"])
 def test_out_dot_is_refused(tmp_path, weights, command, monkeypatch):
-    src = _good(tmp_path / "in")
+    src = good_folder(tmp_path / "in")
     (tmp_path / "notes.txt").write_text("mine\n")
     monkeypatch.chdir(tmp_path)
     assert "current folder" in _refused(_args(src, ".", weights)[command], tmp_path)
 
 
 def test_overwrite_replaces_only_what_d2sr_wrote(tmp_path, weights):
-    src = _good(tmp_path / "in")
+    src = good_folder(tmp_path / "in")
     out = tmp_path / "out"
-    assert _run(["recover", str(src), "--out", str(out), "--all", "--models", str(weights)])[0] == 0
+    assert run_cli(["recover", str(src), "--out", str(out), "--all", "--models", str(weights)])[0] == 0
     made = json.loads((out / MANIFEST).read_text())["files"]
     assert "f000.png" in made and "masks/f000.png" in made
     (out / "notes.txt").write_text("mine\n")
     (out / "masks" / "mine.txt").write_text("also mine\n")
-    assert _run(["recover", str(src), "--out", str(out), "--models", str(weights)])[0] == 2  # no --overwrite
-    code, err = _run(["recover", str(src), "--out", str(out), "--overwrite", "--models", str(weights)])
+    assert (
+        run_cli(["recover", str(src), "--out", str(out), "--models", str(weights)])[0] == 2
+    )  # no --overwrite
+    code, err = run_cli(["recover", str(src), "--out", str(out), "--overwrite", "--models", str(weights)])
     assert code == 0, err
     assert (out / "notes.txt").read_text() == "mine\n"
     assert (out / "masks" / "mine.txt").read_text() == "also mine\n"
@@ -201,9 +203,9 @@ def test_benchmark_scripts_refuse_an_existing_json_or_plot_without_overwrite(tmp
 
 @pytest.mark.slow  # a subprocess per command: not in make test-fast
 def test_overwrite_replaces_a_single_file_only_when_d2sr_wrote_it(tmp_path, weights):
-    src = _good(tmp_path / "in")
+    src = good_folder(tmp_path / "in")
     run = tmp_path / "run"
-    assert _run(["run", str(src), "--out", str(run), "--models", str(weights)])[0] == 0
+    assert run_cli(["run", str(src), "--out", str(run), "--models", str(weights)])[0] == 0
     w = ["--models", str(weights)]
     cases = {
         "detect": (["detect", str(src), *w, "--out"], tmp_path / "flags.csv"),
@@ -218,10 +220,10 @@ def test_overwrite_replaces_a_single_file_only_when_d2sr_wrote_it(tmp_path, weig
         line = _refused([*args, str(target), "--overwrite"], tmp_path)
         assert "did not write" in line, name
         target.unlink()
-        code, err = _run([*args, str(target)])
+        code, err = run_cli([*args, str(target)])
         assert code == 0 and target.is_file(), (name, err)
         first = target.read_bytes()
-        code, err = _run([*args, str(target), "--overwrite"])  # d2sr's own file: replaced
+        code, err = run_cli([*args, str(target), "--overwrite"])  # d2sr's own file: replaced
         assert code == 0, (name, err)
         assert target.read_bytes()[:3] == first[:3]
 

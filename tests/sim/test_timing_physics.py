@@ -11,7 +11,7 @@ import pytest
 
 from d2sr.desync import make_controller
 from d2sr.sim import OverlapGraph, TimingConfig, simulate
-from d2sr.sim.room import SimRoom
+from d2sr.sim.room import SimRoom, Start
 from d2sr.sim.world import make_rig
 
 SECONDS = 20.0
@@ -23,10 +23,8 @@ def _room_frames(ctrl_name: str, n: int, cfg: TimingConfig, seed: int, graph: Ov
     ctrls = [
         make_controller(ctrl_name, total, cfg.active_frames, seed=seed * 1_000_003 + i) for i in range(n)
     ]
-    room = SimRoom(
-        make_rig(0, sensors=n), cfg, seed=seed, graph=graph, offsets=[c.offset for c in ctrls],
-        seconds=SECONDS, render=False,
-    )  # fmt: skip
+    start = Start(graph, [c.offset for c in ctrls])
+    room = SimRoom(make_rig(0, sensors=n), cfg, seed=seed, start=start, seconds=SECONDS, render=False)
     frames = np.zeros((n, round(SECONDS * cfg.fps)), np.int8)
     flags = np.zeros((n, total), bool)
     for ev in room.slots(SECONDS):

@@ -120,7 +120,7 @@ def test_every_shipped_file_stays_under_5_mb():
     assert not big, big
 
 
-REAL_L515 = Path(__file__).resolve().parents[2] / "shared" / "data" / "l515" / "dev1"
+REAL_L515 = Path(__file__).resolve().parents[3] / "shared" / "data" / "l515" / "dev1"
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from d2sr.contract.catalog import THRESHOLD
-from d2sr.contract.repair import agreement
 from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
@@ -22,41 +21,10 @@ from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
 from d2sr.runtime.session import Recording, run_recording, run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.room import SimRoom
+from d2sr.sim.room import SimRoom, Start
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import make_rig
-from helpers import d2sr
-
-
-class FakeNet:
-    """Flags frames whose top-left pixel is 1; repairs by writing 2 m into the left half."""
-
-    name = "fake"
-    threshold = 0.5
-    passes = 1
-
-    def __init__(self, frames: int = 1) -> None:
-        self.recovered = 0
-        self.frames = frames
-        self.previous: list[np.ndarray | None] = []
-        self.before: list[np.ndarray | None] = []  # what the detector was given as the previous frame
-        self.cuts: list[float | None] = []  # the threshold it was told its scores are held to
-
-    def scores(
-        self, metres: np.ndarray, previous: np.ndarray | None = None, cut: float | None = None
-    ) -> np.ndarray:
-        self.before.append(previous)
-        self.cuts.append(cut)
-        return (metres[:, 0, 0] * 4000 == 1).astype(np.float32)
-
-    def recover(
-        self, metres: np.ndarray, previous: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        self.recovered += 1
-        self.previous.append(previous)
-        mask = np.zeros(metres.shape, bool)
-        mask[..., : metres.shape[-1] // 2] = True
-        return np.full(metres.shape, 2.0, np.float32), mask
+from helpers import FakeNet, d2sr
 
 
 class Recorder:
@@ -174,20 +142,6 @@ def test_repairing_every_frame_the_detector_runs_only_where_the_last_clean_frame
         )
 
 
-def test_agreement_counts_pixels_returning_in_both_within_5_cm_and_2_percent():
-    a = np.full((4, 4), 2.0, np.float32)
-    assert agreement(a, None) == 0.0
-    assert agreement(a, a) == 1.0
-    b = a.copy()
-    b[0] = 2.0 + 0.05 + 0.02 * 2.0 + 0.01  # one row just outside the tolerance
-    b[1] = 2.0 + 0.05 + 0.02 * 2.0 - 0.01  # one just inside
-    b[2] = 0.0  # no return: not counted
-    assert agreement(a, b) == pytest.approx(2 / 3)
-    assert agreement(a, np.zeros_like(a)) == 0.0
-    with pytest.raises(InputError):
-        agreement(a, np.zeros((4, 5), np.float32))
-
-
 def test_auto_takes_the_temporal_model_only_where_the_last_clean_frame_lines_up():
     single, temporal = FakeNet(1), FakeNet(2)
     net = Gated(single, temporal)
@@ -253,7 +207,7 @@ def test_room_interference_follows_the_windows_the_triggers_set():
     graph = OverlapGraph.complete(2)
 
     def overlapped(offsets: list[int]) -> float:
-        room = SimRoom(rig, cfg, seed=1, graph=graph, offsets=offsets, render=False, phases=[0.0, 0.05])
+        room = SimRoom(rig, cfg, seed=1, start=Start(graph, offsets, [0.0, 0.05]), render=False)
         evs = [e for e in room.slots(4.0) if e.frame is not None]
         assert len(evs) == 2 * 4 * 6  # every window slot delivers a frame
         return float(np.mean([e.frame.interfered for e in evs]))  # type: ignore[union-attr]
@@ -262,7 +216,7 @@ def test_room_interference_follows_the_windows_the_triggers_set():
     # off by then) and sensor 0's very first (no start-up slots before the run): 1 - 5/48
     assert overlapped([0, 0]) == pytest.approx(1 - 5 / 48)
     assert overlapped([0, 15]) == 0.0  # 8 laser slots each, far apart
-    room = SimRoom(rig, cfg, seed=1, graph=graph, offsets=[0, 0], render=False, phases=[0.0, 0.05])
+    room = SimRoom(rig, cfg, seed=1, start=Start(graph, [0, 0], [0.0, 0.05]), render=False)
     room.set_offset(1, 2, 15)  # from period 2 on, sensor 1 moves away
     late = [e for e in room.slots(4.0) if e.frame is not None and e.slot >= 3 * 30]
     assert not any(e.frame.interfered for e in late)  # type: ignore[union-attr]

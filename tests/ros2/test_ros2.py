@@ -177,7 +177,7 @@ def test_node_keeps_float_metres_and_their_nan():
 def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
     """Colour at 30 Hz, depth only in slots 0-5 of every 30 (a camera walking past a textured wall): every
     colour frame without depth comes back as a synthesized depth frame, marked so, with its confidence."""
-    from test_fill import _colour_of_wall, _texture
+    from helpers import colour_of_wall, texture
 
     domain = random.randint(100, 200)
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
@@ -185,9 +185,9 @@ def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
            "none", "--colour-topic", "/camera/color/image_raw", "--depth-scale", "1000"]  # fmt: skip
     node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     peer = ros2_peer.Peer(domain, colour_topic="/camera/color/image_raw")
-    tex = _texture(3)
+    tex = texture(3)
     wall = np.full((240, 320), 3000, np.uint16)
-    colours = [_colour_of_wall(np.array([0.004 * k, 0.0, 0.0]), tex) for k in range(45)]
+    colours = [colour_of_wall(np.array([0.004 * k, 0.0, 0.0]), tex) for k in range(45)]
     try:
         end = time.monotonic() + 30
         while not peer.matched():

@@ -16,8 +16,7 @@ from rosbags.typesys import Stores, get_typestore
 from d2sr.frames.base import Frame
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.synth.gaps import ColourFrame, ColourGaps, interleave
-from helpers import d2sr_inprocess
-from test_fill import K, _colour_of_wall, _texture
+from helpers import K, colour_of_wall, d2sr_inprocess, texture
 
 DEPTH, COLOUR = "/camera/depth/image_raw", "/camera/color/image_raw"
 STEP = 33_333_333  # ns between slots
@@ -44,9 +43,9 @@ def _follows(depth_mm: float, k: int) -> bool:
 def _walls_and_colours() -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Each slot's depth of a textured wall (mm) and its colour, the camera walking towards the wall: a
     frame held from the last real one is off by up to 36 cm, one that follows the colour is not."""
-    tex = _texture(3)
+    tex = texture(3)
     walls = [np.full((K.height, K.width), _mm(k), np.uint16) for k in range(SLOTS)]
-    return walls, [_colour_of_wall(np.array([0.0, 0.0, 0.015 * k]), tex) for k in range(SLOTS)]
+    return walls, [colour_of_wall(np.array([0.0, 0.0, 0.015 * k]), tex) for k in range(SLOTS)]
 
 
 def test_every_colour_frame_without_depth_is_a_skipped_slot_in_time_order():
