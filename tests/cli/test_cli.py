@@ -147,7 +147,7 @@ def test_bench_worst_runs_again_until_the_long_run_takes_longer(monkeypatch):
 
     import numpy as np
 
-    from d2sr import bench
+    from d2sr.eval import speed as bench
     from d2sr.errors import D2SRError
 
     clock = [0.0]

@@ -231,6 +231,6 @@ def test_node_takes_the_scene_option():
 
     node = Ros2Node("/cam/depth", 4000.0, "reliable", domain=random.randint(100, 200), scene=True)
     try:
-        assert node.pipeline.loop.scene
+        assert node.pipeline.loop.settings.scene
     finally:
         node.close()

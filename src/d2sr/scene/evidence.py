@@ -126,7 +126,7 @@ class Evidence:
         if not self.usable or self.parts is None:
             return False
         mark = getattr(self.parts.settings, area)
-        return whole >= mark and fresh() >= mark
+        return bool(whole >= mark and fresh() >= mark)
 
     @property
     def evident(self) -> bool:
@@ -170,7 +170,8 @@ def unexplained(
     if before is None:
         return np.zeros_like(mask)
     if mask.any() and before.any():
-        return mask & ~explained(metres, mask, before, settings)
+        out: np.ndarray = mask & ~explained(metres, mask, before, settings)
+        return out
     return mask
 
 

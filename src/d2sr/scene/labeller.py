@@ -106,7 +106,8 @@ class Labeller:
             )
         s = self.s
         if self.method == "paper":
-            return (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
+            paper: np.ndarray = (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
+            return paper
         lim = self._limits
         has = frame_m > 0
         dropout = ~has & lim["reliable"]
@@ -121,7 +122,8 @@ class Labeller:
         # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
         # the interference than the pixel's own flicker.
         likely = ~has & lim["likely"] & (count >= self._likely_from)
-        return (raw & (count >= self._dense_from)) | likely
+        out: np.ndarray = (raw & (count >= self._dense_from)) | likely
+        return out
 
     def depth(
         self, frame_m: np.ndarray, mask: np.ndarray, reference_m: np.ndarray | None = None

@@ -159,7 +159,8 @@ def _at_returns(srt: np.ndarray, k: np.ndarray, q: float) -> np.ndarray:
     b *= f.take(kk)
     a += b
     a[kk == 0] = 0
-    return a.reshape(k.shape)
+    out: np.ndarray = a.reshape(k.shape)
+    return out
 
 
 def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:
@@ -169,7 +170,8 @@ def _at(srt: np.ndarray, pos: np.ndarray) -> np.ndarray:
     f = (pos - lo).astype(np.float32)
     a = np.take_along_axis(srt, lo[None], 0)[0].astype(np.float32)
     b = np.take_along_axis(srt, hi[None], 0)[0].astype(np.float32)
-    return a + f * (b - a)
+    out: np.ndarray = a + f * (b - a)
+    return out
 
 
 @lru_cache
