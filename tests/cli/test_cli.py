@@ -147,8 +147,8 @@ def test_bench_worst_runs_again_until_the_long_run_takes_longer(monkeypatch):
 
     import numpy as np
 
-    from d2sr.eval import speed as bench
     from d2sr.errors import D2SRError
+    from d2sr.eval import speed as bench
 
     clock = [0.0]
     plans: dict[str, list[float]] = {}
