@@ -1,7 +1,7 @@
 """What each part of ``d2sr adapt`` costs on this machine: the figures behind ``d2sr.train.adapt.COSTS``,
 which turn a budget into a plan. Run it on an idle 2-core machine:
 
-    .venv/bin/python lab/adapt_costs.py --data ../shared/data/d435 --frames 100
+    python -m lab.adapt_costs --data ../shared/data/d435 --frames 100
 
 It reads the first FRAMES clean frames, then times: corrupting copies (two worker processes), generating
 frames, training steps, and judging the held-out frames with the loading and exports (the rest of adapt).

@@ -6,7 +6,7 @@ the two trees so that a shared, noisy machine slows both alike; per tree, the me
 (60 frames - 10 frames) / 50 is the time a frame takes without start-up. Also checks that both write the
 same repaired frames and masks.
 
-Run:  .venv/bin/python lab/against.py --ref b1062a7 --data ../shared/data \
+Run:  python -m lab.against --ref b1062a7 --data ../shared/data \
           --json lab/notes/results/bench_against.json
 """
 

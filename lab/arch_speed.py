@@ -6,7 +6,7 @@ each candidate's kernels on one thread, summed by operator (onnxruntime's profil
 take, and what the full-resolution work around them (the input's features, the space-to-depth, the heads'
 depth-to-space, the push-pull fill) takes whatever the widths.
 
-Run:  .venv/bin/python lab/arch_speed.py --json docs/results/arch_speed.json
+Run:  python -m lab.arch_speed --json docs/results/arch_speed.json
 """
 
 from __future__ import annotations

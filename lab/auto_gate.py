@@ -12,7 +12,7 @@ that differ from their clean version (``held_out.scored``). And do no harm: on t
 5 cm, over the sequence and in its worst frame; and every pixel it changes at all (no-return pixels it fills
 included), as a share of the valid-pixel count.
 
-Run:  .venv/bin/python lab/auto_gate.py --data ../shared/data --json docs/results/auto_gate.json
+Run:  python -m lab.auto_gate --data ../shared/data --json docs/results/auto_gate.json
 """
 
 from __future__ import annotations

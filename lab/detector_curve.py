@@ -3,7 +3,7 @@ of ``held_out.py`` changed (recall) and on the clean real sequences (false alarm
 person has left and all of dev1, the D435 sequence at its scale), each in order so that the detector weighs
 the frame before as ``d2sr detect`` does. Shows whether a missed outside set is a threshold away or not.
 
-Run:  .venv/bin/python lab/detector_curve.py --json docs/results/detector_curve.json
+Run:  python -m lab.detector_curve --json docs/results/detector_curve.json
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ On the open outside sets of ``held_out.py`` (recall and precision, 120 L515 fram
 the clean real sequences (L515 dev0 after the person and dev1, D435: false alarms) and the single clean
 frames (Azure Kinect, TUM, Open3D: flagged or not), at threshold 0.5.
 
-Run:  .venv/bin/python lab/detector_previous.py --json lab/notes/results/detector_previous.json \
+Run:  python -m lab.detector_previous --json lab/notes/results/detector_previous.json \
           --weights runs/detector-clean-previous/detector-temporal.safetensors
 """
 

@@ -4,7 +4,7 @@ logit exceeds CUT (env CUTS, default "0 1 2"), not the model's own threshold: th
 the repair otherwise fills with returns the clean frame does not have. d2sr.Pipeline as shipped, each L515 view
 primed on its first 32 frames, flagged frames repaired; per set, RMSE change over the corrupted frames, mask F1,
 clean pixels changed, frames made worse. Development sets only.
-Run from the repository root: python lab/dropout_doubt.py a b [SET ...]"""
+Run from the repository root: python -m lab.dropout_doubt a b [SET ...]"""
 
 import sys
 from pathlib import Path

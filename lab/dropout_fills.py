@@ -10,7 +10,7 @@ With ``--excess``, more rules: put back where the scene returns in under 70%, 50
 frames; or under 90% unless the dropouts in the pixel's WxW window exceed those the scene's return rates
 expect there (E, the sum of 1 - rate over the pixels the scene has seen return) by more than K x sqrt(E) + C.
 
-Run from the repository root: python lab/dropout_fills.py [--excess] [SET ...]"""
+Run from the repository root: python -m lab.dropout_fills [--excess] [SET ...]"""
 
 import sys
 from pathlib import Path

@@ -2,7 +2,7 @@
 own dropouts (none in the clean frame either) from interference's (the clean frame returns), among the
 dropouts the repair fills where a usable scene says the pixel returns in under 90% of its clean frames?
 ``d2sr.Pipeline`` as shipped on both L515 views of each set; the single-frame model's logits. Development
-figures only. Run from the repository root: python lab/dropout_logits.py [SET ...]"""
+figures only. Run from the repository root: python -m lab.dropout_logits [SET ...]"""
 
 import sys
 from pathlib import Path

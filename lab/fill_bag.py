@@ -7,7 +7,7 @@ frames' RMSE and coverage against the real frames they stand for (the pooling of
 hold-last's, the largest difference from ``d2sr fill``'s frames for the same slots, and frames out a second
 of the whole command (bag reading and PNG writing included).
 
-Run:  .venv/bin/python lab/fill_bag.py --data ../shared/data --json docs/results/fill_bag.json
+Run:  python -m lab.fill_bag --data ../shared/data --json docs/results/fill_bag.json
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ valid pixels the synthesized frames give a value; the same for hold-last; the ra
 reads (RMSE at most 50% of hold-last's, coverage at least 90% of hold-last's); kept frames bit-identical;
 the RMSE by frames since the last real one (the paper's Fig. 11); frames a second.
 
-Run:  .venv/bin/python lab/fill_d435.py --data ../shared/data --json docs/results/fill_d435.json
+Run:  python -m lab.fill_d435 --data ../shared/data --json docs/results/fill_d435.json
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ threads) for 6 and 15 active of 30, and the synthesized frames' RMSE against the
 (the same pooling as ``lab/fill_d435.py``), so that the speed is of the same output. Bar: 30 frames a
 second at 640x480 on 2 cores.
 
-Run:  .venv/bin/python lab/fill_loop.py --data ../shared/data --json docs/results/fill_loop.json
+Run:  python -m lab.fill_loop --data ../shared/data --json docs/results/fill_loop.json
 """
 
 from __future__ import annotations

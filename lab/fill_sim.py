@@ -10,7 +10,7 @@ frame's pixels given a value; ``common``: RMSE over the pixels every method give
 is judged on pixels another leaves out (the robot's loop can pass through furniture, and there a warp by
 odometry puts every point behind the camera while a method that cannot measure the motion holds).
 
-Run:  .venv/bin/python lab/fill_sim.py --json docs/results/fill_sim.json --plot docs/results/fill_sim.png
+Run:  python -m lab.fill_sim --json docs/results/fill_sim.json --plot docs/results/fill_sim.png
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ cameras, slots 0..5 of every 30 kept:
 
 Reports RMSE (cm, pooled, valid under 8 m) and the worst frame's, for both methods.
 
-Run:  .venv/bin/python lab/fill_still.py --data ../shared/data --json docs/results/fill_still.json
+Run:  python -m lab.fill_still --data ../shared/data --json docs/results/fill_still.json
 """
 
 from __future__ import annotations

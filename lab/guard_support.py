@@ -10,7 +10,7 @@ sequence of 60 frames) with flagged frames repaired and with every frame repaire
 flagged frames repaired (every other frame corrupted, as ``lab/held_out.py`` does); the guard as shipped,
 then with the candidate. RMSE change and frames made worse over the corrupted frames, mask F1, clean pixels
 changed. Development figures only. Run from the repository root:
-python lab/guard_support.py [--edges] [--backed] [SET ...]"""
+python -m lab.guard_support [--edges] [--backed] [SET ...]"""
 
 import sys
 from pathlib import Path

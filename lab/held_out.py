@@ -41,7 +41,7 @@ dash rain and grid glints (``rain_interference``), dropouts made to return and e
 
 Run:  make outside   (every set with recover's default and each shipped recovery model:
                      docs/results/outside/SET-MODEL.json)
-      .venv/bin/python lab/held_out.py --data ../shared/data --set b --model unet8 --adapt \
+      python -m lab.held_out --data ../shared/data --set b --model unet8 --adapt \
           --json out/held_out_b.json
 Each result records its provenance and ``data``: the set, its status (``STATUS``: what it has been used
 for) and the calibration overlap. The files under lab/notes/results/ are older runs, kept as the

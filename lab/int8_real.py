@@ -3,7 +3,7 @@ generated frames) against their fp32 originals on real L515 frames, every other 
 interference (``held_out``): detector verdicts that differ, the score difference, and the repair's RMSE
 against the frame before corruption, fp32 beside int8.
 
-Run:  .venv/bin/python lab/int8_real.py --data ../shared/data --json docs/results/int8_real.json
+Run:  python -m lab.int8_real --data ../shared/data --json docs/results/int8_real.json
 """
 
 from __future__ import annotations

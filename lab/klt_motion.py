@@ -3,7 +3,7 @@ frame's corners, against the chained ORB motion of ``d2sr.synth``, on the simula
 its colour camera. Prints RMSE (cm, pooled) of each method's warp, odometry's and hold-last's, the median
 and 90th-percentile translation error (mm) and ms a frame.
 
-Run:  .venv/bin/python lab/klt_motion.py --seeds 100,101,102 --seconds 20
+Run:  python -m lab.klt_motion --seeds 100,101,102 --seconds 20
 """
 
 from __future__ import annotations

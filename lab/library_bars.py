@@ -12,7 +12,7 @@ generator never made (``held_out.worst_case``: 60 dev1 frames, each corrupted by
   (``Pipeline`` over the hand-held D435 sequence; ``repair`` on the Azure Kinect, TUM and Open3D frames):
   frames flagged and the share of valid pixels changed, mean and worst frame.
 
-Run:  .venv/bin/python lab/library_bars.py --data ../shared/data --json docs/results/library_bars.json
+Run:  python -m lab.library_bars --data ../shared/data --json docs/results/library_bars.json
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 guard's lone-return rule (``contract.LONE_MAX``): returns moved by more than 5 cm and by more than 30 cm,
 and dropouts filled, on the 120 clean frames of the outside sets (``held_out.outside_set``).
 
-Run:  .venv/bin/python lab/lone_returns.py --data ../shared/data \\
+Run:  python -m lab.lone_returns --data ../shared/data \\
           --json lab/notes/results/lone_returns.json
 """
 

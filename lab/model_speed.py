@@ -4,7 +4,7 @@ sets in one run on one tree, alternating between them so that a shared, noisy ma
 option set the median over ``--runs`` of (60 frames - 10 frames) / 50 is the time a frame takes without
 start-up. For weighing a model or threshold against the default on the speed bar (30 fps).
 
-Run:  .venv/bin/python lab/model_speed.py --json docs/results/bench_model_speed.json
+Run:  python -m lab.model_speed --json docs/results/bench_model_speed.json
 """
 
 from __future__ import annotations

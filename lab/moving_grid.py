@@ -3,7 +3,7 @@ assumptions of ``d2sr desync grid`` (its 12 joint settings), where a held-out ti
 project found the default losing (N = 5, 6 frames a second). Only the robot's frames count; each cell runs
 100 rooms of 60 s, paired seeds across the two controllers.
 
-Run:  .venv/bin/python lab/moving_grid.py --json docs/results/desync/moving_grid.json
+Run:  python -m lab.moving_grid --json docs/results/desync/moving_grid.json
 """
 
 from __future__ import annotations

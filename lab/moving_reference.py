@@ -4,7 +4,7 @@ robot (``lab/moving_set.py``) frame by frame, each with its odometry: the shippe
 the loop's precision and recall over the corrupted frames, the clean frames flagged, and the CPU a frame
 costs each way (median over the set's frames, one thread for the detector as shipped).
 
-Run:  .venv/bin/python lab/moving_reference.py --set dev --json lab/notes/results/moving_dev.json
+Run:  python -m lab.moving_reference --set dev --json lab/notes/results/moving_dev.json
 Set ``j`` is sealed: its rule is in lab/notes/decisions.md (2026-11-27).
 """
 

@@ -1,7 +1,7 @@
 """The ROS 2 node's memory over many messages (issue 63): 100,000 messages, malformed of every kind with a
 real 640x480 frame every 100th, through ``Ros2Node.handle``; resident memory sampled after every 10,000.
 
-    .venv/bin/python lab/node_memory.py [--messages 100000]
+    python -m lab.node_memory [--messages 100000]
 """
 
 from __future__ import annotations

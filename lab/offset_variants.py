@@ -11,7 +11,7 @@ Development figures only: no sealed set judged them.
   sd2+half       both
   noise3.5       spread less the pixels' own noise ((hi - lo) / 3.5, squared) up to 1 cm
 
-Run from the repository root: VARS=shipped,sd2 python lab/offset_variants.py SET [SET ...]"""
+Run from the repository root: VARS=shipped,sd2 python -m lab.offset_variants SET [SET ...]"""
 
 import os
 import sys

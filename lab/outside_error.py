@@ -10,9 +10,9 @@ of passes in
 ``--plot``, the trade-off ``--mask-logit`` walks (RMSE change against clean pixels changed, both passes,
 per threshold).
 
-Run:  .venv/bin/python lab/outside_error.py --data ../shared/data \
+Run:  python -m lab.outside_error --data ../shared/data \
           --json lab/notes/results/outside_error.json --plot lab/notes/results/outside_error.png
-      .venv/bin/python lab/outside_error.py --models DIR --model unet8-temporal   (given the last frame)
+      python -m lab.outside_error --models DIR --model unet8-temporal   (given the last frame)
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ worst set and the mean beside them, from the committed ``lab/held_out.py`` resul
 detector recall and precision, ``recover --all`` RMSE change, mask F1 and clean pixels changed; as a table
 (printed, Markdown) and a plot (``--plot``) with issue 13's bars.
 
-Run:  .venv/bin/python lab/outside_summary.py --json docs/results/outside_sets.json \
+Run:  python -m lab.outside_summary --json docs/results/outside_sets.json \
           --plot docs/results/outside_sets.png
 """
 

@@ -11,9 +11,9 @@ profiles that commit (a temporary git worktree, in a subprocess) in the same run
 ``--scene``: ``Pipeline(scene=True)``, a still sensor's frames also judged against its scene (the Pipeline's
 default since 2026-11-27); without it ``scene=False``, the detector alone.
 
-Run:  .venv/bin/python lab/profile_typical.py --ref ccfb1d1 --data ../shared/data \
+Run:  python -m lab.profile_typical --ref ccfb1d1 --data ../shared/data \
           --json docs/results/profile_typical.json
-      .venv/bin/python lab/profile_typical.py --scene --ref f309c3e --view dev1 --data ../shared/data \
+      python -m lab.profile_typical --scene --ref f309c3e --view dev1 --data ../shared/data \
           --json docs/results/profile_scene.json
 """
 

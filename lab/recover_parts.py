@@ -4,7 +4,7 @@ run on every frame), through the steps ``SensorLoop.process`` takes with the shi
 scale to metres, pass 1, its guard, the filled frame, pass 2, the final guard and write-back. Medians over
 ``--runs`` sweeps of the frames (the first sweep is a warm-up). Reading and writing PNGs are left out.
 
-Run:  .venv/bin/python lab/recover_parts.py --data ../shared/data \
+Run:  python -m lab.recover_parts --data ../shared/data \
           --json docs/results/bench_recover_parts.json
 """
 

@@ -6,9 +6,9 @@ The network mirrors the recovery UNet's do-no-harm shape: a mask head flags warp
 (more than 5 cm off, or missing where the scene has depth) and a depth head corrects a push-pull fill of
 the pixels it trusts; unflagged pixels come out as the warp made them.
 
-Run:  .venv/bin/python lab/refine_proto.py gen --rooms 24 --out /tmp/refine/data.npz
-      .venv/bin/python lab/refine_proto.py train --data /tmp/refine/data.npz --steps 1500 --out /tmp/refine/net.pt
-      .venv/bin/python lab/refine_proto.py eval --net /tmp/refine/net.pt --data-dir ../shared/data
+Run:  python -m lab.refine_proto gen --rooms 24 --out /tmp/refine/data.npz
+      python -m lab.refine_proto train --data /tmp/refine/data.npz --steps 1500 --out /tmp/refine/net.pt
+      python -m lab.refine_proto eval --net /tmp/refine/net.pt --data-dir ../shared/data
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ IDL (tools/ros2_peer.py), on one ROS_DOMAIN_ID picked at random.
   time each spent in the node (from taken off its reader to its last message written) and the time from
   the peer's write to the repaired frame reaching the peer, median and p99.
 
-Run:  .venv/bin/python lab/ros2_loopback.py --data ../shared/data --json docs/results/ros2_loopback.json
+Run:  python -m lab.ros2_loopback --data ../shared/data --json docs/results/ros2_loopback.json
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ that return in 90% of the clean frames, read more than 5 cm off the scene's medi
 range's tolerance, and that nothing moving explains. Each open set's L515 views and the clean sequences,
 primed as d2sr detect judges a recording (the loop as shipped). The clean frames' largest share, and how
 many missed interfered frames reach twice it.
-Run from the repository root: python lab/scene_clusters.py [SET ...]"""
+Run from the repository root: python -m lab.scene_clusters [SET ...]"""
 
 import sys
 from collections import Counter

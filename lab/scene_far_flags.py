@@ -6,7 +6,7 @@ D435 whole; both views of sets A-I, K-O, seeded as ``lab/scene_reference.py`` se
 K-O). Precision and recall per set, clean frames flagged per sequence; then the highest share of the scene
 that fresh far-off returns reach on a clean frame where the scene is usable. Development figures only. Far-off
 returns are counted among the deviations (``far_thin=False``), as when it was run.
-Run from the repository root: python lab/scene_far_flags.py [AREA ...]"""
+Run from the repository root: python -m lab.scene_far_flags [AREA ...]"""
 
 import sys
 from pathlib import Path

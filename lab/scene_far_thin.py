@@ -4,7 +4,7 @@ shipped (far-off returns among the deviations, ``FAR_AREA``) against ``far_thin`
 every development sequence (as ``scene_far_flags.py``). Precision and recall per set, clean frames flagged
 per sequence; then the highest share of the scene that fresh far-off returns over every return reach on a
 clean frame where the scene is usable. Development figures only.
-Run from the repository root: python lab/scene_far_thin.py [AREA ...]"""
+Run from the repository root: python -m lab.scene_far_thin [AREA ...]"""
 
 import sys
 from pathlib import Path

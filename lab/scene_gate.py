@@ -39,29 +39,29 @@ Parts: ``d435``, the hand-held D435 whole (193 frames at 1000 units a metre, a m
 sequence); ``l515``, the outside set's 120 L515 frames, each view a cold sequence of 60. Set K was written
 and sealed for the gate and opened by it on 2026-11-27 (it held); set L for the stripes.
 
-Run:  .venv/bin/python lab/scene_gate.py --what gate --set k --data ../shared/data \\
+Run:  python -m lab.scene_gate --what gate --set k --data ../shared/data \\
           --json docs/results/scene_gate_k.json
-      .venv/bin/python lab/scene_gate.py --what stripes --set l --data ../shared/data \\
+      python -m lab.scene_gate --what stripes --set l --data ../shared/data \\
           --json docs/results/scene_stripes_l.json
-      .venv/bin/python lab/scene_gate.py --what shift --set m --data ../shared/data \\
+      python -m lab.scene_gate --what shift --set m --data ../shared/data \\
           --json docs/results/scene_shift_m.json
-      .venv/bin/python lab/scene_gate.py --what far --set p --data ../shared/data \\
+      python -m lab.scene_gate --what far --set p --data ../shared/data \\
           --json docs/results/scene_far_p.json
-      .venv/bin/python lab/scene_gate.py --what thin --set q --data ../shared/data \\
+      python -m lab.scene_gate --what thin --set q --data ../shared/data \\
           --json docs/results/scene_thin_q.json
-      .venv/bin/python lab/scene_gate.py --what prime --set t --data ../shared/data \\
+      python -m lab.scene_gate --what prime --set t --data ../shared/data \\
           --json docs/results/scene_prime_t.json
-      .venv/bin/python lab/scene_gate.py --what subtle --set u --data ../shared/data \\
+      python -m lab.scene_gate --what subtle --set u --data ../shared/data \\
           --json docs/results/scene_subtle_u.json
-      .venv/bin/python lab/scene_gate.py --what shiftrate --set v --data ../shared/data \\
+      python -m lab.scene_gate --what shiftrate --set v --data ../shared/data \\
           --json docs/results/scene_shiftrate_v.json
-      .venv/bin/python lab/scene_gate.py --what full --set w --data ../shared/data \\
+      python -m lab.scene_gate --what full --set w --data ../shared/data \\
           --json docs/results/scene_full_w.json
-      .venv/bin/python lab/scene_gate.py --what still --set x --data ../shared/data \\
+      python -m lab.scene_gate --what still --set x --data ../shared/data \\
           --json docs/results/scene_still_x.json
-      .venv/bin/python lab/scene_gate.py --what unvouched --set y --data ../shared/data \\
+      python -m lab.scene_gate --what unvouched --set y --data ../shared/data \\
           --json docs/results/scene_unvouched_y.json
-      .venv/bin/python lab/scene_gate.py --what off --set z --data ../shared/data \\
+      python -m lab.scene_gate --what off --set z --data ../shared/data \\
           --json docs/results/scene_off_z.json
 """
 

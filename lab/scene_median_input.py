@@ -6,7 +6,7 @@ sequence of 60 frames, every other one corrupted, as ``lab/held_out.py`` corrupt
 recover's default (``--model auto``, no scene), unet8-temporal given the last clean frame, and
 unet8-temporal given the scene's median wherever the scene has one. RMSE change and mask F1 over the
 corrupted frames, clean pixels changed. Development figures only (A and B are development sets).
-Run from the repository root: python lab/scene_median_input.py [SET ...]"""
+Run from the repository root: python -m lab.scene_median_input [SET ...]"""
 
 import sys
 from pathlib import Path

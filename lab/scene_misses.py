@@ -4,7 +4,7 @@ frames caught and those missed: how much of the frame the interference changed (
 off the clean frame, or drop out or appear), and how much of that lies where the scene, as it stood when
 the frame was judged, returns in at least 90% of its clean frames (TRUST_RATE: the pixels it can vouch
 for). Medians over the frames.
-Run from the repository root: python lab/scene_misses.py [SET ...]"""
+Run from the repository root: python -m lab.scene_misses [SET ...]"""
 
 import sys
 from pathlib import Path

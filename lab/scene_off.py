@@ -4,7 +4,7 @@ blotched surface, whose signed mean the shifted windows do not see), fresh, over
 Every open set's two L515 views (primed as d2sr detect judges a recording, and cold as a live sensor starts)
 and its hand-held D435 part (primed); beside them the clean sequences whole. Precision / recall / clean
 frames flagged. Development figures only.
-Run from the repository root: python lab/scene_off.py [SET ...]"""
+Run from the repository root: python -m lab.scene_off [SET ...]"""
 
 import sys
 from pathlib import Path

@@ -2,7 +2,7 @@
 a patch of steady returns (rows 280 on, columns 40 on, 40 or 80 px square) of every L515 dev1 frame reads off
 by fresh smooth noise each frame (Gaussian noise blurred over 4 px, clipped to +-1 to 5 cm). The loop's flags
 over the clean sequence, off windows off and on, cold and primed.
-Run from the repository root: python lab/scene_off_flutter.py"""
+Run from the repository root: python -m lab.scene_off_flutter"""
 
 from pathlib import Path
 

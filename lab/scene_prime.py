@@ -3,7 +3,7 @@ the scene as shipped on both L515 views of every open set (the 120 frames seeded
 ``lab/scene_gate.py`` seeds them), each view cold (a live sensor) and primed on its first W frames
 (``SensorLoop.primed``, as ``d2sr detect`` and ``d2sr recover`` judge a recording); beside them, the clean
 L515 views unseeded. Development figures only. Run from the repository root:
-python lab/scene_prime.py [W ...]   (default: 0 32 48; 0 is cold)"""
+python -m lab.scene_prime [W ...]   (default: 0 32 48; 0 is cold)"""
 
 import sys
 from pathlib import Path

@@ -4,7 +4,7 @@ so when the loop then judges frames 1-16 forwards, a frame may be in the ring it
 candidate takes the frame's own copy out of the ring first (the statistics worked out again over the rest).
 Both L515 views of every open set, primed as d2sr detect judges a recording, and the clean sequences whole:
 precision / recall / clean frames flagged, as shipped and with the copy taken out. Development figures only.
-Run from the repository root: python lab/scene_prime_self.py [SET ...]"""
+Run from the repository root: python -m lab.scene_prime_self [SET ...]"""
 
 import sys
 from pathlib import Path

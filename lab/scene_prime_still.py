@@ -2,7 +2,7 @@
 SensorLoop(prime_still=False, as shipped / True), every open set's two L515 views and its hand-held D435 part
 (a moving sensor), each primed as d2sr detect judges a recording; beside them the clean sequences whole.
 Precision / recall / clean frames flagged. Development figures only.
-Run from the repository root: python lab/scene_prime_still.py [SET ...]"""
+Run from the repository root: python -m lab.scene_prime_still [SET ...]"""
 
 import sys
 from pathlib import Path

@@ -15,7 +15,7 @@ Sequences:
 
 The reference's cost per frame (evidence and update, median) is timed on the still and the moving sensor.
 
-Run:  .venv/bin/python lab/scene_reference.py --json docs/results/scene_reference.json
+Run:  python -m lab.scene_reference --json docs/results/scene_reference.json
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
-from d2sr.reference import EVIDENT, QUIET, SceneReference
 
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import make_controller
@@ -34,15 +33,21 @@ from d2sr.errors import D2SRError
 from d2sr.eval.speed import write_result
 from d2sr.frames import Frame
 from d2sr.runtime.backends import Backend, open_backend
-from d2sr.runtime.loop import PRIME_FRAMES, Capture, SensorLoop
+from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
+from d2sr.scene import SceneReference, SceneSettings
 from lab.held_out import clean_sequences, every_other, open_sets, outside_set, set_data
+
+EVIDENT, QUIET = SceneSettings().evident, SceneSettings().quiet
 
 
 def run(net: Backend, frames: list[np.ndarray], scale: float) -> dict[str, np.ndarray]:
     """Per frame: flagged by the detector alone, with the scene, by evidence alone; the reference's cost."""
 
     def loop(scene: bool) -> SensorLoop:
-        return SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=scene)
+        return SensorLoop(
+            net, make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=scene)
+        )
 
     plain, scene, primed = loop(False), loop(True), loop(True)
     ahead = primed.primed(Capture(Frame(f"{i}", f), scale) for i, f in enumerate(frames))
@@ -92,7 +97,7 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
     try:
-        net = open_backend(None, "onnx")
+        net = open_backend(RunSettings(backend="onnx"), recovery=False)
         seqs = clean_sequences(args.data)
     except D2SRError as exc:
         ap.error(str(exc))

@@ -51,9 +51,9 @@ shiftrate --set v`` (sealed set V), ``--what farfill --set aa`` (sealed set AA),
 ab`` (sealed set AB) or ``--what offset --set ac`` (sealed set AC), also whether the rule written for it held
 (lab/notes/decisions.md, 2026-11-27).
 
-Run:  .venv/bin/python lab/scene_repair.py --data ../shared/data [--what returns] [--set X ...] \\
+Run:  python -m lab.scene_repair --data ../shared/data [--what returns] [--set X ...] \\
           --json docs/results/scene_repair.json
-      .venv/bin/python lab/scene_repair.py --data ../shared/data --what recording --set a b c d e f g h i \\
+      python -m lab.scene_repair --data ../shared/data --what recording --set a b c d e f g h i \\
           --json docs/results/recover_recording.json
 """
 
@@ -67,13 +67,12 @@ from typing import Any
 
 import numpy as np
 from bench.harness import check_output, output_args
-from d2sr.reference import RANGE_RATE, TRUST_RATE
 
 from d2sr.contract.catalog import AUTO_RECOVERY
 from d2sr.errors import D2SRError
 from d2sr.eval.speed import write_result
-from d2sr.runtime.loop import PRIME_FRAMES
 from d2sr.runtime.pipeline import Pipeline, Repaired
+from d2sr.runtime.settings import PRIME_FRAMES
 from lab.held_out import (
     BEFORE_Z,
     JUDGED,
@@ -87,6 +86,9 @@ from lab.held_out import (
     set_data,
     used_models,
 )
+
+# The scene's rates the modes below name (SceneSettings.range_rate and trust_rate since issue 64).
+RANGE_RATE, TRUST_RATE = 0.5, 0.9
 
 Mode = tuple[bool, dict[str, Any]]  # the scene's repair on, and the scene reference's settings
 # What came after set O was judged (far-off flags, the seldom-returns keep, the sparser fill), off as it was
@@ -176,9 +178,12 @@ AS_SHIPPED = set(WHAT["recording"]).union(*(WHAT[w] for w in FILLS))
 
 def pipeline(scale: float, mode: Mode) -> Pipeline:
     """``d2sr.Pipeline`` as shipped, the scene's repair and reference set as asked."""
-    p = Pipeline(scale)
-    p.loop.scene_repair, p.loop.scene_options = mode
-    return p
+    on, settings = mode
+    if settings:  # a switch decided since and folded into the code (issue 64)
+        raise SystemExit(
+            f"{', '.join(settings)}: decided and folded into d2sr; run this mode at 8577bfa (lab/README.md)"
+        )
+    return Pipeline(scale, scene_repair=on)
 
 
 def repaired(
@@ -191,7 +196,10 @@ def repaired(
     for frames in views:
         p = pipeline(scale, mode)
         if primed:
-            p.loop.prime_still = shipped  # False: as the primed modes before set X were judged
+            if not shipped:  # as the primed modes before set X were judged: no longer in d2sr
+                raise SystemExit(
+                    "priming without the stillness check: run this mode at 8577bfa (lab/README.md)"
+                )
             p.prime(frames[:PRIME_FRAMES])
         out += [p.process(f) for f in frames]
     return out

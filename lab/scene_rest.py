@@ -2,7 +2,7 @@
 ``SceneReference(rest=0)`` against the shipped ``rest``, on every development sequence (L515 dev0, dev1 and
 the D435 whole; both parts of sets K and L; both views of sets A-I), and the CPU a frame through
 ``Pipeline(repair="none")`` on the D435 and the still L515s, alternating, median of 3 passes.
-Run from the repository root: python lab/scene_rest.py"""
+Run from the repository root: python -m lab.scene_rest"""
 
 import statistics
 import time

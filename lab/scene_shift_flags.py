@@ -5,7 +5,7 @@ sequence (L515 dev0, dev1 and the D435 whole; both views of sets A-I, K and L, s
 Precision and recall per set, clean frames flagged per sequence; then the highest share of the scene that
 fresh shifted windows reach on a clean frame where the scene is usable (the clean sequences, and the clean
 frames of every set). Development figures only. Far-off flags (added after it) are off, as when it was run.
-Run from the repository root: python lab/scene_shift_flags.py [AREA ...]"""
+Run from the repository root: python -m lab.scene_shift_flags [AREA ...]"""
 
 import sys
 from pathlib import Path

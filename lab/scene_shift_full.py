@@ -2,7 +2,7 @@
 frames (issue 42): SceneReference(shift_rate_full=False, as shipped / True), both L515 views of every open set
 (the 120 frames seeded as one), each cold (a live sensor) and primed (d2sr detect on a recording); beside them
 the clean sequences whole. Precision / recall / clean frames flagged. Development figures only.
-Run from the repository root: python lab/scene_shift_full.py [SET ...]"""
+Run from the repository root: python -m lab.scene_shift_full [SET ...]"""
 
 import sys
 from pathlib import Path

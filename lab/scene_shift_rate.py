@@ -3,7 +3,7 @@ SceneReference(shift_rate=R) for R in 0.9 (as shipped, TRUST_RATE), 0.7 and 0.5,
 open set (the 120 frames seeded as one), each primed as d2sr detect judges a recording; and on the clean
 sequences whole, with the most fresh shifted area any of their frames reached (SHIFT_AREA is 0.01).
 Precision / recall / clean frames flagged. Development figures only.
-Run from the repository root: python lab/scene_shift_rate.py [SET ...]"""
+Run from the repository root: python -m lab.scene_shift_rate [SET ...]"""
 
 import sys
 from pathlib import Path

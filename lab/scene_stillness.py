@@ -1,6 +1,6 @@
 """How still a sensor is, as its scene reference sees it: per sequence, the frames it was ready for, its restarts,
 the share of the known scene each frame deviates by (percentiles) and the frames its fresh evidence flags.
-Groundwork for a scene switched on by stillness (scene-reference.md). python lab/scene_stillness.py"""
+Groundwork for a scene switched on by stillness (scene-reference.md). python -m lab.scene_stillness"""
 
 from pathlib import Path
 

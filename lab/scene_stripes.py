@@ -1,5 +1,5 @@
 """The loop's scene flags and the reference's cost, stripes=8 against 16, on every development sequence
-(decisions.md, 2026-11-27). Run from the repository root: python lab/scene_stripes.py"""
+(decisions.md, 2026-11-27). Run from the repository root: python -m lab.scene_stripes"""
 
 import statistics
 import time

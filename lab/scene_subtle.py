@@ -2,7 +2,7 @@
 only by a frame-before deviation within SHIFT_M of its depth (issue 42): SceneReference(subtle_shifts=False, True),
 both L515 views of every open set (the 120 frames seeded as one), each primed as d2sr detect judges a
 recording; beside them the clean sequences whole. Precision / recall / clean frames flagged. Development
-figures only. Run from the repository root: python lab/scene_subtle.py [SET ...]"""
+figures only. Run from the repository root: python -m lab.scene_subtle [SET ...]"""
 
 import sys
 from pathlib import Path

@@ -3,7 +3,7 @@ saw (issue 42): SensorLoop(unvouched=False, as shipped / True), both L515 views 
 sequence of 60, every other frame corrupted) and, beside them, the clean sequences whole (L515 dev0, dev1,
 the hand-held D435), each primed as d2sr detect judges a recording. The detector and unet8 (its mask).
 Precision / recall / clean frames flagged. Development figures only.
-Run from the repository root: python lab/scene_unvouched.py [SET ...]"""
+Run from the repository root: python -m lab.scene_unvouched [SET ...]"""
 
 import sys
 from pathlib import Path

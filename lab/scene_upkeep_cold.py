@@ -7,7 +7,7 @@ and 16 frames (``--milestones``). Medians of 3 alternating passes; the detector'
 ``--flags``: instead, the candidate (stripes of 32 with the milestones) against the shipped upkeep by the
 loop's flags with the scene, on the clean sequences (L515 dev0, dev1, the D435, whole) and on both L515 views
 of every development set (each view a cold sequence of 60 frames, every other one corrupted).
-Run from the repository root: python lab/scene_upkeep_cold.py [--milestones | --flags]"""
+Run from the repository root: python -m lab.scene_upkeep_cold [--milestones | --flags]"""
 
 import statistics
 import sys

@@ -3,7 +3,7 @@ shipped on both L515 views of every set (the 120 frames seeded as one, as ``lab/
 them), each view cold (as every result reports it) and warm: preceded by 16 clean frames of the same view
 that the set does not use (dev0 frames 120-135, dev1 frames 60-75), as a sensor that has run for half a
 second before the interference starts. Precision, recall and clean frames flagged count the set's frames
-only. Development figures only. Run from the repository root: python lab/scene_warm.py"""
+only. Development figures only. Run from the repository root: python -m lab.scene_warm"""
 
 from pathlib import Path
 

@@ -4,7 +4,7 @@
 before and after, and the share of the frame the one-pass repair changed. Then the gate "second pass only
 where one pass changed at least TAU of the frame": its RMSE change per set and the share of frames that
 would run the second pass. Development figures only. Run from the repository root:
-python lab/second_pass_gate.py [SET ...]"""
+python -m lab.second_pass_gate [SET ...]"""
 
 import sys
 from pathlib import Path

@@ -4,7 +4,7 @@ that 32x32 tiles within ``--margin`` pixels of the first pass's guarded repair c
 ``keep``, what the second pass sees changed). The second pass would run on those tiles plus the model's
 reach around them.
 
-Run:  .venv/bin/python lab/second_pass_tiles.py --data ../shared/data \\
+Run:  python -m lab.second_pass_tiles --data ../shared/data \\
           --json lab/notes/results/second_pass_tiles.json
 """
 

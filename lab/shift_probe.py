@@ -14,7 +14,7 @@ Reported per outside set (every other frame corrupted) and on the clean L515 seq
 against the 16 before it: dev0 has a person walking through): frames flagged, recall and false alarms. The
 settings were read off set G, a development set since it was opened: these are development figures.
 
-Run:  .venv/bin/python lab/shift_probe.py --json lab/notes/results/shift_probe.json
+Run:  python -m lab.shift_probe --json lab/notes/results/shift_probe.json
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ frames, with no people in the room and with two. The share of the known scene ea
 a SceneReference that never restarts (``moved=1.0``, ungated), over the first frames; then the loop as shipped
 (``SensorLoop(scene=True)``) and with ``moved=1.0``: frames flagged and frames whose scene weighed the
 verdict. Beside them, the real L515 sequences (dev0, dev1) against the same never-restarting scene.
-Run from the repository root: python lab/sim_scene.py"""
+Run from the repository root: python -m lab.sim_scene"""
 
 import subprocess
 import sys
@@ -12,19 +12,20 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from d2sr.reference import SceneReference
 
 from d2sr.desync import make_controller
 from d2sr.frames import Frame, open_frames
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.settings import RunSettings
+from d2sr.scene import SceneReference, SceneSettings
 
-net = open_backend(None, "onnx")
+net = open_backend(RunSettings(backend="onnx"), recovery=False)
 
 
 def shares(frames):
     """Each frame's deviating share against a scene that never restarts (None before it is warm)."""
-    ref = SceneReference(4000.0, still_share=None, rest=0, moved=1.0)
+    ref = SceneReference(4000.0, SceneSettings(still_share=None, rest=0, moved=1.0))
     out = []
     for f in frames:
         ref.evidence(f)
@@ -51,8 +52,8 @@ with tempfile.TemporaryDirectory() as tmp:
             f"median after: {np.median(judged[16:]):.3f}"
         )
         for opts in ({}, {"moved": 1.0}):
-            lp = SensorLoop(net, make_controller("static", 30, 30), repair="none", scene=True,
-                            scene_options=opts)  # fmt: skip
+            run = RunSettings(repair="none", scene=True, scene_settings=SceneSettings(**opts))
+            lp = SensorLoop(net, make_controller("static", 30, 30), settings=run)
             res = [lp.process(Capture(Frame(str(i), f), 4000.0)) for i, f in enumerate(frames)]
             print(
                 f"  loop {opts or 'as shipped'}: flagged {sum(r.flagged for r in res)} of {len(res)}, "

@@ -10,7 +10,7 @@
   by interference the project's generator does not make (``held_out.worst_case``), against the floor any
   whole-process tool pays: the same PNGs read and written by OpenCV alone. Bar: at most 1.5x the floor.
 
-Run:  .venv/bin/python lab/speed.py --data ../shared/data --json docs/results/bench_speed.json
+Run:  python -m lab.speed --data ../shared/data --json docs/results/bench_speed.json
 """
 
 from __future__ import annotations

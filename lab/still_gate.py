@@ -2,7 +2,7 @@
 ``still_share`` (None: no gate, ``--scene`` before the gate), ``STILL_Q`` and ``STILL_MIN``, the frames ``SensorLoop``
 with ``scene`` flags on the clean L515 dev0 and dev1 and the hand-held D435, and detection on outside sets
 A-I (each view a cold sequence of 60 frames). Beside them, the detector alone.
-python lab/still_gate.py"""
+python -m lab.still_gate"""
 
 from functools import partial
 from pathlib import Path

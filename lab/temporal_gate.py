@@ -9,7 +9,7 @@ Two sets: the outside L515 set of ``held_out.py`` (a still sensor; last clean fr
 the simulated moving robot of ``d2sr eval recovery`` (its first 60 interfered frames; the true last clean
 frame, or none).
 
-Run:  .venv/bin/python lab/temporal_gate.py --data ../shared/data \
+Run:  python -m lab.temporal_gate --data ../shared/data \
           --json lab/notes/results/temporal_gate.json
 """
 

@@ -10,7 +10,7 @@
 A real board adds its USB CDC transfer (about 1 ms each way at full speed) and its MicroPython loop
 (select.poll, up to 1 ms); docs/hardware.md says what was and was not measured on hardware.
 
-Run:  .venv/bin/python lab/trigger_roundtrip.py --json docs/results/trigger_roundtrip.json
+Run:  python -m lab.trigger_roundtrip --json docs/results/trigger_roundtrip.json
 """
 
 from __future__ import annotations

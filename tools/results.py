@@ -194,7 +194,7 @@ README_ROWS = (
         "—",
         "docs/results/recover_recording.json",
         _recording,
-        "`lab/scene_repair.py --what recording`",
+        "`python -m lab.scene_repair --what recording`",
     ),
     Row(
         "the models alone on every frame (`--all --no-scene`), outside sets: RMSE mean / worst",
@@ -208,7 +208,7 @@ README_ROWS = (
         "—",
         "docs/results/scene_reference.json",
         _scene_flags,
-        "`lab/scene_reference.py`",
+        "`python -m lab.scene_reference`",
     ),
     Row(
         "latency per 640x480 frame, detector / UNet8",
@@ -225,7 +225,7 @@ README_ROWS = (
         "—",
         "docs/results/bench_speed.json",
         lambda d: f"{d['worst']['recover_fps']:.1f} fps, {d['worst']['ratio_to_floor']:.2f}x",
-        "`lab/speed.py`",
+        "`python -m lab.speed`",
     ),
     Row(
         "CPU per clean real L515 frame, in process, 2 views; with `scene=False`",
@@ -236,7 +236,7 @@ README_ROWS = (
             + " ms"
             for part in ("typical", "typical_without_scene")
         ),
-        "`lab/speed.py`",
+        "`python -m lab.speed`",
     ),
     Row(
         "ROS 2 node, 640x480 at 30 Hz, half interfered: frames back, time in the node (median)",
@@ -246,7 +246,7 @@ README_ROWS = (
             f"{d['rate_30hz']['repaired_received']} of {d['rate_30hz']['published']}, "
             f"{d['rate_30hz']['node_latency']['median_ms']:.1f} ms"
         ),
-        "`lab/ros2_loopback.py`",
+        "`python -m lab.ros2_loopback`",
     ),
 )
 
