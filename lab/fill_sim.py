@@ -24,7 +24,7 @@ from d2sr.eval.speed import write_result
 from d2sr.provenance import command_line
 from d2sr.runtime.session import odometry, rig_intrinsics
 from d2sr.sim.colour import grey
-from d2sr.sim.scene import Renderer
+from d2sr.sim.rooms import Renderer
 from d2sr.sim.world import make_rig
 from d2sr.synth import Filler
 from lab.fill_eval import Pool, plot_curves

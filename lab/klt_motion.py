@@ -16,7 +16,7 @@ import numpy as np
 
 from d2sr.runtime.session import odometry, rig_intrinsics
 from d2sr.sim.colour import grey
-from d2sr.sim.scene import Renderer
+from d2sr.sim.rooms import Renderer
 from d2sr.sim.world import make_rig
 from d2sr.synth import Filler
 from d2sr.synth.warp import Pose

@@ -20,7 +20,7 @@ import numpy as np
 from d2sr.frames.base import Intrinsics
 from d2sr.runtime.session import odometry, rig_intrinsics
 from d2sr.sim.room import SimRoom
-from d2sr.sim.scene import Room
+from d2sr.sim.rooms import Room
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import make_rig
 from d2sr.synth.warp import Pose

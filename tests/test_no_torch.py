@@ -58,7 +58,7 @@ class Block:
             raise ImportError('torch was imported')
 sys.meta_path.insert(0, Block())
 import d2sr.sim, d2sr.desync, d2sr.sim.timing, d2sr.eval.desync, d2sr.scene, d2sr.frames.png
-import d2sr.sim.scene, d2sr.sim.interference, d2sr.sim.world, d2sr.sim.record, d2sr.frames.rosbag
+import d2sr.sim.rooms, d2sr.sim.interference, d2sr.sim.world, d2sr.sim.record, d2sr.frames.rosbag
 from d2sr.sim import OverlapGraph, simulate
 simulate(OverlapGraph.complete(2), 'damped', duration_s=2)
 assert 'torch' not in sys.modules

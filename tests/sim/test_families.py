@@ -22,7 +22,7 @@ from d2sr.contract.repair import (
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Intrinsics
 from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
-from d2sr.sim.scene import Pose, Renderer, make_room
+from d2sr.sim.rooms import Pose, Renderer, make_room
 from d2sr.sim.sensors import SENSOR_KINDS, observe
 
 SMALL = Intrinsics(160, 120, 114.0, 114.0, 80.0, 60.0)

@@ -10,7 +10,7 @@ import pytest
 from d2sr.errors import InputError
 from d2sr.frames import Intrinsics
 from d2sr.sim.interference import InterferenceConfig, Interferer, corrupt, interfere
-from d2sr.sim.scene import L515, Box, Person, Pose, Renderer, Room, SensorNoise, make_room
+from d2sr.sim.rooms import L515, Box, Person, Pose, Renderer, Room, SensorNoise, make_room
 from d2sr.sim.world import lit_region, make_rig, overlap_graph
 
 SMALL = Intrinsics(160, 120, 114.0, 114.0, 80.0, 60.0)
@@ -74,7 +74,7 @@ def test_sensor_noise_is_reproducible():
 
 def test_lone_dropouts_follow_the_fitted_rate_and_come_back_on_weak_pixels():
     from d2sr.sim.calibrate import pinholes
-    from d2sr.sim.scene import PINHOLE_REPEAT
+    from d2sr.sim.rooms import PINHOLE_REPEAT
 
     # A near bright wall: the return law keeps almost every pixel, so lone holes are the pinhole ones.
     r = Renderer(Room((3.0, 4.0, 3.0), (0.9,) * 6), SMALL, Pose(0.5, 2.0, 1.5, 0.0)).render()

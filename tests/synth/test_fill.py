@@ -215,7 +215,7 @@ def test_colour_alone_follows_the_simulated_robot():
     alone agrees with the trajectory's to a few millimetres over three frames."""
     from d2sr.runtime.session import odometry, rig_intrinsics
     from d2sr.sim.colour import grey
-    from d2sr.sim.scene import Renderer
+    from d2sr.sim.rooms import Renderer
     from d2sr.sim.world import make_rig
 
     rig = make_rig(0, sensors=2, moving_robot=True)

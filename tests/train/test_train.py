@@ -410,7 +410,7 @@ def test_a_fine_tune_card_names_the_whole_chain_it_started_from(tmp_path):
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_a_fitted_sensor_changes_the_l515_frames_only_and_keeps_its_own_data_set(tmp_path):
     from d2sr.sim.dataset import synth_sequence_frame
-    from d2sr.sim.scene import L515
+    from d2sr.sim.rooms import L515
 
     dim = L515.model_copy(update={"signal_ref": L515.signal_ref * 20})  # far fewer returns
     kinds: dict[str, int] = {}

@@ -57,7 +57,7 @@ def simulate(
     """
     from d2sr.desync import CONTROLLERS
     from d2sr.sim.record import RecordSettings, record, to_ros2
-    from d2sr.sim.scene import L515
+    from d2sr.sim.rooms import L515
     from d2sr.sim.world import make_rig
 
     if controller not in CONTROLLERS:
@@ -70,7 +70,7 @@ def simulate(
         raise ConfigError("need 1 <= sensors <= 63, seconds > 0, 1 <= --active-frames <= 30 and workers >= 0")
     w, h = resolution_of(resolution)
     check_out(out, is_dir=True, overwrite=overwrite)
-    from d2sr.sim.scene import L515_INTRINSICS
+    from d2sr.sim.rooms import L515_INTRINSICS
 
     rig = make_rig(seed, sensors, moving, people, L515_INTRINSICS.scaled(w, h))
     model = L515.model_copy(update={"depth_scale": 1000.0}) if fmt == "ros2" else L515

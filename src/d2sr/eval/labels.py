@@ -17,7 +17,7 @@ from d2sr.frames import open_frames
 from d2sr.scene import METHODS, THRESHOLDS, Labeller, clean_stats, f1
 from d2sr.sim.calibrate import static_camera
 from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
-from d2sr.sim.scene import L515, SensorNoise
+from d2sr.sim.rooms import L515, SensorNoise
 
 __all__ = ["drifting_interference", "evaluate", "real_case", "sim_case"]
 

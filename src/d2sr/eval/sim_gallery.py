@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from d2sr.sim.interference import KINDS, InterferenceConfig, Interferer, interfere
-from d2sr.sim.scene import L515, Renderer, SensorNoise
+from d2sr.sim.rooms import L515, Renderer, SensorNoise
 from d2sr.sim.world import direct_view, make_rig
 
 __all__ = ["gallery_figure"]

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from d2sr.errors import InputError
-from d2sr.sim.scene import Pose, Renderer, SensorModel, SensorNoise, make_room
+from d2sr.sim.rooms import Pose, Renderer, SensorModel, SensorNoise, make_room
 
 __all__ = [
     "BINS",

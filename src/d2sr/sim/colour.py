@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from d2sr.sim.scene import Render, Renderer
+from d2sr.sim.rooms import Render, Renderer
 
 __all__ = ["grey"]
 

@@ -23,7 +23,7 @@ from d2sr.atomic import atomic_dir
 from d2sr.errors import InputError
 from d2sr.sim.calibrate import static_camera
 from d2sr.sim.families import WideConfig, wide_interference
-from d2sr.sim.scene import L515, Pose, Renderer, SensorModel, SensorNoise, make_room
+from d2sr.sim.rooms import L515, Pose, Renderer, SensorModel, SensorNoise, make_room
 from d2sr.sim.sensors import SENSOR_KINDS, observe, randomized_l515
 from d2sr.sim.world import make_rig
 

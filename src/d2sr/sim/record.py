@@ -26,7 +26,7 @@ from d2sr.errors import ConfigError
 from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
 from d2sr.sim.interference import InterferenceConfig
 from d2sr.sim.room import Camera
-from d2sr.sim.scene import L515, SensorModel
+from d2sr.sim.rooms import L515, SensorModel
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
 from d2sr.sim.world import Rig, overlap_graph
 

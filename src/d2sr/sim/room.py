@@ -24,7 +24,7 @@ from d2sr.errors import ConfigError
 from d2sr.sim.counter_rng import uniform
 from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.scene import L515, Renderer, SensorModel, SensorNoise
+from d2sr.sim.rooms import L515, Renderer, SensorModel, SensorNoise
 from d2sr.sim.timing import TimingConfig
 from d2sr.sim.world import Rig, direct_view, lit_region, overlap_graph
 

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from d2sr.errors import InputError
-from d2sr.sim.scene import L515, Render, SensorModel, SensorNoise
+from d2sr.sim.rooms import L515, Render, SensorModel, SensorNoise
 
 __all__ = ["SENSOR_KINDS", "observe"]
 

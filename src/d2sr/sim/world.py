@@ -10,7 +10,7 @@ import numpy as np
 from d2sr.errors import ConfigError
 from d2sr.frames.base import Intrinsics
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.scene import L515_INTRINSICS, Pose, Renderer, Room, along_loop, make_room
+from d2sr.sim.rooms import L515_INTRINSICS, Pose, Renderer, Room, along_loop, make_room
 
 __all__ = ["Rig", "Trajectory", "direct_view", "lit_region", "make_rig", "overlap_graph"]
 

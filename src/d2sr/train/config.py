@@ -10,7 +10,7 @@ from pydantic import Field, model_validator
 from d2sr.config import Settings
 
 if TYPE_CHECKING:
-    from d2sr.sim.scene import SensorModel
+    from d2sr.sim.rooms import SensorModel
 
 VALIDATION_FRAMES = 100  # generated frames that choose a recovery model's mask threshold
 

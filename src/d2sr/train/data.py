@@ -18,7 +18,7 @@ from d2sr.frames import open_frames
 from d2sr.frames.base import Frame, check_depth, probe, to_units
 from d2sr.sim.dataset import VERSION, SynthSet, generate
 from d2sr.sim.families import shell_interference
-from d2sr.sim.scene import L515, SensorModel
+from d2sr.sim.rooms import L515, SensorModel
 from d2sr.train.config import TrainConfig
 from d2sr.ui import warn
 

@@ -26,7 +26,7 @@ from d2sr.models.inference import TorchBackend
 from d2sr.models.registry import build, describe
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
 from d2sr.sim.dataset import VERSION
-from d2sr.sim.scene import SensorModel
+from d2sr.sim.rooms import SensorModel
 from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
