@@ -307,7 +307,9 @@ def _set_label(d: dict) -> str:
     if not isinstance(data, dict):
         data = {}
     status = str(data.get("status", "unknown status")).split(":", 1)[0]
-    name = str(data.get("set", "unknown set")).rsplit(", bench/", 1)[0]
+    name = re.sub(
+        r", (bench|lab)/\w+\.py$", "", str(data.get("set", "unknown set"))
+    )  # the set, not its script
     return f"{name} [{status}]"
 
 
