@@ -1,18 +1,20 @@
 """What ``d2sr recover`` (as shipped and ``--all``) and ``d2sr detect`` write on held-out frames, hashed: the
 repaired pixels, the masks and the CSV of scores, per input. Run it with two trees' d2sr first on the path;
 the same hashes mean the same outputs, bit for bit (issue 64's bar for a redesign that changes no output).
+``--src OTHER/src``: the commands run on that tree's d2sr (the inputs are made with this one's).
 
 Inputs: the first 60 L515 dev1 frames each corrupted by the outside interference (``held_out.worst_case``),
 every other frame of outside sets G and D (120 frames each), the first 80 L515 dev0 frames, and the Kinect
 v2's interfered frames (``kinect2_multicam/cam0/interf``, 1000 units per metre).
 
-Run:  PYTHONPATH=TREE/src python -m lab.output_identity --data ../shared/data
+Run:  python -m lab.output_identity --data ../shared/data [--src OTHER/src]
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
+import os
 import subprocess
 import sys
 import tempfile
@@ -59,7 +61,9 @@ def _hash(path: Path) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--src", type=Path, default=None, help="run the commands on this tree's d2sr")
     args = ap.parse_args()
+    env = dict(os.environ) | ({"PYTHONPATH": str(args.src.resolve())} if args.src else {})
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         (root / "in").mkdir()
@@ -80,7 +84,7 @@ def main() -> None:
                     str(scale),
                     *words[1:],
                 ]
-                subprocess.run(cmd, check=True, capture_output=True)
+                subprocess.run(cmd, check=True, capture_output=True, env=env)
                 print(name, kind, _hash(Path(words[-1])))
 
 
