@@ -276,10 +276,12 @@ def test_bad_settings_and_frames_are_refused():
 
 
 def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_real_one():
+    """And says why (``Result.reason``), with every frame scored as d2sr detect scores them."""
     rng = np.random.default_rng(2)
     loop = SensorLoop(
-        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True)
-    )
+        FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=True),
+        exact_scores=True,
+    )  # fmt: skip
     plain = SensorLoop(
         FakeNet(), make_controller("static", 30, 30), settings=RunSettings(repair="none", scene=False)
     )
@@ -292,16 +294,23 @@ def test_the_loop_drops_a_flag_on_a_frame_that_matches_its_scene_and_keeps_a_rea
         return Capture(Frame("f", f), SCALE)
 
     early = frame(True, False)  # before the scene is known: the detector alone decides
-    assert loop.process(early).flagged and plain.process(early).flagged
+    first = loop.process(early)
+    assert first.flagged and first.reason == "detector" and plain.process(early).flagged
     for _ in range(12):
-        assert not loop.process(frame(False, False)).flagged
+        quiet = loop.process(frame(False, False))
+        assert not quiet.flagged and quiet.reason == ""
     false_alarm = frame(True, False)
-    assert not loop.process(false_alarm).flagged and plain.process(false_alarm).flagged
-    assert loop.process(frame(True, True)).flagged
+    cleared = loop.process(false_alarm)
+    assert not cleared.flagged and cleared.reason == "cleared by scene"  # why interfered is 0 at score 1
+    kept = plain.process(false_alarm)
+    assert kept.flagged and kept.reason == "detector"
+    both = loop.process(frame(True, True))
+    assert both.flagged and both.reason == "detector+scene"
     assert not loop.process(frame(False, False)).flagged
     missed = frame(False, True)
     missed.frame.depth[0, 0] = 0  # the detector misses it; the fresh patch against the scene does not
-    assert loop.process(missed).flagged and not plain.process(missed).flagged
+    found = loop.process(missed)
+    assert found.flagged and found.reason == "scene" and not plain.process(missed).flagged
 
 
 def test_a_frame_the_scene_decides_alone_is_not_scored_and_keeps_its_verdict():

@@ -27,7 +27,8 @@ __all__ = [
 
 MANIFEST = ".d2sr-manifest.json"
 CALLER = "/d2sr"  # the caller id of the connections d2sr adds to a ROS 1 bag
-CSV_HEADERS = ("frame,score,interfered",)  # the first lines of the CSV files d2sr writes
+# The first lines of the CSV files d2sr writes: today's first, then those earlier versions wrote.
+CSV_HEADERS = ("frame,score,interfered,reason", "frame,score,interfered")
 _PNG_TEXT = b"tEXtSoftware\x00d2sr"  # matplotlib's metadata={"Software": "d2sr ..."}
 _PEEK = 1 << 16  # bytes read to recognise a file
 MARK = "d2sr"  # in the name of every temporary d2sr leaves beside an output

@@ -46,7 +46,13 @@ def _bar(what: str) -> Iterator[Progress]:
 
 def detect(
     input: Input,
-    out: Annotated[Path, typer.Option(help="CSV file: frame,score,interfered.")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="CSV file: frame,score,interfered,reason (why: detector, scene, detector+scene or "
+            "cleared by scene)."
+        ),
+    ],
     depth_scale: Scale = None,
     threshold: Threshold = None,
     topic: Topic = None,

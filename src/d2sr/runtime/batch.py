@@ -2,7 +2,7 @@
 ahead on a thread, decided in order (the detector weighs the frame before; a temporal model gets the last
 clean frame), repaired several at a time, and written in input order by a bounded writer.
 
-``detect_recording`` writes ``frame,score,interfered`` (CSV); ``recover_recording`` writes a PNG folder
+``detect_recording`` writes ``frame,score,interfered,reason`` (CSV); ``recover_recording`` writes a PNG folder
 (``<name>.png`` repaired, ``masks/<name>.png``) or, for a ROS bag, a bag of the same kind with every input
 message and ``T/repaired`` and ``T/mask`` added (``d2sr.frames.bagcopy``).
 """
@@ -187,12 +187,12 @@ def detect_recording(
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
 ) -> Summary:
-    """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered`` (score: the
+    """Score every frame of a recording: ``out`` is a CSV of ``frame,score,interfered,reason`` (score: the
     detector's probability that the frame is interfered, exact for every frame, so that any threshold can
     be applied to it later; interfered: 1 at or above ``settings.threshold``, and with ``settings.scene``
-    only if the frame also deviates from the still sensor's own scene, primed on the recording's first
-    ``settings.prime`` frames). ``progress(done, total)`` follows the frames; ``say`` gets the one line on
-    the input and its scale."""
+    as the still sensor's own scene weighs it, primed on the recording's first ``settings.prime`` frames;
+    reason: why, one of ``runtime.loop.REASONS``). ``progress(done, total)`` follows the frames; ``say``
+    gets the one line on the input and its scale."""
     s = settings if settings is not None else RunSettings()
     check_out(out, is_dir=False, overwrite=overwrite, inputs=_inputs(input))
     reuse_freed_memory()
@@ -211,7 +211,7 @@ def detect_recording(
     for res in map(loop.process, loop.primed(caps, s.prime)):
         flagged += res.flagged
         used += bool(res.scene)
-        w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged)])
+        w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged), res.reason])
         done += 1
         if progress is not None:
             progress(done, len(reader))

@@ -27,6 +27,7 @@ from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.scene import Evidence, SceneReference, SceneRepair
 
 __all__ = [
+    "REASONS",
     "Capture",
     "Decision",
     "PeriodEnd",
@@ -75,6 +76,7 @@ class Result:
     # The sensor's scene weighed the verdict (True), or was judged but still being built or the sensor
     # moved (False: the detector decided alone); None: no scene was judged.
     scene: bool | None = None
+    reason: str = ""  # why the verdict (``REASONS``)
 
 
 @dataclass
@@ -93,6 +95,7 @@ class Decision:
     # What the scene knows of the frame (``RunSettings.repairs_scene``).
     scene: SceneRepair | None = None
     scene_used: bool | None = None  # ``Result.scene``
+    reason: str = ""  # ``Result.reason``
 
 
 class Trigger(Protocol):
@@ -201,6 +204,7 @@ class SensorLoop:
         else:
             score = float(self.backend.scores(metres, before, cut)[0]) if judge else float("nan")
             flagged = score >= self._cut  # False for NaN
+        detector = score >= self._cut  # False for NaN
         if ev is not None and units is not None:
             flagged = self._weigh(units, flagged, ev)
         fix = self._mode == "all" or (flagged and self._mode == "flagged")
@@ -209,8 +213,9 @@ class SensorLoop:
             known = self._reference.repair(ev)
         used = ev.usable if ev is not None else None
         d = Decision(
-            cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known, used
-        )
+            cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known, used,
+            _reason(detector, flagged, ev),
+        )  # fmt: skip
         self._remember(raw, metres, judge and not flagged)
         if cap.counted:
             self._buffer(flagged, cap.slot)
@@ -258,7 +263,9 @@ class SensorLoop:
             pred, m = self.backend.recover(d.metres, d.previous)
             depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene)
         seconds = time.perf_counter() - d.started
-        res = Result(d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds, d.scene_used)
+        res = Result(
+            d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds, d.scene_used, d.reason
+        )
         if self.sink is not None:
             self.sink.write(res)
         return res
@@ -328,6 +335,24 @@ class SensorLoop:
         if self.trigger is not None:
             self.trigger.set_offset(self.period, new)
         return new
+
+
+#: Why a frame is flagged or not: no flag (""); the detector's score reached the threshold ("detector");
+#: the sensor's scene found fresh interference the detector did not ("scene"), or both did
+#: ("detector+scene"); the detector's score reached the threshold but the frame matches the scene's clean
+#: frames, so the flag was dropped ("cleared by scene").
+REASONS = ("", "detector", "scene", "detector+scene", "cleared by scene")
+
+
+def _reason(detector: bool, flagged: bool, ev: Evidence | None) -> str:
+    """Why the verdict: ``detector``: the detector's score reached the threshold; ``ev``: the frame's scene
+    evidence (usable or not)."""
+    scene = ev is not None and ev.usable
+    if not flagged:
+        return REASONS[4] if detector and scene else REASONS[0]
+    if ev is None or not scene or not ev.evident:
+        return REASONS[1]
+    return REASONS[3] if detector else REASONS[2]
 
 
 def _decides(ev: Evidence) -> bool:

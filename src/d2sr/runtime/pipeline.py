@@ -71,6 +71,8 @@ class Repaired:
     - ``seconds``: detect + repair time of this frame.
     - ``scene``: the sensor's scene weighed the verdict (True), or it was still being built or the sensor
       moved, and the detector decided alone (False); None with ``scene=False``.
+    - ``reason``: why the verdict: "" (clean), "detector", "scene", "detector+scene" or "cleared by scene"
+      (the detector's score reached the threshold, but the frame matches the sensor's clean frames).
     """
 
     depth: np.ndarray
@@ -80,6 +82,7 @@ class Repaired:
     window: Window | None = None
     seconds: float = 0.0
     scene: bool | None = None
+    reason: str = ""
 
 
 @dataclass(frozen=True)
@@ -391,7 +394,14 @@ class Pipeline:
         res = self.loop.finish(decided.decision)
         window = Window(res.period, res.offset, self.loop.controller.active_frames, TOTAL_FRAMES)
         return Repaired(
-            _back(decided.depth, res), res.mask, res.flagged, res.score, window, res.seconds, res.scene
+            _back(decided.depth, res),
+            res.mask,
+            res.flagged,
+            res.score,
+            window,
+            res.seconds,
+            res.scene,
+            res.reason,
         )
 
     def end_period(self) -> Window:
@@ -424,7 +434,9 @@ def repair(
     alone = s.model_copy(update={"scene": False, "scene_repair": False})  # one frame: no scene to judge by
     loop = SensorLoop(net, make_controller("static", TOTAL_FRAMES, TOTAL_FRAMES), settings=alone)
     res = loop.process(Capture(Frame("frame", frame), scale))
-    return Repaired(_back(depth, res), res.mask, res.flagged, res.score, None, res.seconds, res.scene)
+    return Repaired(
+        _back(depth, res), res.mask, res.flagged, res.score, None, res.seconds, res.scene, res.reason
+    )
 
 
 _PROBED: set[tuple[str, float]] = set()  # (dtype, depth scale) whose first frame passed the check
