@@ -42,7 +42,7 @@ def test_millimetres_read_as_raw_l515_are_named():
     rng = np.random.default_rng(0)
     mm = [Frame(f"{i}", np.rint(_room(rng, 2.5) * 1000).astype(np.uint16)) for i in range(6)]
     warnings = probe(mm, 4000.0)
-    assert any("at 1000, millimetres, it would be 2.5" in w for w in warnings), warnings
+    assert any("at 1000 (millimetres) it would be 2.50 m" in w for w in warnings), warnings
     assert probe(mm, 1000.0) == []  # the right scale: nothing to say
 
 
@@ -75,7 +75,7 @@ def test_the_scale_used_and_its_source_are_printed(tmp_path, weights):
     assert code == 0 and "depth scale 4000 units per metre (from the recording)" in out, out + err
     args = ["detect", str(src), "--out", str(tmp_path / "b.csv"), "--models", str(weights)]
     code, out, err = _run([*args, "--depth-scale", "1000"])
-    assert "(--depth-scale)" in out and "it says its depth scale is 4000" in err
+    assert "(as given)" in out and "it says its depth scale is 4000; using the one given, 1000" in err
 
 
 def test_frames_with_no_valid_depth_are_named(tmp_path, weights):

@@ -219,3 +219,17 @@ def test_atomic_outputs_get_ordinary_permissions(tmp_path):
         os.umask(old)
     assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o644
     assert stat.S_IMODE((tmp_path / "d").stat().st_mode) == 0o755
+
+
+def test_a_wrong_scale_names_every_sensor_scale_that_fits_the_sensor_s_own_first():
+    """Raw L515 frames (4000 units per metre) read as millimetres: the error lists 4000 before 5000 (TUM),
+    each with the depth it would give, and names the library's arguments, not the command line's flags."""
+    from d2sr.errors import InputError
+    from d2sr.frames.base import probe
+
+    frames = [Frame(f"{i}", np.full((48, 64), int(2.9 * 4000), np.uint16)) for i in range(3)]
+    with pytest.raises(InputError) as err:
+        probe(frames, 1000.0)
+    text = str(err.value)
+    assert text.index("at 4000 (raw L515, 0.25 mm) it would be 2.90 m") < text.index("at 5000 (TUM")
+    assert "--" not in text and "max_range" in text and err.value.setting == "depth_scale"

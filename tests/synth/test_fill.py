@@ -135,7 +135,7 @@ def test_fill_without_colour_holds_the_last_kept_frame(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--active-frames", "0"], "(set by --active-frames)"),
+        (["--active-frames", "0"], "--active-frames: Input should be greater than or equal to 1"),
         (["--active-frames", "6", "--offset", "30"], "(set by --offset)"),
         (["--active-frames", "6", "--rgb", "NOPE"], "no such folder"),
     ],

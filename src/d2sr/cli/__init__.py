@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import sys
 from collections.abc import Callable
@@ -143,12 +144,23 @@ _NO_FLAG = {"settings", "scene_settings"}
 
 
 def _with_flag(exc: D2SRError) -> str:
-    """The library's error, and which flag sets the setting it names: a settings field is named as its flag
-    (with dashes), except those in ``_FLAG``."""
+    """The library's error as the command line says it: a setting it names (``max_range``) becomes the flag
+    that sets it (``--max-range``), and the setting at fault gets its flag if the message does not name it.
+    A settings field is named as its flag (with dashes), except those in ``_FLAG``."""
+    from d2sr.runtime.settings import LoopSettings, RunSettings
+
+    names = sorted(
+        {n for n in (*RunSettings.model_fields, *LoopSettings.model_fields) if "_" in n} - _NO_FLAG
+    )
+    text = re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: _flag(m.group(1)), str(exc))
     name = exc.setting
-    if name is None or name in _NO_FLAG or not name.isidentifier():
-        return str(exc)
-    return f"{exc} (set by {_FLAG.get(name, '--' + name.replace('_', '-'))})"
+    if name is None or name in _NO_FLAG or not name.isidentifier() or _flag(name) in text:
+        return text
+    return f"{text} (set by {_flag(name)})"
+
+
+def _flag(name: str) -> str:
+    return _FLAG.get(name, "--" + name.replace("_", "-"))
 
 
 def _fail(line: str) -> NoReturn:

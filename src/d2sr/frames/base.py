@@ -131,12 +131,12 @@ def to_units(metres: np.ndarray, depth_scale: float) -> np.ndarray:
     return np.where(metres > 0, np.clip(np.rint(metres * depth_scale), 1, 65535), 0).astype(np.uint16)
 
 
-PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres (the upper end: --max-range)
+PLAUSIBLE_M = (0.1, 10.0)  # median depth of an indoor frame, metres (the upper end: max_range)
 #: Units per metre depth sensors store, and what they are called.
 KNOWN_SCALES = {
     1000.0: "millimetres",
-    4000.0: "raw L515 (0.25 mm)",
-    5000.0: "TUM (0.2 mm)",
+    4000.0: "raw L515, 0.25 mm",
+    5000.0: "TUM, 0.2 mm",
     10000.0: "0.1 mm",
 }
 TYPICAL_M = 2.5  # median depth of a typical indoor frame, metres
@@ -166,10 +166,15 @@ def better_scale(med: float, scale: float) -> float | None:
 
 
 def _scales_hint(med: float, scale: float) -> str:
-    alt = better_scale(med, scale)
-    if alt is not None:
-        return f"at {alt:g}, {KNOWN_SCALES[alt]}, it would be {med * scale / alt:.2f} m"
-    return "units per metre: 1000 for mm, 4000 for raw L515"
+    """Every known sensor scale (in ``KNOWN_SCALES``' order) under which the median depth ``med`` (metres at
+    ``scale``) would read like an indoor scene (within a factor ``MARGIN`` of ``TYPICAL_M``): the user knows
+    which one is their sensor's."""
+    near = [
+        s for s in KNOWN_SCALES if s != scale and abs(np.log(med * scale / s / TYPICAL_M)) <= np.log(MARGIN)
+    ]
+    if not near:
+        return "units per metre: 1000 for mm, 4000 for raw L515"
+    return "; ".join(f"at {s:g} ({KNOWN_SCALES[s]}) it would be {med * scale / s:.2f} m" for s in near)
 
 
 def looks_like_intensity(depth: np.ndarray) -> bool:
@@ -203,13 +208,15 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
         med = float(np.median(meds))
         if not PLAUSIBLE_M[0] <= med <= max_range:
             raise InputError(
-                f"median depth {med:.2f} m at --depth-scale {scale:g} over {len(meds)} sampled frames; is "
-                f"the scale right? ({_scales_hint(med, scale)}; a scene beyond {max_range:g} m: --max-range)"
+                f"median depth {med:.2f} m at depth scale {scale:g} over {len(meds)} sampled frames; is the "
+                f"scale right? ({_scales_hint(med, scale)}; a scene beyond {max_range:g} m needs a larger "
+                "max_range)",
+                "depth_scale",
             )
         uint16 = any(f.depth.dtype == np.uint16 for f in frames)
         if uint16 and better_scale(med, scale) is not None:
             warnings.append(f"median depth {med:.2f} m at depth scale {scale:g}; {_scales_hint(med, scale)}: "
-                            "pass --depth-scale if that is your sensor's unit")  # fmt: skip
+                            "give that depth scale if it is your sensor's unit")  # fmt: skip
     if empty:
         warnings.append(f"{len(empty)} of {len(frames)} sampled frames have no valid depth (e.g. {empty[0]})")
     if textured:

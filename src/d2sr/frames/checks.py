@@ -32,19 +32,21 @@ def open_input(
     reader = open_frames(path, topic=topic)
     notes = []  # warnings wait until every check passed: an error stays the only line
     if scale is not None:
-        use, source = scale, "--depth-scale"
+        use, source = scale, "as given"
         if reader.depth_scale and abs(reader.depth_scale - scale) > 1e-6 * scale:
-            notes.append(f"it says its depth scale is {reader.depth_scale:g}; using --depth-scale {scale:g}")
+            notes.append(f"it says its depth scale is {reader.depth_scale:g}; using the one given, {scale:g}")
     elif reader.depth_scale:
         use, source = reader.depth_scale, "from the recording"
     else:
         if default is None:
-            raise InputError(f"{path}: the recording does not say its depth scale; pass --depth-scale")
+            raise InputError(f"{path}: the recording does not say its depth scale; give one", "depth_scale")
         use, source = default, f"default: {KNOWN_SCALES.get(default, 'given')}"
     if not (np.isfinite(use) and use > 0):
-        raise InputError(f"--depth-scale must be a positive number, got {use}")
+        raise InputError(f"depth scale must be a positive number, got {use}", "depth_scale")
     if not (np.isfinite(max_range) and max_range > PLAUSIBLE_M[0]):
-        raise InputError(f"--max-range must be a number of metres above {PLAUSIBLE_M[0]}, got {max_range}")
+        raise InputError(
+            f"max_range must be a number of metres above {PLAUSIBLE_M[0]}, got {max_range}", "max_range"
+        )
     if len(reader) == 0:
         raise InputError(f"{path}: the {what} sequence is empty")
     for w in notes + probe(reader.sample(SAMPLED), float(use), max_range):
