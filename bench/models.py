@@ -1,5 +1,5 @@
 """Benchmark: detector, recovery UNets and detect+repair at 640x480 on this machine's CPU (torch and
-onnxruntime), plus ``d2sr recover --all`` timed from outside the process. Bars: detector >= 300 fps,
+onnxruntime), plus ``d2sr recover --repair all`` timed from outside the process. Bars: detector >= 300 fps,
 detect + UNet8 repair of every frame >= 30 fps.
 
 Run:  .venv/bin/python bench/models.py --json docs/results/bench_models.json

@@ -1,6 +1,6 @@
-"""Benchmark: ``d2sr recover --all`` from outside the process, this checkout against another commit, in one
+"""Benchmark: ``d2sr recover --repair all`` from outside the process, this checkout against another commit, in one
 run: the worst case for speed (real 640x480 L515 frames, every one corrupted by the outside interference
-of ``held_out.py``, so both passes run on every frame); ``--flagged``: without ``--all`` (the detector runs,
+of ``held_out.py``, so both passes run on every frame); ``--flagged``: without ``--repair all`` (the detector runs,
 and repairs what it flags); ``--model``: another recovery model than the default. Runs alternate between
 the two trees so that a shared, noisy machine slows both alike; per tree, the median over ``--runs`` of
 (60 frames - 10 frames) / 50 is the time a frame takes without start-up. Also checks that both write the
@@ -69,13 +69,15 @@ def main() -> None:
     ap.add_argument("--ref", required=True, help="the commit to compare with (git rev)")
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--flagged", action="store_true", help="recover without --all: the detector's path")
+    ap.add_argument(
+        "--flagged", action="store_true", help="recover without --repair all: the detector's path"
+    )
     ap.add_argument("--model", default=None, help="recover's --model in both trees (default: their own)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
     frames = worst_case(args.data)
-    options = [] if args.flagged else ["--all"]
+    options = [] if args.flagged else ["--repair", "all"]
     options += ["--model", args.model] if args.model else []
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)

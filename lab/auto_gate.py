@@ -1,4 +1,4 @@
-"""Benchmark: ``d2sr recover --all --model auto`` (unet8-temporal where the last clean frame lines up with the
+"""Benchmark: ``d2sr recover --repair all --model auto`` (unet8-temporal where the last clean frame lines up with the
 frame, unet8 elsewhere) against each model alone, from outside, on two sequences:
 
 * ``still``: the outside L515 set of ``held_out.py`` (a sensor that held still; every other frame corrupted by
@@ -6,9 +6,9 @@ frame, unet8 elsewhere) against each model alone, from outside, on two sequences
 * ``moving``: the simulated robot driving among three fixed sensors of ``d2sr eval recovery`` (a held-out
   room), every frame in order, as the robot delivered it.
 
-Per model and sequence: ``d2sr recover --all``'s RMSE change, mask F1 and clean pixels changed on the frames
+Per model and sequence: ``d2sr recover --repair all``'s RMSE change, mask F1 and clean pixels changed on the frames
 that differ from their clean version (``held_out.scored``). And do no harm: on the real clean sequences of
-../shared/data (L515 dev0 and dev1, D435), the share of valid pixels ``recover --all`` moves by more than
+../shared/data (L515 dev0 and dev1, D435), the share of valid pixels ``recover --repair all`` moves by more than
 5 cm, over the sequence and in its worst frame; and every pixel it changes at all (no-return pixels it fills
 included), as a share of the valid-pixel count.
 
@@ -32,8 +32,8 @@ CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
 
 
 def moved(folder: Path, scale: float, out: Path, args: list[str]) -> dict:
-    """``d2sr recover --all`` on a clean sequence: pixels moved > 5 cm, in all and in its worst frame."""
-    d2sr("recover", str(folder), "--all", "--out", str(out), "--depth-scale", f"{scale:g}", *args)
+    """``d2sr recover --repair all`` on a clean sequence: pixels moved > 5 cm, in all and in its worst frame."""
+    d2sr("recover", str(folder), "--repair", "all", "--out", str(out), "--depth-scale", f"{scale:g}", *args)
     share, worst, changed = moved_5cm(folder, out, scale)
     return {
         "moved_5cm": round(share, 5),

@@ -87,7 +87,7 @@ def main() -> None:
             t = time.perf_counter()
             subprocess.run(cmd, check=True, capture_output=True)
             seconds = time.perf_counter() - t
-            fill_recording(seq, ref, FillSettings(active_frames=n, rgb=seq / "rgb"))
+            fill_recording(seq, ref, FillSettings(active_frames=n, colour=seq / "rgb"))
             rows = list(csv.DictReader((out / "log.csv").open()))
             synth = [r for r in rows if r["synthesized"] == "1"]
             ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)

@@ -50,7 +50,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "filled"
             t = time.perf_counter()
-            summary = fill_recording(seq, out, FillSettings(active_frames=n, rgb=seq / "rgb"))
+            summary = fill_recording(seq, out, FillSettings(active_frames=n, colour=seq / "rgb"))
             seconds = time.perf_counter() - t
             ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)
             by_gap: dict[int, Pool] = {}

@@ -33,11 +33,11 @@ dash rain and grid glints (``rain_interference``), dropouts made to return and e
 ``STATUS`` says what each judged.
 
 * ``l515``: 120 real L515 frames (dev0 after the person has left, and dev1), every other one corrupted:
-  ``d2sr detect`` precision and recall; ``d2sr recover --all`` RMSE change, mask F1, clean pixels changed.
+  ``d2sr detect`` precision and recall; ``d2sr recover --repair all`` RMSE change, mask F1, clean pixels changed.
 * ``d435``: the 193 clean D435 frames at scale 1000: frames flagged by ``d2sr detect``, valid pixels
   moved by more than 5 cm by ``d2sr recover``.
 * ``adapt`` (with --adapt): ``d2sr adapt`` on the first 100 D435 frames, then the other 93, every other one
-  corrupted, through ``--models``: precision, recall, recover --all mask F1; and the time adapt took.
+  corrupted, through ``--models``: precision, recall, recover --repair all mask F1; and the time adapt took.
 
 Run:  make outside   (every set with recover's default and each shipped recovery model:
                      docs/results/outside/SET-MODEL.json)
@@ -1617,7 +1617,7 @@ def _scored(
     which: str = "a",
     cameras: Sequence[str] = (),
 ) -> dict:
-    """Every other frame corrupted (set ``which``); detect and recover --all (``recovery``: its model
+    """Every other frame corrupted (set ``which``); detect and recover --repair all (``recovery``: its model
     option) from outside; the figures."""
     kinds = [kind(which, SEED + i) if i % 2 else "" for i in range(len(clean))]
     return scored(tmp, name, every_other(clean, scale, which), clean, scale, models, recovery, kinds, cameras)
@@ -1635,7 +1635,7 @@ def scored(
     cameras: Sequence[str] = (),
 ) -> dict:
     """A sequence as delivered (``bad``) and without interference (``clean``), written to ``tmp/name``:
-    ``d2sr detect`` and ``d2sr recover --all`` from outside, scored on the frames that differ. With
+    ``d2sr detect`` and ``d2sr recover --repair all`` from outside, scored on the frames that differ. With
     ``kinds`` (each frame's interference model), the detector's recall, the mask's and the RMSE change also
     per model (``by_kind``); with ``cameras`` (each frame's camera), the RMSE change per camera
     (``by_camera``)."""
@@ -1649,7 +1649,7 @@ def scored(
     # The models alone (--no-scene): the sensor's scene is judged on these sets by lab/scene_reference.py.
     d2sr("detect", str(tmp / name), "--out", str(tmp / f"{name}.csv"), *s, "--no-scene")
     pred = _flags(tmp / f"{name}.csv")
-    d2sr("recover", str(tmp / name), "--all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
+    d2sr("recover", str(tmp / name), "--repair", "all", "--out", str(tmp / f"{name}-fixed"), *s, *recovery)
     tp = fp = fn = 0
     err_in = err_out = valid = changed = clean_px = 0.0
     moved = put_back = worse = 0  # pixels moved > 2 cm, of them put back within 1 cm; frames made worse

@@ -1,4 +1,4 @@
-"""Probe (issue 42, do no harm): what ``recover --all`` does to clean real L515 frames with and without the
+"""Probe (issue 42, do no harm): what ``recover --repair all`` does to clean real L515 frames with and without the
 guard's lone-return rule (``contract.LONE_MAX``): returns moved by more than 5 cm and by more than 30 cm,
 and dropouts filled, on the 120 clean frames of the outside sets (``held_out.outside_set``).
 

@@ -1,4 +1,4 @@
-"""Benchmark: ``d2sr recover --all``'s worst case from outside the process (``against.py``'s frames: 640x480
+"""Benchmark: ``d2sr recover --repair all``'s worst case from outside the process (``against.py``'s frames: 640x480
 L515 frames, every one corrupted by ``held_out.py``'s outside interference) for several recover option
 sets in one run on one tree, alternating between them so that a shared, noisy machine slows all alike; per
 option set the median over ``--runs`` of (60 frames - 10 frames) / 50 is the time a frame takes without
@@ -19,7 +19,7 @@ from d2sr.eval.speed import write_result
 from lab.against import HERE, _recover, fps, write_inputs
 from lab.held_out import worst_case
 
-# name: recover's options after --all (the default first: the one the others are compared with)
+# name: recover's options after --repair all (the default first: the one the others are compared with)
 # (Until 2026-11-26 the default was unet8 and "auto" had its own entry: bench_model_speed_2026-11-26.json.)
 OPTIONS = {
     "default": [],
@@ -46,12 +46,12 @@ def main() -> None:
             for j, (name, options) in enumerate(OPTIONS.items()):
                 for n in (60, 10):
                     out = root / f"out{j}-{n}-{k}"
-                    took = _recover(HERE / "src", root / f"in{n}", out, ["--all", *options])
+                    took = _recover(HERE / "src", root / f"in{n}", out, ["--repair", "all", *options])
                     secs.setdefault((name, n), []).append(took)
                     print(f"run {k + 1}/{args.runs} {name} {n} frames: {took:.2f} s", flush=True)
     rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in OPTIONS}
     result = {
-        "measured": "d2sr recover IN --all OPTIONS --depth-scale 4000 --out OUT",
+        "measured": "d2sr recover IN --repair all OPTIONS --depth-scale 4000 --out OUT",
         "options": {name: " ".join(o) for name, o in OPTIONS.items()},
         "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "runs": args.runs,

@@ -1,4 +1,4 @@
-"""What ``d2sr recover`` (as shipped and ``--all``) and ``d2sr detect`` write on held-out frames, hashed: the
+"""What ``d2sr recover`` (as shipped and ``--repair all``) and ``d2sr detect`` write on held-out frames, hashed: the
 repaired pixels, the masks and the CSV of scores, per input. Run it with two trees' d2sr first on the path;
 the same hashes mean the same outputs, bit for bit (issue 64's bar for a redesign that changes no output).
 ``--src OTHER/src``: the commands run on that tree's d2sr (the inputs are made with this one's).
@@ -70,7 +70,7 @@ def main() -> None:
         for name, (folder, scale) in _inputs(args.data, root / "in").items():
             runs = {
                 "rec": ["recover", "--out", str(root / f"{name}-rec")],
-                "all": ["recover", "--all", "--out", str(root / f"{name}-all")],
+                "all": ["recover", "--repair", "all", "--out", str(root / f"{name}-all")],
                 "det": ["detect", "--out", str(root / f"{name}-det.csv")],
             }
             for kind, words in runs.items():
@@ -84,7 +84,13 @@ def main() -> None:
                     str(scale),
                     *words[1:],
                 ]
-                subprocess.run(cmd, check=True, capture_output=True, env=env)
+                got = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                if got.returncode == 2 and "--repair" in got.stderr:  # a tree before recover --repair: --all
+                    cmd = [w for w in cmd if w != "--repair"]
+                    cmd[cmd.index("all")] = "--all"
+                    got = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                if got.returncode:
+                    raise SystemExit(f"{' '.join(cmd)}: {got.stderr.strip()}")
                 print(name, kind, _hash(Path(words[-1])))
 
 

@@ -1,5 +1,5 @@
 """Benchmark: where the error left on the outside L515 set lies (``held_out.py``'s corrupted frames, in
-process, ``recover --all``'s repair): the squared error left in pixels the mask misses, in pixels it
+process, ``recover --repair all``'s repair): the squared error left in pixels the mask misses, in pixels it
 repairs and in clean pixels; the RMSE change with the true mask in place of the predicted one (the same
 guarded predictions: what a perfect mask would give this model); the first pass's mask logits at missed,
 repaired and clean returning pixels; by the share of a frame's pixels hit (``HIT_BUCKETS``), the frames, the

@@ -1,6 +1,6 @@
 """Summary: the shipped models on every open outside set of ``held_out.py``, per recover setting, with the
 worst set and the mean beside them, from the committed ``lab/held_out.py`` results (it runs no model):
-detector recall and precision, ``recover --all`` RMSE change, mask F1 and clean pixels changed; as a table
+detector recall and precision, ``recover --repair all`` RMSE change, mask F1 and clean pixels changed; as a table
 (printed, Markdown) and a plot (``--plot``) with issue 13's bars.
 
 Run:  python -m lab.outside_summary --json docs/results/outside_sets.json \
@@ -75,7 +75,7 @@ def plot(summary: dict, path: Path) -> Path:
     for ax, key, label in zip(
         axes,
         ("rmse_change", "mask_f1", "detector_recall"),
-        ("recover --all: RMSE change (%)", "mask F1", "detector recall (same for every setting)"),
+        ("recover --repair all: RMSE change (%)", "mask F1", "detector recall (same for every setting)"),
         strict=True,
     ):
         scale = 100 if key == "rmse_change" else 1

@@ -1,4 +1,4 @@
-"""Benchmark: where the time of ``recover --all``'s worst case goes, per frame and in process. The same 60
+"""Benchmark: where the time of ``recover --repair all``'s worst case goes, per frame and in process. The same 60
 real L515 frames as ``against.py`` (each corrupted by ``held_out.py``'s outside interference, so both passes
 run on every frame), through the steps ``SensorLoop.process`` takes with the shipped unet8 on onnxruntime:
 scale to metres, pass 1, its guard, the filled frame, pass 2, the final guard and write-back. Medians over
@@ -61,7 +61,7 @@ def main() -> None:
                 ms["total"].append((t[-1] - t[0]) * 1000)
     med = {k: round(statistics.median(v), 2) for k, v in ms.items()}
     result = {
-        "benchmark": "recover --all worst case, per frame, in process (no PNG reading or writing)",
+        "benchmark": "recover --repair all worst case, per frame, in process (no PNG reading or writing)",
         "frames": "60 L515 dev1 frames, every one corrupted by held_out.outside_interference",
         "model": "unet8 (onnxruntime)",
         "runs": args.runs,

@@ -6,7 +6,7 @@
   most 5 ms. Also with ``scene=False`` (the detector alone), the default before 2026-11-27; and steady, a
   sensor that has run a while: each whole L515 sequence, timed after its first 60 frames (the scene's
   start-up, and dev0's walking person).
-* Worst case: ``d2sr recover --all`` from outside the process on 60 real L515 frames, every one corrupted
+* Worst case: ``d2sr recover --repair all`` from outside the process on 60 real L515 frames, every one corrupted
   by interference the project's generator does not make (``held_out.worst_case``), against the floor any
   whole-process tool pays: the same PNGs read and written by OpenCV alone. Bar: at most 1.5x the floor.
 

@@ -32,7 +32,13 @@ def test_repair_matches_recover_on_a_one_frame_folder(tmp_path):
     for every in (False, True):
         out = tmp_path / f"out{every}"
         code, _, err = d2sr_inprocess(
-            "recover", str(src), "--depth-scale", "4000", "--out", str(out), *(["--all"] if every else [])
+            "recover",
+            str(src),
+            "--depth-scale",
+            "4000",
+            "--out",
+            str(out),
+            *(["--repair", "all"] if every else []),
         )
         assert code == 0, err
         r = d2sr.repair(frame, depth_scale=SCALE, repair="all" if every else "flagged")
@@ -41,7 +47,7 @@ def test_repair_matches_recover_on_a_one_frame_folder(tmp_path):
         assert np.array_equal(r.mask, cv2.imread(str(out / "masks" / "f.png"), cv2.IMREAD_UNCHANGED) > 0)
         assert np.array_equal(r.depth[~r.mask], frame[~r.mask])  # only repaired pixels differ
         assert 0 <= r.score <= 1 and r.interfered == (r.score >= 0.5)
-    assert r.mask.any()  # --all on an interfered frame repairs something
+    assert r.mask.any()  # --repair all on an interfered frame repairs something
 
 
 def test_repair_takes_metres_and_gives_metres():

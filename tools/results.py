@@ -197,7 +197,7 @@ README_ROWS = (
         "`python -m lab.scene_repair --what recording`",
     ),
     Row(
-        "the models alone on every frame (`--all --no-scene`), outside sets: RMSE mean / worst",
+        "the models alone on every frame (`--repair all --no-scene`), outside sets: RMSE mean / worst",
         "—",
         "docs/results/outside_sets.json",
         _outside,

@@ -6,11 +6,14 @@ import sys
 from types import TracebackType
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
 __all__ = ["NA", "console", "flush_warnings", "print_line", "progress_bar", "warn"]
 
 console = Console()
+if not console.is_terminal:  # a log or a pipe: tables print whole instead of cut at 80 columns ("0.01…")
+    console.width = 200
 NA = "n/a"  # where a figure does not apply (no ground truth, no timestamp)
 
 
@@ -48,12 +51,23 @@ class _Progress(Progress):
         super().__exit__(kind, exc, tb)
 
 
+class _Done(ProgressColumn):
+    """Frames done of all (M/N), or a share where the work is counted as one (a simulated room)."""
+
+    def render(self, task: Task) -> Text:
+        if task.total is None:
+            return Text(f"{int(task.completed)}")
+        if task.total <= 1:
+            return Text(f"{100 * task.completed / max(task.total, 1e-9):3.0f}%")
+        return Text(f"{int(task.completed)}/{int(task.total)}")
+
+
 def progress_bar() -> Progress:
     flush_warnings()
     return _Progress(
         TextColumn("{task.description}"),
         BarColumn(),
-        MofNCompleteColumn(),
+        _Done(),
         TimeElapsedColumn(),
         console=console,
     )

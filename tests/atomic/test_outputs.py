@@ -96,7 +96,9 @@ def test_out_dot_is_refused(tmp_path, weights, command, monkeypatch):
 def test_overwrite_replaces_only_what_d2sr_wrote(tmp_path, weights):
     src = good_folder(tmp_path / "in")
     out = tmp_path / "out"
-    assert run_cli(["recover", str(src), "--out", str(out), "--all", "--models", str(weights)])[0] == 0
+    assert (
+        run_cli(["recover", str(src), "--out", str(out), "--repair", "all", "--models", str(weights)])[0] == 0
+    )
     made = json.loads((out / MANIFEST).read_text())["files"]
     assert "f000.png" in made and "masks/f000.png" in made
     (out / "notes.txt").write_text("mine\n")

@@ -25,7 +25,7 @@ def test_version_and_help():
         (["desync", "sweep", "--controllers", "nope", "--replicas", "2"], "unknown nope"),
         (["desync", "sweep", "--active-frames", "0"], "fps in 1..30"),
         (["desync", "sweep", "--active-frames", "six"], "comma-separated integers"),
-        (["desync", "run", "--active-frames", "31"], "active_frames"),
+        (["desync", "run", "--active-frames", "31"], "--active-frames (31)"),
         (["desync", "run", "--sensors", "0"], "--sensors >= 1"),
         (["desync", "run", "--recall", "1.5"], "recall"),
         (["desync", "run", "--false-alarm", "-0.1"], "false_alarm"),

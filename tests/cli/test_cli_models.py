@@ -74,7 +74,7 @@ def test_backends_agree(tmp_path, weights):
 def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
     src = _folder(tmp_path / "in", 7)
     out = tmp_path / "out"
-    res = d2sr("recover", str(src), "--out", str(out), "--all", "--models", str(weights))
+    res = d2sr("recover", str(src), "--out", str(out), "--repair", "all", "--models", str(weights))
     assert res.returncode == 0, res.stderr
     meta = json.loads((out / "meta.json").read_text())
     assert meta["depth_scale"] == 1000 and all(f["repaired"] for f in meta["frames"])
@@ -82,7 +82,7 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         raw, fixed, mask = _png(f), _png(out / f.name), _png(out / "masks" / f.name)
         assert fixed.dtype == np.uint16 and mask.dtype == np.uint8 and set(np.unique(mask)) <= {0, 255}
         assert np.array_equal(fixed[mask == 0], raw[mask == 0])
-    # --all repairs several frames at a time: the same frames, in the same order, as one at a time
+    # --repair all repairs several frames at a time: the same frames, in the same order, as one at a time
     net = open_backend(RunSettings(model="unet8", backend="onnx", models=weights, threads=2), detector=False)
     for f in sorted(src.glob("*.png")):
         raw = _png(f)
@@ -92,12 +92,12 @@ def test_recover_all_changes_only_masked_pixels(tmp_path, weights):
         assert np.array_equal(_png(out / f.name), fixed)
         assert np.array_equal(_png(out / "masks" / f.name) > 0, mask)
     assert [r["name"] for r in meta["frames"]] == sorted(f.stem for f in src.glob("*.png"))
-    # --all asks no detector: a folder holding only the recovery model repairs the same
+    # --repair all asks no detector: a folder holding only the recovery model repairs the same
     alone = tmp_path / "alone"
     alone.mkdir()
     for f in weights.glob("unet8.*"):
         shutil.copy(f, alone / f.name)
-    res = d2sr("recover", str(src), "--out", str(tmp_path / "o2"), "--all", "--models", str(alone))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o2"), "--repair", "all", "--models", str(alone))
     assert res.returncode == 0, res.stderr
     for f in sorted(src.glob("*.png")):
         assert np.array_equal(_png(tmp_path / "o2" / f.name), _png(out / f.name))
@@ -137,7 +137,8 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
             str(src),
             "--out",
             str(tmp_path / name),
-            "--all",
+            "--repair",
+            "all",
             "--models",
             str(folder),
             "--model",
@@ -149,7 +150,7 @@ def test_recover_auto_takes_the_temporal_model_where_the_sequence_lines_up(tmp_p
     for f in files:
         assert np.array_equal(_png(tmp_path / "fallback" / f.name), _png(tmp_path / "unet8" / f.name))
     # The same frames as the runtime's loop repairing one at a time, in order, its detector run only where
-    # it can change the last clean frame (recover --all with a temporal model); both models were used.
+    # it can change the last clean frame (recover --repair all with a temporal model); both models were used.
     net = open_backend(RunSettings(backend="onnx", models=both, threads=2))
     used = {"single": 0, "temporal": 0}
 
@@ -184,7 +185,7 @@ def test_mask_logit_trades_masked_pixels(tmp_path, weights, backend):
     masked = []
     for logit in ("8", "-8"):
         out = tmp_path / f"o{logit}"
-        args = ("--all", "--models", str(weights), "--backend", backend, "--mask-logit", logit)
+        args = ("--repair", "all", "--models", str(weights), "--backend", backend, "--mask-logit", logit)
         assert d2sr("recover", str(src), "--out", str(out), *args).returncode == 0
         masked.append(int((_png(out / "masks" / "f000.png") > 0).sum()))
     assert masked[0] < masked[1]
@@ -213,7 +214,7 @@ def test_recover_copies_frames_the_detector_does_not_flag(tmp_path, weights):
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_frames_of_any_size_are_padded_for_the_models_and_cropped_back(tmp_path, weights):
     src = _folder(tmp_path / "in", 2, shape=(100, 130))  # 32 divides neither side
-    res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--all", "--models", str(weights))
+    res = d2sr("recover", str(src), "--out", str(tmp_path / "o"), "--repair", "all", "--models", str(weights))
     assert res.returncode == 0, res.stderr
     for f in sorted(src.glob("*.png")):
         out, mask = _png(tmp_path / "o" / f.name), _png(tmp_path / "o" / "masks" / f.name)
@@ -251,7 +252,7 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, weights, case, c
         str(out),
         "--models",
         str(weights),
-        "--all" if command == "recover" else "--threshold=0.5",
+        *(("--repair", "all") if command == "recover" else ("--threshold=0.5",)),
     )
     assert res.returncode == 2, res.stderr
     assert (

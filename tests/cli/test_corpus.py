@@ -76,7 +76,7 @@ def _commands(src: Path, out: Path, weights: Path) -> dict[str, list[str]]:
     return {
         "train": ["train", "recovery", "--config", str(cfg), "--out", str(out)],
         "detect": ["detect", str(src), "--out", str(out), *w],
-        "recover": ["recover", str(src), "--out", str(out), "--all", *w],
+        "recover": ["recover", str(src), "--out", str(out), "--repair", "all", *w],
         "run": ["run", str(src), "--out", str(out), *w],
         "label": [
             "label",

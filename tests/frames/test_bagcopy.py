@@ -88,7 +88,9 @@ def test_a_bag_in_gives_a_bag_of_its_kind_with_repairs(tmp_path, weights, kind):
     src = tmp_path / ("in.bag" if kind == "ros1" else "in")
     frames = _write_bag(src, kind)
     out = tmp_path / ("out.bag" if kind == "ros1" else "out")
-    code, _, err = d2sr_inprocess("recover", str(src), "--all", "--models", str(weights), "--out", str(out))
+    code, _, err = d2sr_inprocess(
+        "recover", str(src), "--repair", "all", "--models", str(weights), "--out", str(out)
+    )
     assert code == 0, err
     if kind != "ros1":  # the input's storage kept
         assert any(out.glob("*.mcap" if kind == "mcap" else "*.db3"))
@@ -102,7 +104,7 @@ def test_a_bag_in_gives_a_bag_of_its_kind_with_repairs(tmp_path, weights, kind):
     for i, d in enumerate(frames):
         (png / f"{i:06d}.png").write_bytes(encode_png(d, "f"))
     code, _, err = d2sr_inprocess(
-        "recover", str(png), "--all", "--models", str(weights), "--out", str(tmp_path / "p")
+        "recover", str(png), "--repair", "all", "--models", str(weights), "--out", str(tmp_path / "p")
     )
     assert code == 0, err
     changed = 0
@@ -125,7 +127,7 @@ def test_float_metres_keep_their_encoding_and_nans(tmp_path, weights):
     src = tmp_path / "in"
     _write_bag(src, "mcap", "32FC1")
     code, _, err = d2sr_inprocess(
-        "recover", str(src), "--all", "--models", str(weights), "--out", str(tmp_path / "o")
+        "recover", str(src), "--repair", "all", "--models", str(weights), "--out", str(tmp_path / "o")
     )
     assert code == 0, err
     before, after = _read(src), _read(tmp_path / "o")

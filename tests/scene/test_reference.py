@@ -695,7 +695,7 @@ def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
 
 
 def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
-    """``d2sr recover --all --scene --scene-repair`` puts a 4 cm patch back on real weights; without
+    """``d2sr recover --repair all --scene --scene-repair`` puts a 4 cm patch back on real weights; without
     the scene (``--no-scene``) it is a one-line error and nothing is written."""
     import cv2
 
@@ -710,17 +710,17 @@ def test_recover_cli_takes_the_scene_repair_and_refuses_it_alone(tmp_path):
     for i, f in enumerate(frames):
         cv2.imwrite(str(rec / f"{i:03d}.png"), f)
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "a"), "--depth-scale", "4000",
-                                  "--all", "--no-scene", "--scene-repair")  # fmt: skip
-    assert code == 2 and "needs the scene" in err and "(set by --scene-repair)" in err
+                                  "--repair", "all", "--no-scene", "--scene-repair")  # fmt: skip
+    assert code == 2 and "needs the scene" in err and "--scene-repair" in err
     assert not (tmp_path / "a").exists()
     code, _, err = d2sr_inprocess("recover", str(rec), "--out", str(tmp_path / "b"), "--depth-scale", "4000",
-                                  "--all", "--scene", "--scene-repair")  # fmt: skip
+                                  "--repair", "all", "--scene", "--scene-repair")  # fmt: skip
     assert code == 0, err
     out = cv2.imread(str(tmp_path / "b" / "011.png"), cv2.IMREAD_UNCHANGED)
     ok = truth[40:70, 30:80] > 0
     err_m = np.abs(out[40:70, 30:80].astype(float) - truth[40:70, 30:80])[ok] / SCALE
     assert np.median(err_m) < 0.01  # put back within the scene's noise (it was 4 cm off)
-    # Without --all the scene repairs by default (the frame is flagged by the scene's evidence);
+    # Without --repair all the scene repairs by default (the frame is flagged by the scene's evidence);
     # --no-scene-repair leaves the patch to the model.
     runs = {"c": (), "d": ("--no-scene-repair",)}
     for name, extra in runs.items():

@@ -98,7 +98,7 @@ def _sequence(tmp_path, n: int = 40, colour: bool = True):
 def test_fill_keeps_the_window_and_synthesizes_the_rest(tmp_path):
     depth_dir, rgb_dir = _sequence(tmp_path)
     summary = fill_recording(
-        depth_dir, tmp_path / "out", FillSettings(active_frames=6, offset=2, rgb=rgb_dir)
+        depth_dir, tmp_path / "out", FillSettings(active_frames=6, offset=2, colour=rgb_dir)
     )
     out = tmp_path / "out"
     assert (summary.frames, summary.kept, summary.synthesized) == (40, 6 + 6, 28)
@@ -137,7 +137,7 @@ def test_fill_without_colour_holds_the_last_kept_frame(tmp_path):
     [
         (["--active-frames", "0"], "--active-frames: Input should be greater than or equal to 1"),
         (["--active-frames", "6", "--offset", "30"], "(set by --offset)"),
-        (["--active-frames", "6", "--rgb", "NOPE"], "no such folder"),
+        (["--active-frames", "6", "--colour", "NOPE"], "no such folder"),
     ],
 )
 def test_fill_refuses_bad_settings(tmp_path, args, message):
@@ -151,7 +151,7 @@ def test_fill_refuses_too_few_colour_frames(tmp_path):
     depth_dir, rgb_dir = _sequence(tmp_path, n=5)
     (rgb_dir / "rgb00004.jpg").unlink()
     with pytest.raises(InputError, match="4 colour frames for 5 depth frames"):
-        fill_recording(depth_dir, tmp_path / "o", FillSettings(active_frames=2, rgb=rgb_dir))
+        fill_recording(depth_dir, tmp_path / "o", FillSettings(active_frames=2, colour=rgb_dir))
     with pytest.raises(ConfigError):
         fill_recording(depth_dir, tmp_path / "o", FillSettings(active_frames=31))
 

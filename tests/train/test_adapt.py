@@ -113,7 +113,8 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
         "1000",
         "--models",
         str(models),
-        "--all",
+        "--repair",
+        "all",
         "--out",
         str(tmp_path / "r"),
     )

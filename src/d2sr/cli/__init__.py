@@ -21,10 +21,20 @@ from d2sr.version import __version__
 __all__ = ["app", "main"]
 
 app = typer.Typer(help="d2sr: keep depth sensors working when several share a room.", no_args_is_help=True)
-desync_app = typer.Typer(help="Stage 2: decentralized de-synchronization experiments.", no_args_is_help=True)
-eval_app = typer.Typer(help="Evaluations that write JSON and plots.", no_args_is_help=True)
+desync_app = typer.Typer(
+    help="Stage 2: decentralized de-synchronization experiments.\n\n"
+    "Example: d2sr desync run --sensors 3 --active-frames 6 --out desync/",
+    no_args_is_help=True,
+)
+eval_app = typer.Typer(
+    help="Evaluations that write JSON and plots.\n\n"
+    "Example: d2sr eval detector --real ../shared/data/l515 --out eval/detector",
+    no_args_is_help=True,
+)
 trigger_app = typer.Typer(
-    help="Stage 2's trigger lines: check a board, get its firmware.", no_args_is_help=True
+    help="Stage 2's trigger lines: check a board, get its firmware.\n\n"
+    "Example: d2sr trigger check serial:/dev/ttyACM0",
+    no_args_is_help=True,
 )
 app.add_typer(desync_app, name="desync")
 app.add_typer(eval_app, name="eval")
@@ -139,7 +149,7 @@ def _terminated(signum: int, frame: object) -> None:
 
 
 # A run's setting and the flag that sets it, where the flag is not its name with dashes.
-_FLAG = {"repair": "--repair (recover: --all)", "scene": "--scene/--no-scene", "fill": "--fill"}
+_FLAG = {"scene": "--scene/--no-scene", "fill": "--fill"}
 _NO_FLAG = {"settings", "scene_settings"}
 
 

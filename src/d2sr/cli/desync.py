@@ -25,7 +25,7 @@ Controllers = Annotated[str, typer.Option(help="Controllers, comma-separated (de
 
 
 def run(
-    out: Annotated[Path, typer.Option(help="Folder for the plots.")] = Path("out/desync"),
+    out: Annotated[Path, typer.Option(help="Folder for the plots.")],
     scenario: Annotated[
         str, typer.Option(help="stationary (everyone overlaps) or moving (a robot).")
     ] = "stationary",
@@ -103,7 +103,7 @@ def run(
 
 
 def sweep(
-    out: Annotated[Path, typer.Option(help="Folder for CSV, JSON, plots and summary.")] = Path("out/sweep"),
+    out: Annotated[Path, typer.Option(help="Folder for CSV, JSON, plots and summary.")],
     replicas: Annotated[int, typer.Option(help="Independent rooms per cell.")] = 20,
     seconds: Annotated[float, typer.Option(help="Simulated seconds per run.")] = 60.0,
     duration: Annotated[float | None, typer.Option(hidden=True, help="Deprecated: --seconds.")] = None,
@@ -193,9 +193,7 @@ def _report(results: list, out: Path, command: str, overwrite: bool) -> None:
 
 
 def grid(
-    out: Annotated[Path, typer.Option(help="Folder for grid.json, grid.png and README.md.")] = Path(
-        "out/grid"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for grid.json, grid.png and README.md.")],
     controller: Annotated[str, typer.Option(help="The controller to judge (default: the default).")] = "",
     settings: Annotated[int, typer.Option(help="Joint settings of the assumptions per room.")] = 12,
     replicas: Annotated[int, typer.Option(help="Independent rooms per cell.")] = 20,

@@ -36,9 +36,7 @@ def _steps(bar: Progress) -> Callable[[str, int], Callable[[], None]]:
 
 
 def detector(
-    out: Annotated[Path, typer.Option(help="Folder for detector.json and pr.png.")] = Path(
-        "out/eval/detector"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for detector.json and pr.png.")],
     model: Annotated[
         str, typer.Option(help="Detectors (comma-separated names).")
     ] = "detector,paper-detector",
@@ -72,9 +70,7 @@ def detector(
 
 
 def recovery(
-    out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")] = Path(
-        "out/eval/recovery"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")],
     model: Annotated[
         str, typer.Option(help="Recovery models (comma-separated names).")
     ] = "unet8,unet16,unet32,unet8-temporal",
@@ -100,9 +96,7 @@ def recovery(
 
 
 def paper(
-    out: Annotated[Path, typer.Option(help="Folder for report.md, results.json and plots.")] = Path(
-        "out/eval/paper"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for report.md, results.json and plots.")],
     models: ModelDir = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
@@ -132,9 +126,7 @@ def paper(
 
 
 def labels(
-    out: Annotated[Path, typer.Option(help="Folder for labels.json and labels.png.")] = Path(
-        "out/eval/labels"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for labels.json and labels.png.")],
     real: Annotated[
         Path | None, typer.Option(help="Folder holding the L515 captures dev0/ and dev1/.")
     ] = None,
@@ -170,9 +162,7 @@ def labels(
 
 
 def generalization(
-    out: Annotated[Path, typer.Option(help="Folder for generalization.json, README.md and the plot.")] = Path(
-        "out/eval/generalization"
-    ),
+    out: Annotated[Path, typer.Option(help="Folder for generalization.json, README.md and the plot.")],
     data: Annotated[Path, typer.Option(help="The shared real data folder (l515/, d435/, ...).")] = DATA,
     model: Annotated[str, typer.Option(help=MODEL_HELP)] = DEFAULT_RECOVERY,
     models: ModelDir = WEIGHTS,

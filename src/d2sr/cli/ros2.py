@@ -15,7 +15,6 @@ from d2sr.cli.common import (
     ModelName,
     Passes,
     RepairOpt,
-    Scale,
     SceneOpt,
     Threshold,
     TriggerOpt,
@@ -31,7 +30,12 @@ __all__ = ["ros2"]
 
 def ros2(
     topic: Annotated[str, typer.Option(help="Depth image topic to repair (sensor_msgs/Image).")],
-    depth_scale: Scale = None,
+    depth_scale: Annotated[
+        float | None,
+        typer.Option(
+            help="Units per metre of 16-bit images on the topic (default: 1000, REP 118's millimetres)."
+        ),
+    ] = None,
     qos: Annotated[
         str, typer.Option(help="Reliability of what the node publishes: reliable or best-effort.")
     ] = ("reliable"),
@@ -77,14 +81,17 @@ def ros2(
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
-    print_line(f"d2sr ros2: {node.topic} -> /repaired, /mask, /status (ROS_DOMAIN_ID {node.domain})")
+    t = node.topic
+    print_line(f"d2sr ros2: {t} -> {t}/repaired, {t}/mask, {t}/status (ROS_DOMAIN_ID {node.domain})")
     try:
         stats = node.spin(seconds)
     finally:
         node.close()
     lat = stats.latency_ms()
+    timing = (
+        f"; in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99" if stats.published else ""
+    )
     print_line(
         f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
-        f"skipped, {stats.synthesized} synthesized); in the node {lat['median']:.1f} ms median, "
-        f"{lat['p99']:.1f} ms p99"
+        f"skipped, {stats.synthesized} synthesized){timing}"
     )

@@ -21,7 +21,7 @@ __all__ = ["demo", "gallery", "view"]
 
 
 def demo(
-    out: Annotated[Path, typer.Option(help="Folder for the runs, plots and report.")] = Path("out/demo"),
+    out: Annotated[Path, typer.Option(help="Folder for the runs, plots and report.")],
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 20.0,
     backend: BackendOpt = "auto",
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
@@ -90,7 +90,7 @@ def view(
 
 
 def gallery(
-    out: Annotated[Path, typer.Option(help="PNG file to write.")] = Path("out/gallery.png"),
+    out: Annotated[Path, typer.Option(help="PNG file to write.")],
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     overwrite: Overwrite = False,
 ) -> None:

@@ -88,9 +88,9 @@ def recover(
         ),
     ],
     depth_scale: Scale = None,
-    every: Annotated[
-        bool, typer.Option("--all", metavar="", help="Repair every frame, not only those the detector flags.")
-    ] = False,
+    repair: Annotated[
+        str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
+    ] = "flagged",
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
@@ -113,8 +113,8 @@ def recover(
         typer.Option(
             "--scene-repair/--no-scene-repair",
             help="With the scene: where it is trusted, its own depth repairs a frame's fresh deviations, and "
-            "the model leaves alone what reads as the scene. [default: on; off with --all, where it would "
-            "have the scene judge every frame]",
+            "the model leaves alone what reads as the scene. [default: on; off with --repair all, where it "
+            "would have the scene judge every frame]",
             show_default=False,
         ),
     ] = None,
@@ -125,15 +125,15 @@ def recover(
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
     Frames in time order: a temporal model (unet8-temporal) also sees the last frame the detector passed;
     --model auto (the default) takes it for the frames that line up with that frame (a sensor that held
-    still) and unet8 for the others. With --all and a temporal model the detector runs only where it can
-    change that frame.
+    still) and unet8 for the others. With --repair all and a temporal model the detector runs only where it
+    can change that frame.
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
     from d2sr.runtime.batch import Written, recover_recording
 
     settings = RunSettings(
-        depth_scale=depth_scale, topic=topic, repair="all" if every else "flagged", model=model,
+        depth_scale=depth_scale, topic=topic, repair=repair, model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime,
     )  # fmt: skip

@@ -115,16 +115,13 @@ def threshold(
 
 
 def export(
+    out: Annotated[
+        Path,
+        typer.Option(help="Folder for the .onnx files (the shipped folder only when named: --overwrite)."),
+    ],
     weights: Annotated[
         list[Path] | None,
         typer.Argument(help="Weights files (default: every shipped model).", metavar="WEIGHTS..."),
-    ] = None,
-    out: Annotated[
-        Path | None,
-        typer.Option(
-            help="Folder for the .onnx files (default: next to each weights file you name; out/onnx "
-            "for the shipped models)."
-        ),
     ] = None,
     int8: Annotated[
         bool,
@@ -149,9 +146,7 @@ def export(
     files = weights or sorted(WEIGHTS.glob("*.safetensors"))
     if not files:
         raise ConfigError("no weights to export")
-    if out is None and not weights:
-        out = Path("out/onnx")  # the shipped folder changes only when asked: --out src/d2sr/models/weights
-    targets = [(out or w.parent) / (w.stem + ".onnx") for w in files]
+    targets = [out / (w.stem + ".onnx") for w in files]
     for w, t in zip(files, targets, strict=True):
         written = [t, *([int8_path(t)] if int8 else [])]
         stream = streaming(load_model(w)[0])  # a streaming model's second file lies beside it

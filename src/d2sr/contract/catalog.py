@@ -104,8 +104,10 @@ REPAIR_MODELS = (AUTO_RECOVERY, *RECOVERY_NAMES)  # what recover and run take: a
 # name, one repair). DEFAULT_RECOVERY stays the single-frame model auto falls back on.
 DEFAULT_MODEL = AUTO_RECOVERY
 MODEL_HELP = (
-    f"Recovery model: {', '.join(REPAIR_MODELS)} (shipped: {', '.join(SHIPPED_RECOVERY)}; auto: "
-    f"{TEMPORAL_RECOVERY} where the last clean frame lines up with the frame, {DEFAULT_RECOVERY} elsewhere)."
+    f"Recovery model: {AUTO_RECOVERY} or one of the shipped {', '.join(SHIPPED_RECOVERY)} ({AUTO_RECOVERY}: "
+    f"{TEMPORAL_RECOVERY} where the last clean frame lines up with the frame, {DEFAULT_RECOVERY} elsewhere); "
+    f"{', '.join(n for n in RECOVERY_NAMES if n not in SHIPPED_RECOVERY)} from a --models folder that holds "
+    "them (make weights trains them)."
 )
 # The inputs of two-frame models in their streaming form (``d2sr.models.streaming``), by kind, and the
 # outputs of a temporal UNet's encoder: a file with other inputs came from an earlier d2sr.

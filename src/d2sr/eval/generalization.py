@@ -1,10 +1,10 @@
 """``d2sr eval generalization``: the learned stages on what they were not trained on.
 
 1. **Real clean frames of every sensor in the shared data**, at their true scales: the share of frames the
-   detector flags, and the share of valid pixels that ``recover`` (flagged frames) and ``recover --all``
-   (every frame) move by more than 5 cm. Every flag and every moved pixel here is a false alarm.
+   detector flags, and the share of valid pixels that ``recover`` (flagged frames) and ``recover --repair
+   all`` (every frame) move by more than 5 cm. Every flag and every moved pixel here is a false alarm.
 2. **Each interference family alone on real L515 frames** (seeds no model trained on): detector recall
-   and false alarms, and ``recover --all``'s RMSE change, mask F1 and clean pixels changed. With
+   and false alarms, and ``recover --repair all``'s RMSE change, mask F1 and clean pixels changed. With
    ``lofo``, also each family scored by a detector trained without it (leave-one-family-out); with
    ``lofo_recovery``, the mask F1 of a recovery model trained without it, beside one trained by the same
    recipe on every family.
@@ -101,7 +101,7 @@ def _metres(frame: np.ndarray, scale: float) -> np.ndarray:
 def _run(
     net: Backend, frame: np.ndarray, scale: float, before: np.ndarray | None = None, score: bool = True
 ) -> tuple[float, np.ndarray, np.ndarray]:
-    """(score, repaired frame as ``recover --all`` writes it, mask of pixels repaired) for one frame;
+    """(score, repaired frame as ``recover --repair all`` writes it, mask of pixels repaired) for one frame;
     ``before``: the frame delivered before it (uint16), for a temporal detector; ``score=False``: a
     recovery model alone (the score is nan)."""
     h, w = frame.shape
@@ -114,7 +114,7 @@ def _run(
 
 
 def real_rows(net: Backend, sets: list[RealSet], tick: Callable[[], None] | None = None) -> list[dict]:
-    """Per real clean set: frames flagged, valid pixels moved > 5 cm by recover (flagged) and --all."""
+    """Per real clean set: frames flagged, valid pixels moved > 5 cm by recover (flagged) and --repair all."""
     rows = []
     for s in sets:
         flagged = moved_all = moved_flagged = valid = 0.0
@@ -168,9 +168,9 @@ def family_rows(
     lofo_recovery: dict[str, Backend] | None = None,
 ) -> list[dict]:
     """Per interference family on the real L515 frames: detector recall and false alarms (also by the
-    detector trained without that family, from ``lofo``), and recover --all on the interfered frames (also
-    by a recovery model trained without the family, ``lofo_recovery[family]``, beside one trained the same
-    way on every family, ``lofo_recovery["all"]``)."""
+    detector trained without that family, from ``lofo``), and recover --repair all on the interfered frames
+    (also by a recovery model trained without the family, ``lofo_recovery[family]``, beside one trained the
+    same way on every family, ``lofo_recovery["all"]``)."""
     rec_lofo = lofo_recovery or {}
     l515 = [s for s in sets if s.name.startswith("L515")]
     if not l515:
@@ -258,7 +258,7 @@ def table(real: list[dict], fams: list[dict], worst: dict) -> str:
     lines = [
         "### Real clean frames (false alarms)",
         "",
-        "| set | sensor | frames | flagged | px moved >5 cm (recover) | (recover --all) | worst frame |",
+        "| set | sensor | frames | flagged | px moved >5 cm (recover) | (--repair all) | worst frame |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in real:

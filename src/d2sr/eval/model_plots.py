@@ -96,7 +96,12 @@ def generalization(real: list[dict], families: list[dict]) -> Figure:
     names = [r["set"] for r in real]
     x = np.arange(len(names))
     a.bar(x - 0.2, [100 * r["flagged"] for r in real], 0.4, label="frames flagged (%)")
-    a.bar(x + 0.2, [100 * r["moved_recover_all"] for r in real], 0.4, label="valid px moved >5 cm, --all (%)")
+    a.bar(
+        x + 0.2,
+        [100 * r["moved_recover_all"] for r in real],
+        0.4,
+        label="valid px moved >5 cm, --repair all (%)",
+    )
     a.set_xticks(x, names, rotation=35, ha="right", fontsize=8)
     a.set_title("Real clean frames (every mark is a false alarm)")
     a.legend(fontsize=8)

@@ -174,8 +174,8 @@ def bench_models(
 ) -> dict:
     """Frames per second at 640x480, batch 1, of the detector, each UNet (one forward pass, and ``recover``
     with its passes on an interfered frame), and detect + repair (every frame repaired), for torch and
-    onnxruntime; and ``d2sr recover --all`` timed from outside the process (60 frames minus 10 frames, so
-    start-up and model loading cancel out)."""
+    onnxruntime; and ``d2sr recover --repair all`` timed from outside the process (60 frames minus 10 frames,
+    so start-up and model loading cancel out)."""
     import tempfile
 
     import torch
@@ -223,9 +223,19 @@ def bench_models(
                 fps[f"detect+{m}"] = fps_of(both)
         if outside:
             if progress:
-                progress("d2sr recover --all, from outside")
+                progress("d2sr recover --repair all, from outside")
             out["outside"] = _outside(
-                ["recover", "--all", "--models", str(wdir), "--backend", "onnx", "--depth-scale", "4000"],
+                [
+                    "recover",
+                    "--repair",
+                    "all",
+                    "--models",
+                    str(wdir),
+                    "--backend",
+                    "onnx",
+                    "--depth-scale",
+                    "4000",
+                ],
                 [frame],
             )
     out["bars"] = {"detector_fps": 300, "detect+unet8_fps": 30}
@@ -426,7 +436,7 @@ def bench_typical(
 
 
 def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> dict:
-    """The worst case (issue 44) against its floor, in one run: ``d2sr recover --all`` from outside the
+    """The worst case (issue 44) against its floor, in one run: ``d2sr recover --repair all`` from outside the
     process, timed on all the frames and on 10 (start-up cancels out), and the floor any whole-process tool
     pays: the same frames read and written as 16-bit PNGs by OpenCV alone (its loop timed in its own
     process). The two alternate so that a shared machine slows both alike."""
@@ -447,7 +457,7 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         "    cv2.imwrite(str(dst / f.name), cv2.imread(str(f), cv2.IMREAD_UNCHANGED))\n"
         "print(time.perf_counter() - t)\n"
     )
-    recover = ["-m", "d2sr", "recover", "--all", "--depth-scale", f"{depth_scale:g}", "--out"]
+    recover = ["-m", "d2sr", "recover", "--repair", "all", "--depth-scale", f"{depth_scale:g}", "--out"]
 
     def run(args: list[str]) -> tuple[float, str]:
         t = time.perf_counter()
@@ -482,8 +492,8 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         )
     png = statistics.median(times["floor loop"]) / n
     return {
-        "measured": f"d2sr recover IN --all --out OUT from outside, {n} frames vs 10; the floor: OpenCV "
-        f"reading and writing the {n} PNGs",
+        "measured": f"d2sr recover IN --repair all --out OUT from outside, {n} frames vs 10; the floor: "
+        f"OpenCV reading and writing the {n} PNGs",
         "frames": n,
         "size": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
         "runs": done,

@@ -275,8 +275,8 @@ def recover_recording(
     # Repairing every frame, the scene's verdicts would go unused: it is judged only for its repair.
     scene_repair = s.repairs_scene
     scene = s.scene and (not every or scene_repair)
-    # --all needs no detector (its verdict would go unused) unless a view shows it, a temporal model needs
-    # to know which frames were clean, or the scene is judged (its upkeep needs every verdict).
+    # Repairing every frame needs no detector (its verdict would go unused) unless a view shows it, a temporal
+    # model needs to know which frames were clean, or the scene is judged (its upkeep needs every verdict).
     judged = not every or bool(wr.rerun) or scene
     models = model_settings(s.model_copy(update={"threads": s.threads if s.threads is not None else threads}))
     net = open_models(models, detector=judged)

@@ -129,8 +129,8 @@ class SensorLoop:
     # False: no detector runs (score NaN, never flagged). Only with repair="all" and a single-frame
     # recovery model, where no verdict is used: a temporal one needs to know which frames were clean.
     detect: bool = True
-    # False (recover --all with a temporal model): the detector runs only where its verdict can change the
-    # last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
+    # False (recover --repair all with a temporal model): the detector runs only where its verdict can change
+    # the last clean frame (``REFRESH_FRAMES``); the other frames are repaired unjudged (score NaN).
     judge_every: bool = True
     # True (d2sr detect's scores, for a user's own threshold): every frame scored exactly. False: a frame
     # clear on its own is not weighed against the one before it; its score is then its score alone, below

@@ -51,21 +51,21 @@ def kept(index: int, active_frames: int, offset: int, total: int = TOTAL_FRAMES)
 def colour_frames(folder: Path) -> list[Path]:
     """The colour images of ``folder`` in name order."""
     if not folder.is_dir():
-        raise InputError(f"--rgb {folder}: no such folder")
+        raise InputError(f"colour {folder}: no such folder", "colour")
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
     if not files:
-        raise InputError(f"--rgb {folder}: no .png or .jpg colour frames")
+        raise InputError(f"colour {folder}: no .png or .jpg colour frames", "colour")
     return files
 
 
 class FillSettings(Settings):
     """What ``fill_recording`` keeps and synthesizes: the window of ``active_frames`` from slot ``offset``
-    of every 30-slot period is kept; ``rgb``: a folder of the colour frames the others are synthesized from
+    of every 30-slot period is kept; ``colour``: a folder of the colour frames the others are synthesized from
     [none: the last kept frame held]; ``depth_scale`` and ``topic``: how the recording is read."""
 
     active_frames: int = Field(ge=1, le=TOTAL_FRAMES)
     offset: int = Field(0, ge=0, lt=TOTAL_FRAMES)
-    rgb: Path | None = None
+    colour: Path | None = None
     depth_scale: float | None = Field(None, gt=0, allow_inf_nan=False)
     topic: str | None = None
 
@@ -80,17 +80,19 @@ def fill_recording(
     say: Callable[[str], object] | None = None,
 ) -> FillSummary:
     """Keep the window's frames of ``input`` and synthesize the others into the PNG folder ``out``: from the
-    colour frames of ``settings.rgb`` (paired in name order; extra ones are ignored) when given, else by
+    colour frames of ``settings.colour`` (paired in name order; extra ones are ignored) when given, else by
     holding the last kept frame."""
     if not isinstance(settings, FillSettings):
         raise ConfigError(f"settings must be FillSettings, got {type(settings).__name__}", "settings")
-    active_frames, offset, rgb = settings.active_frames, settings.offset, settings.rgb
+    active_frames, offset, rgb = settings.active_frames, settings.offset, settings.colour
     depth_scale, topic = settings.depth_scale, settings.topic
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input, rgb])
     reader, scale = open_input(input, topic, depth_scale, "input", 1000.0, say=say)
     colours = colour_frames(rgb) if rgb is not None else None
     if colours is not None and len(colours) < len(reader):
-        raise InputError(f"--rgb {rgb}: {len(colours)} colour frames for {len(reader)} depth frames")
+        raise InputError(
+            f"colour {rgb}: {len(colours)} colour frames for {len(reader)} depth frames", "colour"
+        )
     filler = Filler(reader.intrinsics)
     rows: list[dict[str, object]] = []
     methods: dict[str, int] = {}
