@@ -71,7 +71,7 @@ print('ok')
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_edge_inference_runs_without_torch(tmp_path):
-    """What `pip install d2sr[edge]` gives: onnxruntime inference and d2sr detect/recover, no torch."""
+    """What `pip install '.[edge]'` gives: onnxruntime inference and d2sr detect/recover, no torch."""
     import torch
 
     from d2sr.models import build
@@ -118,7 +118,7 @@ print('ok')
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
 def test_a_command_that_needs_torch_names_the_extra_to_install(tmp_path):
-    # As on an edge install (pip install 'd2sr[edge]'): torch is simply not there.
+    # As on an edge install (pip install '.[edge]'): torch is simply not there.
     code = """
 import sys
 class Missing:
@@ -135,5 +135,5 @@ main()
     )
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(lines) == 1, res.stderr
-    assert "needs torch" in lines[0] and "pip install 'd2sr[train]'" in lines[0]
+    assert "needs torch" in lines[0] and "pip install '.[train]'" in lines[0]
     assert not (tmp_path / "t").exists()

@@ -128,7 +128,8 @@ def main() -> None:
         top = (exc.name or "").split(".")[0]
         if top not in EXTRAS:
             _unforeseen(exc)
-        _fail(f"this command needs {top}, not installed: pip install 'd2sr[{EXTRAS[top]}]'")
+        extra = EXTRAS[top]
+        _fail(f"this command needs {top}, not installed: pip install '.[{extra}]' in a d2sr clone")
     except KeyboardInterrupt:
         flush_warnings(show=False)
         print("d2sr: interrupted; nothing half-written was left at the output", file=sys.stderr)

@@ -1,5 +1,5 @@
 """RealSense recordings (``.db3`` from librealsense >= 2.56, ``.bag`` from older ones) through
-pyrealsense2 playback. Optional: ``pip install 'd2sr[realsense]'`` (needs libusb-1.0 on Linux)."""
+pyrealsense2 playback. Optional: ``pip install '.[realsense]'`` (needs libusb-1.0 on Linux)."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def import_rs() -> Any:
     except (ImportError, OSError) as exc:
         hint = " (install libusb-1.0-0 or libusb-package)" if "libusb" in str(exc) else ""
         raise InputError(
-            f"RealSense recordings need pyrealsense2: pip install 'd2sr[realsense]'{hint}"
+            f"RealSense recordings need pyrealsense2: pip install '.[realsense]'{hint}"
         ) from None
     return rs
 

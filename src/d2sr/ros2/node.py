@@ -114,7 +114,7 @@ class Ros2Node:
             from cyclonedds.topic import Topic
             from cyclonedds.util import duration
         except ImportError:
-            raise InputError("d2sr ros2 needs Cyclone DDS: pip install 'd2sr[ros2]'") from None
+            raise InputError("d2sr ros2 needs Cyclone DDS: pip install '.[ros2]'") from None
         from d2sr.ros2.msgs import DiagnosticStatus, Image
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline

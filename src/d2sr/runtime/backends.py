@@ -1,5 +1,5 @@
 """The inference protocol the runtime runs on; its torch-free implementation, ``OnnxBackend``
-(``pip install d2sr[edge]``); ``Gated`` (``--model auto``); and ``open_backend``, which opens the shipped
+(``pip install '.[edge]'``); ``Gated`` (``--model auto``); and ``open_backend``, which opens the shipped
 or a given folder's models on onnxruntime or on ``d2sr.models.inference.TorchBackend`` (found by name).
 Both work in metres (``d2sr.contract.catalog``)."""
 
@@ -147,7 +147,7 @@ class OnnxBackend:
         try:
             import onnxruntime as ort
         except ImportError:  # pragma: no cover - depends on the install
-            raise InputError("onnxruntime is not installed: pip install 'd2sr[edge]'") from None
+            raise InputError("onnxruntime is not installed: pip install '.[edge]'") from None
 
         def session(path: Path, cores: int = threads or min(os.cpu_count() or 1, 4)) -> ort.InferenceSession:
             opts = ort.SessionOptions()

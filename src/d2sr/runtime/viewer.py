@@ -1,4 +1,4 @@
-"""Runs in Rerun (``pip install 'd2sr[viewer]'``): each sensor's input and repaired depth, the predicted
+"""Runs in Rerun (``pip install '.[viewer]'``): each sensor's input and repaired depth, the predicted
 mask over the repair (and the true mask over the input in simulation), and time series of the detector
 score, the flag, the window offset and the share of pixels repaired. The timeline is the frames' own
 timestamps (``time``), with the frame count beside it (``frame``).
@@ -42,7 +42,7 @@ def _rerun() -> Any:
     try:
         import rerun
     except ImportError:
-        raise InputError("Rerun logging needs rerun-sdk: pip install 'd2sr[viewer]'") from None
+        raise InputError("Rerun logging needs rerun-sdk: pip install '.[viewer]'") from None
     return rerun
 
 

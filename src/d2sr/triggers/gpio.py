@@ -36,7 +36,7 @@ class GpioActuator(HostActuator):
             from gpiod.line import Direction, Value
         except ImportError:
             raise InputError(
-                "the gpio trigger needs gpiod (libgpiod v2): pip install 'd2sr[triggers]'"
+                "the gpio trigger needs gpiod (libgpiod v2): pip install '.[triggers]'"
             ) from None
         path = chip_path(self.chip)
         key: int | str = int(self.line) if self.line.isdigit() else self.line

@@ -38,7 +38,7 @@ class SerialActuator(Actuator):
         try:
             import serial
         except ImportError:
-            raise InputError("the serial trigger needs pyserial: pip install 'd2sr[triggers]'") from None
+            raise InputError("the serial trigger needs pyserial: pip install '.[triggers]'") from None
         try:
             self._serial = serial.serial_for_url(self.port, baudrate=BAUD, timeout=0.05)
         except (serial.SerialException, OSError, ValueError) as exc:

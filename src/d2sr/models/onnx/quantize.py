@@ -67,7 +67,7 @@ def quantize(onnx: Path, out: Path | None = None, frames: int = 16) -> Path:
     try:
         from onnxruntime.quantization import CalibrationDataReader, QuantFormat, QuantType, quantize_static
     except ImportError:  # pragma: no cover - depends on the install
-        raise InputError("int8 quantization needs onnxruntime: pip install 'd2sr[edge]'") from None
+        raise InputError("int8 quantization needs onnxruntime: pip install '.[edge]'") from None
     if not onnx.is_file():
         raise InputError(f"{onnx}: no such model file (d2sr export writes it)")
 
