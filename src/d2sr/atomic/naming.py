@@ -12,6 +12,7 @@ from pathlib import Path
 __all__ = [
     "CALLER",
     "CSV_HEADERS",
+    "HTML_MARK",
     "MANIFEST",
     "MARK",
     "absolute",
@@ -32,12 +33,13 @@ CSV_HEADERS = ("frame,score,interfered,reason", "frame,score,interfered")
 _PNG_TEXT = b"tEXtSoftware\x00d2sr"  # matplotlib's metadata={"Software": "d2sr ..."}
 _PEEK = 1 << 16  # bytes read to recognise a file
 MARK = "d2sr"  # in the name of every temporary d2sr leaves beside an output
+HTML_MARK = b"<meta name='generator' content='d2sr'>"  # in the head of every page d2sr writes
 
 
 def made_by_d2sr(path: Path) -> bool:
     """Whether the existing file ``path`` is one d2sr wrote, by what it says of itself: a CSV's header, a
     JSON object's ``made_by``, a PNG's Software text, a Rerun recording's application id, a ROS 1 bag's
-    connection from ``CALLER``."""
+    connection from ``CALLER``, an HTML report's generator (``HTML_MARK``)."""
     from d2sr.provenance import MADE_BY  # the key stamp writes (provenance stamps what atomic commits)
 
     suffix = path.suffix.lower()
@@ -62,6 +64,8 @@ def made_by_d2sr(path: Path) -> bool:
         return head.startswith(b"RRF") and b"d2sr" in head
     if suffix == ".bag":
         return head.startswith(b"#ROSBAG V2.0") and _bag_by_d2sr(path)
+    if suffix == ".html":
+        return head.startswith(b"<!doctype html>") and HTML_MARK in head[:512]
     return False
 
 

@@ -120,6 +120,13 @@ def recover(
     ] = None,
     prime: PrimeOpt = PRIME_FRAMES,
     colour_topic: ColourTopic = None,
+    report: Annotated[
+        bool,
+        typer.Option(
+            "--report/--no-report",
+            help="Write report.html: the frames flagged and why, and the most changed before and after.",
+        ),
+    ] = True,
     overwrite: Overwrite = False,
 ) -> None:
     """Stage 3: repair interfered frames (predicted depth inside the predicted mask, the input outside).
@@ -137,8 +144,10 @@ def recover(
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime,
     )  # fmt: skip
-    written = Written(format, rerun, colour_topic, overwrite)
+    written = Written(format, rerun, colour_topic, overwrite, report)
     with _bar(f"recovering ({model})") as progress:
         s = recover_recording(input, out, settings, written, progress=progress, say=print_line)
     made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""
     typer.echo(f"repaired {s.repaired} of {s.frames} frames{made}{s.scene_note()} -> {out}")
+    if s.report is not None:
+        typer.echo(f"what changed, and why: {s.report}")

@@ -229,6 +229,7 @@ def bench_models(
                     "recover",
                     "--repair",
                     "all",
+                    "--no-report",
                     "--models",
                     str(wdir),
                     "--backend",
@@ -457,7 +458,8 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         "    cv2.imwrite(str(dst / f.name), cv2.imread(str(f), cv2.IMREAD_UNCHANGED))\n"
         "print(time.perf_counter() - t)\n"
     )
-    recover = ["-m", "d2sr", "recover", "--repair", "all", "--depth-scale", f"{depth_scale:g}", "--out"]
+    recover = ["-m", "d2sr", "recover", "--repair", "all", "--no-report", "--depth-scale", f"{depth_scale:g}"]
+    recover.append("--out")
 
     def run(args: list[str]) -> tuple[float, str]:
         t = time.perf_counter()

@@ -35,6 +35,7 @@ from d2sr.frames.overlap import Behind, prefetch
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
+from d2sr.runtime.report import Report
 from d2sr.runtime.settings import RunSettings
 
 __all__ = [
@@ -69,6 +70,7 @@ class Summary:
     depth_scale: float
     synthesized: int = 0  # frames made for colour frames no depth frame joined (a bag's colour topic)
     scene_used: int | None = None  # frames whose verdict the sensor's scene weighed (None: not judged)
+    report: Path | None = None  # what the job did, for a person (report.html)
 
     def scene_note(self) -> str:
         """', the sensor's scene weighed N' for a command's summary line ('' where no scene was judged)."""
@@ -114,6 +116,7 @@ class _PngSink:
     """``<name>.png`` and ``masks/<name>.png`` in a folder, encoded ``Behind`` the loop."""
 
     def __init__(self, root: Path, writes: Behind) -> None:
+        self.root = root
         self.folder = FrameFolder(root, REPAIRED)
         self.writes = writes
         self.rows: list[dict[str, Any]] = []
@@ -227,12 +230,14 @@ class Written:
     anything else a PNG folder), ``png`` or ``bag``; ``rerun``: also log the run to a ``.rrd`` file or the
     ``live`` viewer; ``colour_topic`` (a bag in and out, 16-bit depth): every colour message no depth
     message joins gets a synthesized frame (``d2sr.frames.bagcopy``); ``overwrite``: replace an output d2sr
-    made."""
+    made; ``report``: write ``report.html`` (``runtime.report``) in a PNG folder out, beside a bag out
+    (``OUT.report.html``)."""
 
     format: str = "auto"
     rerun: str | None = None
     colour_topic: str | None = None
     overwrite: bool = False
+    report: bool = True
 
 
 def recover_recording(
@@ -262,6 +267,11 @@ def recover_recording(
             "colour_topic: frames are synthesized into a bag; give a ROS bag and a bag out", "colour_topic"
         )
     check_out(out, is_dir=kind != "ros1", overwrite=wr.overwrite, inputs=_inputs(input))
+    beside = Path(out).with_name(Path(out).name + ".report.html") if wr.report and kind != "png" else None
+    if beside is not None:
+        check_out(
+            beside, is_dir=False, overwrite=wr.overwrite, inputs=_inputs(input), option="--out's report"
+        )
     if wr.rerun is not None and wr.rerun != LIVE:
         check_out(
             Path(wr.rerun),
@@ -304,6 +314,8 @@ def recover_recording(
         RerunLog(wr.rerun, 1, f"d2sr recover {input}") if wr.rerun else nullcontext()
     )
     flagged = repaired = done = used = 0
+    report = Report(scale, f"d2sr recover {input}") if wr.report else None
+    report_path: Path | None = None
     with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
         caps = loop.primed((Capture(f, scale) for f in frames), s.prime)
@@ -316,12 +328,30 @@ def recover_recording(
             repaired += fix
             used += bool(res.scene)
             done += 1
+            if report is not None:
+                report.add(res)
             if progress is not None:
                 progress(done, len(reader))
+        if report is not None and isinstance(sink, _PngSink):
+            report.write(sink.root / "report.html")
+            report_path = Path(out) / "report.html"
         sink.finish(scale, reader.intrinsics)
+    if report is not None and beside is not None:
+        report.write(beside)
+        report_path = beside
     made = getattr(sink, "synthesized", 0)
     return Summary(
-        done, flagged, repaired, Path(out), kind, s.model, net.name, scale, made, used if scene else None
+        done,
+        flagged,
+        repaired,
+        Path(out),
+        kind,
+        s.model,
+        net.name,
+        scale,
+        made,
+        used if scene else None,
+        report_path,
     )
 
 

@@ -1,0 +1,60 @@
+"""report.html (d2sr.runtime.report): what a recording job did, for a person to open."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+
+import cv2
+import numpy as np
+
+from d2sr.frames import Frame
+from d2sr.runtime.loop import Capture, Result
+from d2sr.runtime.report import WORST, Report
+from helpers import d2sr_inprocess
+
+
+def _result(name: str, flagged: bool, changed: int, reason: str = "", fill: int = 0) -> Result:
+    raw = np.full((24, 32), 8000, np.uint16)
+    raw[0, :fill] = 0  # no return there
+    out, mask = raw.copy(), np.zeros(raw.shape, bool)
+    mask.ravel()[:changed] = True
+    out[mask] = 6000
+    return Result(Capture(Frame(name, raw), 4000.0), 0.9 if flagged else 0.1, flagged, out, mask, 0, 0,
+                  reason=reason)  # fmt: skip
+
+
+def test_the_report_lists_the_frames_flagged_or_cleared_and_counts_every_invented_return():
+    rep = Report(4000.0, "test")
+    rep.add(_result("clean", False, 0))
+    rep.add(_result("cleared", False, 0, "cleared by scene"))
+    for k in range(WORST + 2):
+        rep.add(_result(f"hit{k}", True, 10 * (k + 1), "detector", fill=3))
+    page = rep.html()
+    rows = re.findall(r"<tr><td>([^<]*)</td>", page)
+    assert rows == ["cleared", *(f"hit{k}" for k in range(WORST + 2))]  # the clean frame is not listed
+    assert rep.filled_px == 3 * (WORST + 2) and f"{rep.filled_px} of them pixels with no return" in page
+    images = re.findall(r"base64,([A-Za-z0-9+/=]+)'", page)
+    assert len(images) == WORST  # the most changed only, most first
+    assert re.findall(r"<h3>([^:]*):", page) == [f"hit{k}" for k in range(WORST + 1, 1, -1)]
+    for b64 in images:
+        png = cv2.imdecode(np.frombuffer(base64.b64decode(b64), np.uint8), cv2.IMREAD_COLOR)
+        assert png is not None and png.shape[1] > png.shape[0] > 100
+
+
+def test_recover_writes_its_report_in_the_output_and_no_report_leaves_it_out(tmp_path, weights):
+    src = tmp_path / "rec"
+    src.mkdir()
+    rng = np.random.default_rng(0)
+    for i in range(4):
+        cv2.imwrite(str(src / f"{i:03d}.png"), (rng.uniform(1.5, 3.0, (96, 128)) * 1000).astype(np.uint16))
+    args = ["recover", str(src), "--models", str(weights), "--repair", "all", "--no-scene"]
+    code, out, err = d2sr_inprocess(*args, "--out", str(tmp_path / "a"))
+    assert code == 0, err
+    page = (tmp_path / "a" / "report.html").read_text()
+    assert "4 frames" in page and "report.html" in out
+    assert "report.html" in json.loads((tmp_path / "a" / ".d2sr-manifest.json").read_text())["files"]
+    code, _, err = d2sr_inprocess(*args, "--no-report", "--out", str(tmp_path / "b"))
+    assert code == 0, err
+    assert not (tmp_path / "b" / "report.html").exists()
