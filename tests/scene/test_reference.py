@@ -396,17 +396,18 @@ def test_run_on_a_recording_takes_the_scene(tmp_path):
 
     rec = _patched_recording(tmp_path)
     flags = {}
-    for scene in (False, True):
-        out = tmp_path / f"out{scene}"
+    # The share of frames the scene weighed: cold (a live sensor's start), not the first 5 (4 build it, the
+    # 5th shows it still); primed on the frames ahead, as recover primes it (the default), every one.
+    for scene, prime, weighed in ((False, 32, None), (True, 0, 0.5), (True, 32, 1.0)):
+        out = tmp_path / f"out{scene}{prime}"
         recording = Recording(open_frames(rec), SCALE, "rec")
-        settings = RunSettings(repair="none", scene=scene)
+        settings = RunSettings(repair="none", scene=scene, prime=prime)
         summary = run_recording(FakeNet(), recording, out, settings, LoopSettings(controller="robust"))
         assert summary["settings"]["scene"] is scene
-        # the share of frames the scene weighed: not the first 5 (4 build it, the 5th shows it still)
-        assert summary["all"].get("scene_used") == (0.5 if scene else None)
+        assert summary["all"].get("scene_used") == weighed
         rows = list(csv.DictReader((out / "log.csv").open()))
-        flags[scene] = [int(r["flagged"]) for r in rows]
-    assert flags[False] == [0] * 10 and flags[True] == [0] * 9 + [1]
+        flags[scene, prime] = [int(r["flagged"]) for r in rows]
+    assert flags[False, 32] == [0] * 10 and flags[True, 0] == flags[True, 32] == [0] * 9 + [1]
 
 
 class _NoRepair(FakeNet):

@@ -169,3 +169,15 @@ def int_list(value: str, what: str) -> list[int]:
         return [int(v) for v in split_list(value, what)]
     except ValueError:
         raise ConfigError(f"--{what} takes comma-separated integers, got {value!r}") from None
+
+
+SceneRepairOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--scene-repair/--no-scene-repair",
+        help="With the scene: where it is trusted, its own depth repairs a frame's fresh deviations, and "
+        "the model leaves alone what reads as the scene. [default: on; recover --repair all: off, where it "
+        "would have the scene judge every frame]",
+        show_default=False,
+    ),
+]

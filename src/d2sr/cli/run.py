@@ -18,9 +18,11 @@ from d2sr.cli.common import (
     ModelName,
     Overwrite,
     Passes,
+    PrimeOpt,
     RepairOpt,
     RerunOpt,
     Scale,
+    SceneRepairOpt,
     Threshold,
     Topic,
     TriggerOpt,
@@ -29,7 +31,7 @@ from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.frames.base import PLAUSIBLE_M
-from d2sr.runtime.settings import DEFAULT_ACTIVE, LoopSettings, RunSettings
+from d2sr.runtime.settings import DEFAULT_ACTIVE, PRIME_FRAMES, LoopSettings, RunSettings
 from d2sr.runtime.stats import stats_table
 from d2sr.ui import console, progress_bar
 
@@ -68,6 +70,8 @@ def run(
             help="onnxruntime threads per model (default: the detector on one core, the repair on all)."
         ),
     ] = None,
+    scene_repair: SceneRepairOpt = None,
+    prime: PrimeOpt = PRIME_FRAMES,
     scene: Annotated[
         bool | None,
         typer.Option(
@@ -116,7 +120,7 @@ def run(
     settings = RunSettings(
         model=model, models=models, backend=backend, repair=repair, threshold=threshold,
         mask_logit=mask_logit, passes=passes, depth_scale=depth_scale, max_range=max_range, topic=topic,
-        threads=threads, int8=int8, **given,
+        threads=threads, int8=int8, scene_repair=scene_repair, prime=prime, **given,
     )  # fmt: skip
     loop = LoopSettings(
         controller=controller, active_frames=active_frames, seed=seed, sensors=sensors, seconds=seconds,

@@ -23,6 +23,7 @@ from d2sr.cli.common import (
     RerunOpt,
     Scale,
     SceneOpt,
+    SceneRepairOpt,
     Threshold,
     Topic,
 )
@@ -108,16 +109,7 @@ def recover(
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     scene: SceneOpt = True,
-    scene_repair: Annotated[
-        bool | None,
-        typer.Option(
-            "--scene-repair/--no-scene-repair",
-            help="With the scene: where it is trusted, its own depth repairs a frame's fresh deviations, and "
-            "the model leaves alone what reads as the scene. [default: on; off with --repair all, where it "
-            "would have the scene judge every frame]",
-            show_default=False,
-        ),
-    ] = None,
+    scene_repair: SceneRepairOpt = None,
     prime: PrimeOpt = PRIME_FRAMES,
     colour_topic: ColourTopic = None,
     report: Annotated[

@@ -4,6 +4,7 @@ into a ``RunFolder``, measured into ``RunStats``."""
 from __future__ import annotations
 
 import contextlib
+import itertools
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -209,7 +210,8 @@ def run_recording(
     on_result: Callable[[int, Result], None] | None = None,
 ) -> dict[str, Any]:
     """A recording through one loop (open loop: the controller's offsets are logged, not applied); with
-    ``settings.scene``, a still sensor's frames are also judged against its scene and repaired from it.
+    ``settings.scene``, a still sensor's frames are also judged against its scene (primed on the first
+    ``settings.prime`` frames, as ``recover`` primes it) and repaired from it.
     A killed run resumes: logged frames are skipped and the controller is replayed from their flags.
 
     With the recording's colours, every colour frame no depth frame joins (a slot the laser skipped,
@@ -233,6 +235,7 @@ def run_recording(
         "threshold": threshold if threshold is not None else backend.threshold,
         "backend": backend.name,
         "scene": scene,
+        "prime": s.prime if scene else 0,
         "fill": fill,
     }
     stats = RunStats()
@@ -248,6 +251,8 @@ def run_recording(
         )
         filler = RunFiller(folder, intrinsics)
         done = folder.done
+        # As recover does: the scene first learns from the recording's frames ahead (the sensor's own).
+        loop.prime([Capture(f, scale) for f in itertools.islice(reader, s.prime)])
         frames = interleave(reader, colours) if colours is not None else ((f, None, 0) for f in reader)
         k = 0
         for frame, colour, stamp in frames:
