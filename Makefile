@@ -18,7 +18,7 @@ demo: $(STAMP)
 	$(BIN)/d2sr demo --out out/demo --overwrite
 
 test: $(STAMP)
-	$(BIN)/ruff check src tests bench tools lab
+	$(BIN)/ruff check src tests bench tools lab docs/examples
 	$(BIN)/python -m pytest
 
 # Under a minute: no training, no subprocess CLI, no DDP (tests marked slow are left out).
@@ -30,8 +30,8 @@ edge-check:
 	.ci/edge-check
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests bench tools lab
-	$(BIN)/ruff format --check src tests bench tools lab
+	$(BIN)/ruff check src tests bench tools lab docs/examples
+	$(BIN)/ruff format --check src tests bench tools lab docs/examples
 	$(BIN)/mypy
 
 # Long jobs: their results are committed under docs/results/.
