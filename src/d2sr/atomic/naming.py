@@ -39,7 +39,7 @@ HTML_MARK = b"<meta name='generator' content='d2sr'>"  # in the head of every pa
 def made_by_d2sr(path: Path) -> bool:
     """Whether the existing file ``path`` is one d2sr wrote, by what it says of itself: a CSV's header, a
     JSON object's ``made_by``, a PNG's Software text, a Rerun recording's application id, a ROS 1 bag's
-    connection from ``CALLER``, an HTML report's generator (``HTML_MARK``)."""
+    connection from ``CALLER``, an HTML report's generator (``HTML_MARK``), a stored scene's format."""
     from d2sr.provenance import MADE_BY  # the key stamp writes (provenance stamps what atomic commits)
 
     suffix = path.suffix.lower()
@@ -66,7 +66,23 @@ def made_by_d2sr(path: Path) -> bool:
         return head.startswith(b"#ROSBAG V2.0") and _bag_by_d2sr(path)
     if suffix == ".html":
         return head.startswith(b"<!doctype html>") and HTML_MARK in head[:512]
+    if suffix == ".npz":
+        return _npz_by_d2sr(path)
     return False
+
+
+def _npz_by_d2sr(path: Path) -> bool:
+    """A stored scene's ``meta`` says it is d2sr's (read as data: no pickle)."""
+    import zipfile
+
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(z["meta"].tobytes().decode()) if "meta" in z.files else None
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, UnicodeDecodeError):
+        return False
+    return isinstance(meta, dict) and str(meta.get("format", "")).startswith("d2sr")
 
 
 def _bag_by_d2sr(path: Path) -> bool:

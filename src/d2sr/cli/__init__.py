@@ -13,7 +13,7 @@ from typing import Annotated, NoReturn
 
 import typer
 
-from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, show, stages, train, trigger
+from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, scenes, show, stages, train, trigger
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 from d2sr.version import __version__
@@ -39,6 +39,12 @@ trigger_app = typer.Typer(
 app.add_typer(desync_app, name="desync")
 app.add_typer(eval_app, name="eval")
 app.add_typer(trigger_app, name="trigger")
+scene_app = typer.Typer(
+    help="A still sensor's scene, learned once from a clean recording.\n\n"
+    "Example: d2sr scene learn clean_room/ --depth-scale 4000 --out room.npz",
+    no_args_is_help=True,
+)
+app.add_typer(scene_app, name="scene")
 COMMANDS: dict[str, Callable[..., None]] = {
     "detect": stages.detect,
     "recover": stages.recover,
@@ -71,7 +77,9 @@ EVAL: dict[str, Callable[..., None]] = {
     "generalization": evaluate.generalization,
 }
 TRIGGER: dict[str, Callable[..., None]] = {"check": trigger.check, "firmware": trigger.firmware}
-for group, commands in ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL), (trigger_app, TRIGGER)):
+SCENE: dict[str, Callable[..., None]] = {"learn": scenes.learn}
+GROUPS = ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL), (trigger_app, TRIGGER), (scene_app, SCENE))
+for group, commands in GROUPS:
     for name, fn in commands.items():
         group.command(name)(fn)
 

@@ -181,3 +181,7 @@ SceneRepairOpt = Annotated[
         show_default=False,
     ),
 ]
+SceneFromOpt = Annotated[
+    Path | None,
+    typer.Option(help="A stored scene (d2sr scene learn): the scene starts from it, not from the frames."),
+]

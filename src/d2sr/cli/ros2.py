@@ -15,6 +15,7 @@ from d2sr.cli.common import (
     ModelName,
     Passes,
     RepairOpt,
+    SceneFromOpt,
     SceneOpt,
     Threshold,
     TriggerOpt,
@@ -59,6 +60,7 @@ def ros2(
     passes: Passes = REPAIR_PASSES,
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
     scene: SceneOpt = True,
+    scene_from: SceneFromOpt = None,
 ) -> None:
     """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
     255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours
@@ -73,7 +75,7 @@ def ros2(
         raise ConfigError(f"--seconds must be a positive number, got {seconds}")
     settings = RunSettings(
         repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
-        passes=passes, scene=scene,
+        passes=passes, scene=scene, scene_from=scene_from,
     )  # fmt: skip
     node = Ros2Node(
         topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,

@@ -22,6 +22,7 @@ from d2sr.cli.common import (
     RepairOpt,
     RerunOpt,
     Scale,
+    SceneFromOpt,
     SceneRepairOpt,
     Threshold,
     Topic,
@@ -71,6 +72,7 @@ def run(
         ),
     ] = None,
     scene_repair: SceneRepairOpt = None,
+    scene_from: SceneFromOpt = None,
     prime: PrimeOpt = PRIME_FRAMES,
     scene: Annotated[
         bool | None,
@@ -120,7 +122,7 @@ def run(
     settings = RunSettings(
         model=model, models=models, backend=backend, repair=repair, threshold=threshold,
         mask_logit=mask_logit, passes=passes, depth_scale=depth_scale, max_range=max_range, topic=topic,
-        threads=threads, int8=int8, scene_repair=scene_repair, prime=prime, **given,
+        threads=threads, int8=int8, scene_repair=scene_repair, prime=prime, scene_from=scene_from, **given,
     )  # fmt: skip
     loop = LoopSettings(
         controller=controller, active_frames=active_frames, seed=seed, sensors=sensors, seconds=seconds,

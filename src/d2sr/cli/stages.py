@@ -22,6 +22,7 @@ from d2sr.cli.common import (
     PrimeOpt,
     RerunOpt,
     Scale,
+    SceneFromOpt,
     SceneOpt,
     SceneRepairOpt,
     Threshold,
@@ -61,6 +62,7 @@ def detect(
     models: ModelDir = WEIGHTS,
     max_range: MaxRange = PLAUSIBLE_M[1],
     scene: SceneOpt = True,
+    scene_from: SceneFromOpt = None,
     prime: PrimeOpt = PRIME_FRAMES,
     overwrite: Overwrite = False,
 ) -> None:
@@ -72,7 +74,7 @@ def detect(
 
     settings = RunSettings(
         depth_scale=depth_scale, topic=topic, threshold=threshold, models=models, backend=backend,
-        max_range=max_range, scene=scene, prime=prime,
+        max_range=max_range, scene=scene, prime=prime, scene_from=scene_from,
     )  # fmt: skip
     with _bar("detecting") as progress:
         s = detect_recording(input, out, settings, overwrite=overwrite, progress=progress, say=print_line)
@@ -109,6 +111,7 @@ def recover(
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     scene: SceneOpt = True,
+    scene_from: SceneFromOpt = None,
     scene_repair: SceneRepairOpt = None,
     prime: PrimeOpt = PRIME_FRAMES,
     colour_topic: ColourTopic = None,
@@ -134,7 +137,7 @@ def recover(
     settings = RunSettings(
         depth_scale=depth_scale, topic=topic, repair=repair, model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
-        max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime,
+        max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,
     )  # fmt: skip
     written = Written(format, rerun, colour_topic, overwrite, report)
     with _bar(f"recovering ({model})") as progress:

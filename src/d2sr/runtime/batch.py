@@ -36,6 +36,7 @@ from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
 from d2sr.runtime.report import Report
+from d2sr.runtime.scenes import check_stored
 from d2sr.runtime.settings import RunSettings
 
 __all__ = [
@@ -356,8 +357,11 @@ def recover_recording(
 
 
 def _read(input: Path, s: RunSettings, say: Callable[[str], object] | None) -> tuple[Reader, float]:
-    """The recording's reader and its depth scale, as ``s`` says (topic, scale, range)."""
-    return open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say or _quiet)
+    """The recording's reader and its depth scale, as ``s`` says (topic, scale, range), and the stored scene
+    it names checked against it."""
+    reader, scale = open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say or _quiet)
+    check_stored(s, reader, scale)
+    return reader, scale
 
 
 def _inputs(input: Path) -> list[Path]:

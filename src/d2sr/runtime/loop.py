@@ -25,6 +25,7 @@ from d2sr.frames.base import Frame, check_depth, to_metres
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.scene import Evidence, SceneReference, SceneRepair
+from d2sr.scene.stored import StoredScene
 
 __all__ = [
     "REASONS",
@@ -138,6 +139,7 @@ class SensorLoop:
     exact_scores: bool = False
     period: int = 0
     _reference: SceneReference | None = None
+    _stored: StoredScene | None = None  # the stored scene, read once
     _flags: dict[int, bool] = field(default_factory=dict)
     _count: int = 0  # frames seen this period
     _slotted: bool = False  # the source gives slots (triggered) rather than frame order (open loop)
@@ -291,9 +293,29 @@ class SensorLoop:
         units, scale = _in_units(raw, scale)
         ref = self._reference
         if ref is None or ref.scale != scale or ref.shape not in (None, units.shape):
-            ref = self._reference = SceneReference(scale, self.settings.scene_settings)
+            ref = self._reference = self._new_reference(scale, units.shape)
         own = metres[0, : raw.shape[0], : raw.shape[1]] if raw.dtype == np.uint16 else None
         return units, ref.evidence(units, own)
+
+    def _new_reference(self, scale: float, shape: tuple[int, ...]) -> SceneReference:
+        """The sensor's scene: from its stored scene (``RunSettings.scene_from``), which must be of the
+        frames' size and units, or learned from its frames."""
+        if self.settings.scene_from is None:
+            return SceneReference(scale, self.settings.scene_settings)
+        if self._stored is None:
+            self._stored = StoredScene.load(self.settings.scene_from)
+        st = self._stored
+        if st.shape != shape:
+            raise InputError(
+                f"{self.settings.scene_from}: a scene of {st.shape[1]}x{st.shape[0]} frames; these are "
+                f"{shape[1]}x{shape[0]}", "scene_from"
+            )  # fmt: skip
+        if abs(st.depth_scale - scale) > 1e-6 * scale:
+            raise InputError(
+                f"{self.settings.scene_from}: a scene at depth scale {st.depth_scale:g}; these frames are at "
+                f"{scale:g}", "scene_from"
+            )  # fmt: skip
+        return SceneReference.from_stored(st, self.settings.scene_settings)
 
     def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:
         """The detector's verdict weighed against the frame's (``_in_units``) scene evidence; the reference

@@ -16,6 +16,7 @@ from d2sr.frames.checks import Checked, open_input
 from d2sr.runtime.live import CAMERAS, check_camera, run_live
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
+from d2sr.runtime.scenes import check_stored
 from d2sr.runtime.settings import LoopSettings, RunSettings
 
 __all__ = ["run"]
@@ -64,6 +65,7 @@ def run(
             return run_live(net, out, source, s, ls, on_result=on_result)
         path = Path(source)
         reader, scale = open_input(path, s.topic, s.depth_scale, "input", 1000.0, s.max_range)
+        check_stored(s, reader, scale)
         colours = open_colours(path, ls.colour_topic) if ls.colour_topic is not None else None
         recording = session.Recording(Checked(reader, scale), scale, str(path.resolve()), colours)
         what = f"{path.name} ({net.name})"

@@ -49,6 +49,11 @@ class RunSettings(Settings):
         "frames are judged, off when every frame is repaired].",
     )
     scene_settings: SceneSettings = Field(default_factory=SceneSettings, description="The scene's numbers.")
+    scene_from: Path | None = Field(
+        None,
+        description="A stored scene (d2sr scene learn) the scene starts "
+        "from, instead of learning it from the frames.",
+    )
     prime: int = Field(
         PRIME_FRAMES,
         ge=0,
@@ -84,7 +89,7 @@ class RunSettings(Settings):
             raise ValueError(f"must be one of {', '.join(REPAIR)}, got {v!r}")
         return v
 
-    @field_validator("models", mode="before")
+    @field_validator("models", "scene_from", mode="before")
     @classmethod
     def _path(cls, v: object) -> object:
         return Path(v) if isinstance(v, str) else v
@@ -98,10 +103,11 @@ class RunSettings(Settings):
 
     @property
     def repairs_scene(self) -> bool:
-        """The scene's own depth joins the repair: on where frames are judged, off when every frame is
-        repaired (the scene would judge every frame for it) unless asked."""
+        """The scene's own depth joins the repair: on where frames are judged or a stored scene is given, off
+        when every frame is repaired from a scene learned on the fly (it would judge every frame for it)
+        unless asked."""
         if self.scene_repair is None:
-            return self.scene and self.repair != "all"
+            return self.scene and (self.repair != "all" or self.scene_from is not None)
         return self.scene_repair
 
 

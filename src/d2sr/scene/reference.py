@@ -34,7 +34,8 @@ from d2sr.scene.evidence import (
 )
 from d2sr.scene.labeller import Labeller
 from d2sr.scene.settings import SceneSettings
-from d2sr.scene.stats import CleanStats, blur_shares, count_from, stack_stats
+from d2sr.scene.stats import STAT_FIELDS, CleanStats, blur_shares, count_from, stack_stats
+from d2sr.scene.stored import StoredScene
 
 __all__ = ["SceneReference"]
 
@@ -66,6 +67,21 @@ class SceneReference:
         self._ring: np.ndarray | None = None
         self.reset()
 
+    @classmethod
+    def from_stored(cls, stored: StoredScene, settings: SceneSettings | None = None) -> SceneReference:
+        """A reference that starts from a stored scene (``d2sr scene learn``), warm at once. Its statistics
+        stay the stored ones: new clean frames do not re-summarize them, but a pixel that deviates for
+        ``persist`` frames in a row still takes its new value (a chair moved), and a view that changed starts
+        the scene again from the frames, as a reference that was never stored would."""
+        ref = cls(stored.depth_scale, settings)
+        h, w = stored.shape
+        ref._ring = np.zeros((ref.settings.frames, h, w), np.uint16)
+        ref.count = min(stored.frames, ref.settings.frames)
+        ref._stored = True
+        s = stored.stats
+        ref._start((h, w), CleanStats(**{k: np.array(getattr(s, k)) for k in STAT_FIELDS}, frames=s.frames))
+        return ref
+
     def reset(self) -> None:
         """Forget the scene (the next ``warm`` clean frames build it again)."""
         self.count = 0  # clean frames in the ring (at most ``frames``)
@@ -77,6 +93,7 @@ class SceneReference:
         self._resting = 0  # frames the scene still rests (``rest``)
         self._skip = False  # the last frame judged came while resting: ``add`` keeps nothing
         self._clean: deque[float] = deque(maxlen=self.settings.still_frames)  # those then taken as clean
+        self._stored = False  # the statistics are a stored scene's (``from_stored``): not re-summarized
 
     @property
     def still(self) -> bool:
@@ -127,10 +144,10 @@ class SceneReference:
         self._ring[self._next] = frame
         self._next = (self._next + 1) % size
         self.count = min(self.count + 1, size)
-        if self.count < self.settings.warm:
+        if self.count < self.settings.warm or self._stored:
             return
         if self._stats is None:  # just warm: every stripe at once
-            self._start(frame.shape)
+            self._start(frame.shape, _stats(self._ring[: self.count], self.scale))
             return
         stripes = self.settings.stripes
         rows = -(-frame.shape[0] // stripes)
@@ -142,11 +159,11 @@ class SceneReference:
         self._limits(slice(r0, r1))
         self._stripe = (self._stripe + 1) % stripes
 
-    def _start(self, shape: tuple[int, ...]) -> None:
-        """The statistics of the first ``warm`` clean frames, and the limits read from them."""
-        assert self._ring is not None
+    def _start(self, shape: tuple[int, ...], stats: CleanStats) -> None:
+        """The scene's statistics (of the first ``warm`` clean frames, or stored), and the limits read from
+        them."""
         s = self.settings
-        self._stats = _stats(self._ring[: self.count], self.scale)
+        self._stats = stats
         self._labeller = Labeller(self._stats, tolerance=(s.tol_abs, s.tol_rel))
         self._steady = np.zeros(shape, bool)
         # At trust_rate the shifted windows' pixels are the steady ones: the same array, kept once.

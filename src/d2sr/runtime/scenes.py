@@ -1,0 +1,59 @@
+"""``d2sr scene learn`` in the library: a still sensor's scene learned from a clean recording and stored."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from d2sr.atomic import check_out
+from d2sr.errors import InputError
+from d2sr.frames import Reader
+from d2sr.frames.checks import checked_counts, open_input
+from d2sr.runtime.settings import RunSettings
+from d2sr.scene.stored import StoredScene, learn_scene
+
+__all__ = ["check_stored", "learn_recording"]
+
+
+def learn_recording(
+    clean: Path,
+    out: Path,
+    settings: RunSettings | None = None,
+    *,
+    overwrite: bool = False,
+    say: Callable[[str], object] | None = None,
+) -> StoredScene:
+    """Learn the scene of ``clean`` (any recording d2sr reads: its frames must be clean, the sensor still;
+    read as ``settings`` say: depth scale, topic, range) and store it in ``out`` (a ``.npz`` file)."""
+    s = settings if settings is not None else RunSettings()
+    if Path(out).suffix != ".npz":
+        raise InputError(f"{out}: a stored scene is a .npz file", "out")
+    check_out(out, is_dir=False, overwrite=overwrite, inputs=[clean])
+    reader, scale = open_input(clean, s.topic, s.depth_scale, "clean", 1000.0, s.max_range, say)
+    if reader.depth_scale is None and s.depth_scale is None and say is not None:
+        say(f"{clean}: no depth scale given or recorded; the scene is stored at {scale:g} units per metre")
+    frames = lambda: (f.depth for f in checked_counts(reader, scale, "clean frame"))  # noqa: E731
+    stored = learn_scene(frames, scale, str(clean), len(reader))
+    stored.save(out)
+    return stored
+
+
+def check_stored(settings: RunSettings, reader: Reader, scale: float) -> None:
+    """The stored scene ``settings`` name fits the recording (its frames' size and depth scale), checked
+    before any work; nothing to check without one."""
+    if settings.scene_from is None or not settings.scene:
+        return
+    st = StoredScene.load(settings.scene_from)
+    first = next(iter(reader.sample(1)), None)
+    if first is not None and first.depth.shape != st.shape:
+        h, w = first.depth.shape
+        raise InputError(
+            f"{settings.scene_from}: a scene of {st.shape[1]}x{st.shape[0]} frames; the recording's are "
+            f"{w}x{h}", "scene_from"
+        )  # fmt: skip
+    units = 1000.0 if first is not None and first.depth.dtype.kind == "f" else scale
+    if abs(st.depth_scale - units) > 1e-6 * units:
+        raise InputError(
+            f"{settings.scene_from}: a scene at depth scale {st.depth_scale:g}; the recording is at "
+            f"{units:g}", "scene_from"
+        )  # fmt: skip

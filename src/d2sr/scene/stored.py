@@ -1,0 +1,119 @@
+"""A still sensor's scene learned once from a clean recording and stored in one file (``d2sr scene learn``):
+its owner records the room before the other sensors start and uses that scene for days.
+
+The file is a numpy ``.npz`` read with ``allow_pickle=False`` (it holds arrays and one JSON text, never code):
+the per-pixel statistics a scene reference keeps (``CleanStats``), and what they are of: the frames' shape,
+the depth scale, how many clean frames, how far the scene trusts its pixels, and where it came from.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d2sr.atomic import atomic_file
+from d2sr.errors import InputError
+from d2sr.scene.stats import CleanStats, clean_stats
+
+__all__ = ["FORMAT", "StoredScene", "learn_scene"]
+
+FORMAT = "d2sr scene 1"  # what the file says it is
+_ARRAYS = ("median", "nz_median", "lo", "hi", "rate", "mean_err")
+_MAX_SIDE = 8192
+
+
+@dataclass(frozen=True)
+class StoredScene:
+    """A scene learned from ``frames`` clean frames of ``source`` at ``depth_scale`` units per metre."""
+
+    stats: CleanStats
+    depth_scale: float
+    frames: int
+    source: str
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.stats.shape
+
+    def trusted(self, rate: float = 0.9) -> float:
+        """The share of pixels the scene saw return in ``rate`` of its frames (with few frames, few)."""
+        return float(np.mean(self.stats.rate >= rate))
+
+    def save(self, path: Path) -> None:
+        """Write the file atomically (``path`` should end in ``.npz``)."""
+        meta = {
+            "format": FORMAT,
+            "depth_scale": self.depth_scale,
+            "frames": self.frames,
+            "shape": list(self.shape),
+            "source": self.source,
+            "trusted": round(self.trusted(), 4),
+        }
+        arrays: dict[str, Any] = {k: getattr(self.stats, k).astype(np.float32) for k in _ARRAYS}
+        arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+        with atomic_file(Path(path)) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+    @classmethod
+    def load(cls, path: Path) -> StoredScene:
+        """Read a stored scene, or one line saying why the file is not one."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"{path}: no such scene file", "scene_from")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                got = {k: z[k] for k in z.files}
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+            why = type(exc).__name__
+            raise InputError(f"{path}: not a scene file d2sr wrote ({why})", "scene_from") from None
+        meta = _meta(path, got.get("meta"))
+        h, w = meta["shape"]
+        for k in _ARRAYS:
+            a = got.get(k)
+            if a is None or a.dtype != np.float32 or a.shape != (h, w) or not np.isfinite(a).all():
+                raise InputError(f"{path}: its {k} is not a {w}x{h} float32 array", "scene_from")
+        stats = CleanStats(frames=meta["frames"], **{k: np.array(got[k]) for k in _ARRAYS})
+        return cls(stats, float(meta["depth_scale"]), int(meta["frames"]), str(meta["source"]))
+
+
+def _meta(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
+    bad = InputError(f"{path}: not a scene file d2sr wrote (no description of it)", "scene_from")
+    if raw is None or raw.dtype != np.uint8 or raw.ndim != 1 or raw.size > 1 << 16:
+        raise bad
+    try:
+        meta = json.loads(raw.tobytes().decode())
+    except (UnicodeDecodeError, ValueError):
+        raise bad from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise bad
+    shape, scale, frames = meta.get("shape"), meta.get("depth_scale"), meta.get("frames")
+    ok = (
+        isinstance(shape, list)
+        and len(shape) == 2
+        and all(isinstance(v, int) and 0 < v <= _MAX_SIDE for v in shape)
+        and isinstance(scale, (int, float))
+        and not isinstance(scale, bool)
+        and np.isfinite(scale)
+        and scale > 0
+        and isinstance(frames, int)
+        and frames >= 1
+        and isinstance(meta.get("source"), str)
+    )
+    if not ok:
+        raise InputError(f"{path}: its description has the wrong types", "scene_from")
+    return meta
+
+
+def learn_scene(
+    frames: Callable[[], Iterable[np.ndarray]], depth_scale: float, source: str, count: int | None = None
+) -> StoredScene:
+    """A scene from clean frames (``frames`` returns a fresh iterator over uint16 frames each time it is
+    called; at least 3 frames)."""
+    stats = clean_stats(frames, depth_scale, count=count)
+    return StoredScene(stats, float(depth_scale), stats.frames, source)

@@ -1,0 +1,112 @@
+"""A stored scene (d2sr.scene.stored, ``d2sr scene learn``, ``--scene-from``): one file of data, never code;
+refused with one line when it is not one or does not fit the recording; a reference started from it is warm
+at once and still takes lasting change in."""
+
+from __future__ import annotations
+
+import pickle
+
+import cv2
+import numpy as np
+import pytest
+
+from d2sr.errors import InputError
+from d2sr.scene import SceneReference
+from d2sr.scene.stored import StoredScene, learn_scene
+from helpers import d2sr_inprocess
+
+SCALE = 4000.0
+
+
+def _wall(rng: np.random.Generator, shape: tuple[int, int] = (96, 128)) -> np.ndarray:
+    z = 2.0 + np.linspace(0, 1, shape[1])[None].repeat(shape[0], 0) + rng.normal(0, 0.005, shape)
+    z[:8] = 0
+    return np.rint(z * SCALE).astype(np.uint16)
+
+
+def _learned(n: int = 6) -> StoredScene:
+    rng = np.random.default_rng(0)
+    frames = [_wall(rng) for _ in range(n)]
+    return learn_scene(lambda: iter(frames), SCALE, "walls", n)
+
+
+def test_a_stored_scene_round_trips_and_starts_a_reference_warm(tmp_path):
+    stored = _learned()
+    stored.save(tmp_path / "s.npz")
+    back = StoredScene.load(tmp_path / "s.npz")
+    assert (
+        back.shape == (96, 128) and back.frames == 6 and back.depth_scale == SCALE and back.source == "walls"
+    )
+    assert np.array_equal(back.stats.nz_median, stored.stats.nz_median)
+    ref = SceneReference.from_stored(back)
+    rng = np.random.default_rng(1)
+    first = ref.evidence(f := _wall(rng))
+    assert first.ready and not first.usable  # warm; the first frame that matches it shows the sensor still
+    ref.add(f)
+    hit = _wall(rng)
+    hit[40:70, 30:80] -= int(0.04 * SCALE)  # a patch 4 cm near
+    ev = ref.evidence(hit)
+    assert ev.usable and ev.evident and ev.mask[40:70, 30:80].mean() > 0.8
+
+
+def test_a_stored_scene_takes_lasting_change_in_and_is_not_re_summarized(tmp_path):
+    ref = SceneReference.from_stored(_learned())
+    rng = np.random.default_rng(2)
+    chair = np.s_[20:40, 20:60]  # a chair put 30 cm in front of the wall, to stay
+    dense = []
+    for _ in range(40):
+        f = _wall(rng)
+        f[chair] -= int(0.3 * SCALE)
+        ev = ref.evidence(f)
+        dense.append(ev.dense)
+        if not ev.evident:
+            ref.add(f)
+    assert dense[1] > 0.05 and dense[-1] < 0.0005  # deviated, then it is the scene (``persist`` frames)
+
+
+def test_what_is_not_a_stored_scene_is_one_line_and_runs_nothing(tmp_path):
+    ran = tmp_path / "ran"
+
+    class Evil:
+        def __reduce__(self):
+            return (open, (str(ran), "w"))
+
+    bad = {
+        "garbage.npz": b"not a zip at all",
+        "pickle.npz": pickle.dumps(Evil()),
+    }
+    for name, data in bad.items():
+        (tmp_path / name).write_bytes(data)
+    arrays = {
+        k: np.zeros((4, 4), np.float32) for k in ("median", "nz_median", "lo", "hi", "rate", "mean_err")
+    }
+    np.savez(tmp_path / "nometa.npz", **arrays)
+    np.savez(tmp_path / "objects.npz", meta=np.array([{"format": "d2sr scene 1"}], dtype=object), **arrays)
+    for name in ("garbage.npz", "pickle.npz", "nometa.npz", "objects.npz", "missing.npz"):
+        with pytest.raises(InputError) as err:
+            StoredScene.load(tmp_path / name)
+        assert len(str(err.value).splitlines()) == 1 and err.value.setting == "scene_from"
+    assert not ran.exists()
+
+
+def test_learn_then_recover_from_it_and_a_scene_that_does_not_fit_is_refused(tmp_path, weights):
+    rng = np.random.default_rng(3)
+    clean, rec = tmp_path / "clean", tmp_path / "rec"
+    for folder in (clean, rec):
+        folder.mkdir()
+        for i in range(6):
+            cv2.imwrite(str(folder / f"{i:03d}.png"), _wall(rng))
+    code, out, err = d2sr_inprocess("scene", "learn", str(clean), "--depth-scale", "4000", "--out",
+                                    str(tmp_path / "room.npz"))  # fmt: skip
+    assert code == 0 and "scene of 6 clean frames" in out, err
+    args = ["recover", str(rec), "--depth-scale", "4000", "--models", str(weights), "--no-report"]
+    code, _, err = d2sr_inprocess(
+        *args, "--scene-from", str(tmp_path / "room.npz"), "--out", str(tmp_path / "o")
+    )
+    assert code == 0, err
+    code, _, err = d2sr_inprocess(*args[:3], "5000", *args[4:], "--scene-from", str(tmp_path / "room.npz"),
+                                  "--out", str(tmp_path / "p"))  # fmt: skip
+    assert code == 2 and "a scene at depth scale 4000" in err and not (tmp_path / "p").exists()
+    code, _, err = d2sr_inprocess("scene", "learn", str(clean), "--depth-scale", "4000", "--out",
+                                  str(tmp_path / "room.npz"))  # fmt: skip
+    assert code == 2 and "--overwrite" in err  # d2sr's own file: replaced only when asked
