@@ -26,7 +26,7 @@ def _result(name: str, flagged: bool, changed: int, reason: str = "", fill: int 
 
 
 def test_the_report_lists_the_frames_flagged_or_cleared_and_counts_every_invented_return():
-    rep = Report(4000.0, "test")
+    rep = Report("test")
     rep.add(_result("clean", False, 0))
     rep.add(_result("cleared", False, 0, "cleared by scene"))
     for k in range(WORST + 2):
@@ -58,3 +58,27 @@ def test_recover_writes_its_report_in_the_output_and_no_report_leaves_it_out(tmp
     code, _, err = d2sr_inprocess(*args, "--no-report", "--out", str(tmp_path / "b"))
     assert code == 0, err
     assert not (tmp_path / "b" / "report.html").exists()
+
+
+def test_a_recording_s_run_writes_its_report_in_the_run_folder(tmp_path):
+    from d2sr.frames import open_frames
+    from d2sr.runtime.session import Recording, run_recording
+    from d2sr.runtime.settings import LoopSettings, RunSettings
+    from helpers import FakeNet
+
+    src = tmp_path / "rec"
+    src.mkdir()
+    for i in range(4):
+        f = np.full((48, 64), 8000, np.uint16)
+        f[0, 0] = 1 if i == 2 else 8000  # FakeNet flags frame 2
+        cv2.imwrite(str(src / f"{i:03d}.png"), f)
+    recording = Recording(open_frames(src), 4000.0, "rec")
+    plan = LoopSettings(controller="static")
+    run_recording(FakeNet(), recording, tmp_path / "run", RunSettings(scene=False), plan)
+    page = (tmp_path / "run" / "report.html").read_text()
+    assert re.findall(r"<tr><td>([^<]*)</td>", page) == ["002"] and "4 frames; 1 flagged" in page
+    quiet = LoopSettings(controller="static", report=False)
+    run_recording(
+        FakeNet(), Recording(open_frames(src), 4000.0, "rec"), tmp_path / "r2", RunSettings(), quiet
+    )
+    assert not (tmp_path / "r2" / "report.html").exists()

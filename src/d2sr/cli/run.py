@@ -105,6 +105,10 @@ def run(
         ),
     ] = False,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    report: Annotated[
+        bool,
+        typer.Option("--report/--no-report", help="A recording's or a camera's run writes report.html."),
+    ] = True,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,
     overwrite: Overwrite = False,
@@ -126,7 +130,7 @@ def run(
     )  # fmt: skip
     loop = LoopSettings(
         controller=controller, active_frames=active_frames, seed=seed, sensors=sensors, seconds=seconds,
-        moving=moving, trigger=trigger, fill=fill, colour_topic=colour_topic,
+        moving=moving, trigger=trigger, fill=fill, colour_topic=colour_topic, report=report,
     )  # fmt: skip
     with progress_bar() as bar:
         tasks: dict[str, TaskID] = {}

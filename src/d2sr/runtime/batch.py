@@ -315,7 +315,7 @@ def recover_recording(
         RerunLog(wr.rerun, 1, f"d2sr recover {input}") if wr.rerun else nullcontext()
     )
     flagged = repaired = done = used = 0
-    report = Report(scale, f"d2sr recover {input}") if wr.report else None
+    report = Report(f"d2sr recover {input}") if wr.report else None
     report_path: Path | None = None
     with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
         frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))

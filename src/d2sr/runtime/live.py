@@ -21,6 +21,7 @@ from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder
+from d2sr.runtime.report import Report
 from d2sr.runtime.session import RunFiller, live_settings, summarize
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.runtime.shots import Shot, host_arrival, rgbd_shots
@@ -155,6 +156,7 @@ def run_live(
         ctrl = make_controller(controller, TOTAL_FRAMES, ls.active_frames, seed=ls.seed)
         one = SensorLoop(backend, ctrl, None, folder.sink(0), settings=live_settings(s))
         closed = ClosedLoop(one, actuator) if actuator is not None else None
+        report = Report(f"d2sr run {source}") if ls.report else None
         filler = RunFiller(folder, intrinsics)
         for shot in shots:
             if shot.depth is None:  # colour alone: a moment the laser skipped
@@ -165,6 +167,8 @@ def run_live(
             cap = Capture(shot.depth, shot.scale)
             res = one.process(cap) if closed is None else closed.process(cap, shot.arrival)
             stats.add(res)
+            if report is not None:
+                report.add(res)
             if on_result is not None:
                 on_result(0, res)
             if fill:
@@ -172,5 +176,7 @@ def run_live(
         summary = summarize(logged, [stats])
         if fill:
             summary["synthesized"] = [filler.made]
+        if report is not None:
+            report.write(folder.partial / "report.html")
         folder.finish(summary)
     return summary

@@ -38,9 +38,8 @@ class _Row:
 
 @dataclass
 class Report:
-    """Collects ``add``-ed results of one recording (``scale`` units per metre) and writes ``report.html``."""
+    """Collects ``add``-ed results of one recording (each in its own units) and writes ``report.html``."""
 
-    scale: float
     title: str = "d2sr"
     frames: int = 0
     flagged: int = 0
@@ -48,14 +47,16 @@ class Report:
     filled_px: int = 0
     rows: list[_Row] = field(default_factory=list)
     more: int = 0  # rows past ``ROWS``
-    _worst: list[tuple[int, int, str, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    _worst: list[tuple[int, int, str, float, np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=list
+    )
 
     def add(self, res: Result) -> None:
         """A result, in frame order: counted, listed if flagged or cleared, kept if among the most changed."""
         self.frames += 1
         self.flagged += res.flagged
         raw, out, mask = res.capture.frame.depth, res.depth, res.mask
-        metres = 1.0 if raw.dtype.kind == "f" else self.scale
+        metres = 1.0 if raw.dtype.kind == "f" else float(res.capture.scale)
         n = int(np.count_nonzero(mask))
         empty = ~(raw > 0) if raw.dtype.kind == "f" else raw == 0
         filled = int(np.count_nonzero(mask & empty & (out > 0)))
@@ -72,7 +73,7 @@ class Report:
         else:
             self.more += 1
         if n:
-            item = (n, -self.frames, res.capture.name, np.array(raw), np.array(out), np.array(mask))
+            item = (n, -self.frames, res.capture.name, metres, np.array(raw), np.array(out), np.array(mask))
             if len(self._worst) < WORST:
                 heapq.heappush(self._worst, item)
             elif item[:2] > self._worst[0][:2]:
@@ -104,8 +105,8 @@ class Report:
         shown = sorted(self._worst, key=lambda w: (w[0], w[1]), reverse=True)  # most changed first
         figures = "".join(
             f"<h3>{e(name)}: {n} pixels repaired</h3><img alt='{e(name)}' src='data:image/png;base64,"
-            f"{self._figure(raw, out, mask)}'>"
-            for n, _, name, raw, out, mask in shown
+            f"{self._figure(raw, out, mask, per_m)}'>"
+            for n, _, name, per_m, raw, out, mask in shown
         )
         style = "body{font-family:sans-serif;margin:2em}td,th{border:1px solid #ccc;padding:2px 6px}"
         return (
@@ -120,14 +121,13 @@ class Report:
     def write(self, path: Path) -> None:
         atomic_write(path, self.html())
 
-    def _figure(self, raw: np.ndarray, out: np.ndarray, mask: np.ndarray) -> str:
+    def _figure(self, raw: np.ndarray, out: np.ndarray, mask: np.ndarray, per_m: float) -> str:
         """Before, after, mask and difference, colour bars in metres: a PNG, base64."""
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        per_m = 1.0 if raw.dtype.kind == "f" else self.scale
         before = np.nan_to_num(raw.astype(np.float32)) / per_m
         after = np.nan_to_num(out.astype(np.float32)) / per_m
         valid = before[before > 0]

@@ -19,6 +19,7 @@ from d2sr.frames.base import Frames, Intrinsics, to_metres, to_units
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.output import RunFolder, SynthFrame
+from d2sr.runtime.report import Report
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.runtime.sources import RoomTrigger, run_room
 from d2sr.runtime.stats import RunStats
@@ -251,6 +252,7 @@ def run_recording(
         )
         filler = RunFiller(folder, intrinsics)
         done = folder.done
+        report = Report(f"d2sr run {source}") if ls.report else None
         # As recover does: the scene first learns from the recording's frames ahead (the sensor's own).
         loop.prime([Capture(f, scale) for f in itertools.islice(reader, s.prime)])
         frames = interleave(reader, colours) if colours is not None else ((f, None, 0) for f in reader)
@@ -267,6 +269,8 @@ def run_recording(
             else:
                 res = loop.process(cap)
                 stats.add(res)
+                if report is not None:
+                    report.add(res)
                 if on_result is not None:
                     on_result(0, res)
                 if fill:
@@ -277,6 +281,8 @@ def run_recording(
         summary = summarize(logged, [stats]) | {"resumed_frames": len(done)}
         if fill:
             summary["synthesized"] = [filler.made]
+        if report is not None:  # what this run (since a resume, the frames after it) did
+            report.write(folder.partial / "report.html")
         folder.finish(summary)
     return summary
 
