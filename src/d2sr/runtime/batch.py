@@ -27,16 +27,16 @@ from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames import Frame, Intrinsics, Reader, detect_format, open_colours
+from d2sr.frames import Frame, Intrinsics, detect_format, open_colours
 from d2sr.frames.base import to_metres, to_units
-from d2sr.frames.checks import checked, checked_counts, open_input
+from d2sr.frames.checks import checked, checked_counts
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
 from d2sr.runtime.loop import Capture, Result, SensorLoop
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
 from d2sr.runtime.report import Report
-from d2sr.runtime.scenes import check_stored
+from d2sr.runtime.scenes import open_recording
 from d2sr.runtime.settings import RunSettings
 
 __all__ = [
@@ -201,7 +201,7 @@ def detect_recording(
     check_out(out, is_dir=False, overwrite=overwrite, inputs=_inputs(input))
     reuse_freed_memory()
     net = open_models(model_settings(s), recovery=False)
-    reader, scale = _read(input, s, say)
+    reader, scale = open_recording(input, s, say or _quiet)
     judge = s.model_copy(update={"repair": "none"})
     # exact_scores: the CSV's scores serve any threshold the user picks later
     loop = SensorLoop(
@@ -295,7 +295,7 @@ def recover_recording(
         net = open_models(models)
     if net.name != "onnxruntime":
         workers = 1
-    reader, scale = _read(input, s, say)
+    reader, scale = open_recording(input, s, say or _quiet)
     filler = None
     if wr.colour_topic is not None:
         open_colours(Path(input), wr.colour_topic)  # a topic the bag has, of images
@@ -354,14 +354,6 @@ def recover_recording(
         used if scene else None,
         report_path,
     )
-
-
-def _read(input: Path, s: RunSettings, say: Callable[[str], object] | None) -> tuple[Reader, float]:
-    """The recording's reader and its depth scale, as ``s`` says (topic, scale, range), and the stored scene
-    it names checked against it."""
-    reader, scale = open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say or _quiet)
-    check_stored(s, reader, scale)
-    return reader, scale
 
 
 def _inputs(input: Path) -> list[Path]:

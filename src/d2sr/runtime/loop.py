@@ -305,16 +305,7 @@ class SensorLoop:
         if self._stored is None:
             self._stored = StoredScene.load(self.settings.scene_from)
         st = self._stored
-        if st.shape != shape:
-            raise InputError(
-                f"{self.settings.scene_from}: a scene of {st.shape[1]}x{st.shape[0]} frames; these are "
-                f"{shape[1]}x{shape[0]}", "scene_from"
-            )  # fmt: skip
-        if abs(st.depth_scale - scale) > 1e-6 * scale:
-            raise InputError(
-                f"{self.settings.scene_from}: a scene at depth scale {st.depth_scale:g}; these frames are at "
-                f"{scale:g}", "scene_from"
-            )  # fmt: skip
+        st.check_fits(shape, scale, self.settings.scene_from)
         return SceneReference.from_stored(st, self.settings.scene_settings)
 
     def _weigh(self, raw: np.ndarray, flagged: bool, ev: Evidence) -> bool:

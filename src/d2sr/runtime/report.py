@@ -72,12 +72,10 @@ class Report:
             self.rows.append(row)
         else:
             self.more += 1
-        if n:
+        full = len(self._worst) >= WORST
+        if n and (not full or (n, -self.frames) > self._worst[0][:2]):  # copied only when kept
             item = (n, -self.frames, res.capture.name, metres, np.array(raw), np.array(out), np.array(mask))
-            if len(self._worst) < WORST:
-                heapq.heappush(self._worst, item)
-            elif item[:2] > self._worst[0][:2]:
-                heapq.heapreplace(self._worst, item)
+            (heapq.heapreplace if full else heapq.heappush)(self._worst, item)
 
     def html(self) -> str:
         """The report, one self-contained page."""

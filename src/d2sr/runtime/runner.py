@@ -12,11 +12,11 @@ from typing import Any
 from d2sr.atomic import check_out
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import open_colours
-from d2sr.frames.checks import Checked, open_input
+from d2sr.frames.checks import Checked
 from d2sr.runtime.live import CAMERAS, check_camera, run_live
 from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
-from d2sr.runtime.scenes import check_stored
+from d2sr.runtime.scenes import open_recording
 from d2sr.runtime.settings import LoopSettings, RunSettings
 
 __all__ = ["run"]
@@ -64,8 +64,7 @@ def run(
         if is_live:
             return run_live(net, out, source, s, ls, on_result=on_result)
         path = Path(source)
-        reader, scale = open_input(path, s.topic, s.depth_scale, "input", 1000.0, s.max_range)
-        check_stored(s, reader, scale)
+        reader, scale = open_recording(path, s)
         colours = open_colours(path, ls.colour_topic) if ls.colour_topic is not None else None
         recording = session.Recording(Checked(reader, scale), scale, str(path.resolve()), colours)
         what = f"{path.name} ({net.name})"

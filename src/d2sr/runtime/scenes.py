@@ -12,7 +12,7 @@ from d2sr.frames.checks import checked_counts, open_input
 from d2sr.runtime.settings import RunSettings
 from d2sr.scene.stored import StoredScene, learn_scene
 
-__all__ = ["check_stored", "learn_recording"]
+__all__ = ["check_stored", "learn_recording", "open_recording"]
 
 
 def learn_recording(
@@ -45,15 +45,17 @@ def check_stored(settings: RunSettings, reader: Reader, scale: float) -> None:
         return
     st = StoredScene.load(settings.scene_from)
     first = next(iter(reader.sample(1)), None)
-    if first is not None and first.depth.shape != st.shape:
-        h, w = first.depth.shape
-        raise InputError(
-            f"{settings.scene_from}: a scene of {st.shape[1]}x{st.shape[0]} frames; the recording's are "
-            f"{w}x{h}", "scene_from"
-        )  # fmt: skip
-    units = 1000.0 if first is not None and first.depth.dtype.kind == "f" else scale
-    if abs(st.depth_scale - units) > 1e-6 * units:
-        raise InputError(
-            f"{settings.scene_from}: a scene at depth scale {st.depth_scale:g}; the recording is at "
-            f"{units:g}", "scene_from"
-        )  # fmt: skip
+    if first is not None:  # frames in metres are judged in millimetres (``loop._in_units``)
+        units = 1000.0 if first.depth.dtype.kind == "f" else scale
+        st.check_fits(first.depth.shape, units, settings.scene_from)
+
+
+def open_recording(
+    input: Path, settings: RunSettings, say: Callable[[str], object] | None = None
+) -> tuple[Reader, float]:
+    """A recording's reader and depth scale as ``settings`` say (topic, scale, range; ``open_input`` prints
+    through ``say``), with the stored scene they name checked against it before any work."""
+    s = settings
+    reader, scale = open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say)
+    check_stored(s, reader, scale)
+    return reader, scale

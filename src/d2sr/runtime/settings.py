@@ -68,25 +68,12 @@ class RunSettings(Settings):
     threads: int | None = Field(None, ge=1, description="onnxruntime threads per model [all cores].")
     int8: bool = Field(False, description="The int8 models (d2sr export --int8).")
 
-    @field_validator("model")
+    @field_validator("model", "backend", "repair")
     @classmethod
-    def _known_model(cls, v: str) -> str:
-        if v not in REPAIR_MODELS:
-            raise ValueError(f"unknown {v!r}; choose from {', '.join(REPAIR_MODELS)}")
-        return v
-
-    @field_validator("backend")
-    @classmethod
-    def _known_backend(cls, v: str) -> str:
-        if v not in BACKENDS:
-            raise ValueError(f"unknown {v!r}; choose from {', '.join(BACKENDS)}")
-        return v
-
-    @field_validator("repair")
-    @classmethod
-    def _known_repair(cls, v: str) -> str:
-        if v not in REPAIR:
-            raise ValueError(f"must be one of {', '.join(REPAIR)}, got {v!r}")
+    def _known(cls, v: str, info: ValidationInfo) -> str:
+        choices = {"model": REPAIR_MODELS, "backend": BACKENDS, "repair": REPAIR}[str(info.field_name)]
+        if v not in choices:
+            raise ValueError(f"unknown {v!r}; choose from {', '.join(choices)}")
         return v
 
     @field_validator("models", "scene_from", mode="before")

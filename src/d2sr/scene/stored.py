@@ -45,6 +45,20 @@ class StoredScene:
         """The share of pixels the scene saw return in ``rate`` of its frames (with few frames, few)."""
         return float(np.mean(self.stats.rate >= rate))
 
+    def check_fits(self, shape: tuple[int, ...], depth_scale: float, name: object) -> None:
+        """One line (an ``InputError`` naming ``name``, the file) unless frames of ``shape`` at
+        ``depth_scale`` units per metre are this scene's."""
+        if self.shape != shape:
+            raise InputError(
+                f"{name}: a scene of {self.shape[1]}x{self.shape[0]} frames; these frames are "
+                f"{shape[1]}x{shape[0]}", "scene_from"
+            )  # fmt: skip
+        if abs(self.depth_scale - depth_scale) > 1e-6 * depth_scale:
+            raise InputError(
+                f"{name}: a scene at depth scale {self.depth_scale:g}; these frames are at {depth_scale:g}",
+                "scene_from",
+            )
+
     def save(self, path: Path) -> None:
         """Write the file atomically (``path`` should end in ``.npz``)."""
         meta = {
