@@ -83,6 +83,25 @@ def test_repair_frame_changes_only_the_mask_and_takes_the_scene_where_it_knows()
     assert np.array_equal(same, metres) and not none.any()  # metres in, metres out, nothing to repair
 
 
+def test_a_repair_that_moves_no_return_fills_no_hole():
+    """Holes alone are the sensor's own (an L515's flicker): a frame whose repair would only fill them is
+    left as it is; once the repair also moves a return, its holes are filled with it."""
+    frame = np.full((40, 48), 8000, np.uint16)
+    frame[::7, ::5] = 0  # scattered holes, as a sensor's own flicker leaves them
+    holes = frame == 0
+    pred = np.full(frame.shape, 2.0, np.float32)
+    out, repaired = repair_frame(frame, pred, holes, 4000.0)
+    assert np.array_equal(out, frame) and not repaired.any()
+    for dtype, scale in ((np.uint16, 4000.0), (np.float32, 1.0)):
+        bad = frame.astype(np.float32) / 4000 if dtype == np.float32 else frame.copy()
+        bad[20:30, 20:30] = 6000 if dtype == np.uint16 else 1.5  # a patch read 50 cm near
+        mask = holes.copy()
+        mask[20:30, 20:30] = True
+        out, repaired = repair_frame(bad, pred, mask, scale)
+        assert repaired[20:30, 20:30].all() and repaired[holes].all()
+        assert (out[holes] > 0).all()  # filled with the rest of the repair
+
+
 def test_passes_stop_once_a_pass_finds_nothing_new():
     calls = []
 

@@ -172,12 +172,17 @@ def repair_frame(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
-    1); the input itself everywhere else, bit for bit. With ``scene``: its ``keep`` pixels are out of the
-    mask (and so trusted by the guard), and its ``fill`` depths are written past the guard's model-error
-    margin; only those that change the pixel count as repaired."""
+    1); the input itself everywhere else, bit for bit. A model repair that would move no return fills no
+    hole either: the frame's holes are then the sensor's own. With ``scene``: its ``keep`` pixels are out
+    of the mask (and so trusted by the guard), and its ``fill`` depths are written past the guard's
+    model-error margin; only those that change the pixel count as repaired."""
     if scene is not None:
         mask = mask & ~scene.keep
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
+    if not (m & (frames > 0)).any():
+        # Holes alone are no sign of interference: an L515 loses ~18,000 returns a frame to its own
+        # flicker, so a repair that would move no return fills no hole either (lab/notes/decisions.md).
+        m = np.zeros_like(m)
     written = m
     if scene is not None:
         p, written = np.where(scene.fill, scene.depth, p), m | scene.fill
