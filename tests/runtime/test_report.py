@@ -38,6 +38,9 @@ def test_the_report_lists_the_frames_flagged_or_cleared_and_counts_every_invente
     images = re.findall(r"base64,([A-Za-z0-9+/=]+)'", page)
     assert len(images) == WORST  # the most changed only, most first
     assert re.findall(r"<h3>([^:]*):", page) == [f"hit{k}" for k in range(WORST + 1, 1, -1)]
+    nan = _result("scene", True, 5, "scene")
+    rep.add(Result(nan.capture, float("nan"), True, nan.depth, nan.mask, 0, 0, reason="scene"))
+    assert "<tr><td>scene</td><td>-</td>" in rep.html()  # the detector was not run: no "nan" shown
     for b64 in images:
         png = cv2.imdecode(np.frombuffer(base64.b64decode(b64), np.uint8), cv2.IMREAD_COLOR)
         assert png is not None and png.shape[1] > png.shape[0] > 100

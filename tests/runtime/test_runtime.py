@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import re
 from itertools import pairwise
 from pathlib import Path
 
@@ -248,6 +249,12 @@ def test_run_sim_fill_writes_every_slot_and_leaves_the_real_frames_as_they_were(
     plain = run_sim(net, tmp_path / "plain", RunSettings(), LoopSettings(**kw))
     filled = run_sim(net, tmp_path / "filled", RunSettings(), LoopSettings(fill=True, **kw))
     slots = 2 * 30
+    # report.html covers every sensor's real frames, each named by its sensor and slot
+    page = (tmp_path / "plain" / "report.html").read_text()
+    assert "d2sr run sim (2 sensors)" in page and f"{plain['all']['frames']} frames;" in page
+    assert all(
+        r.startswith(("sensor 0, slot", "sensor 1, slot")) for r in re.findall(r"<tr><td>([^<]*)<", page)
+    )
     for i in range(2):
         real = sorted(p.name for p in (tmp_path / "plain" / f"sensor{i}" / "depth").glob("*.png"))
         out = tmp_path / "filled" / f"sensor{i}"

@@ -107,7 +107,10 @@ def run(
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     report: Annotated[
         bool,
-        typer.Option("--report/--no-report", help="A recording's or a camera's run writes report.html."),
+        typer.Option(
+            "--report/--no-report",
+            help="Write report.html into the run folder: what was flagged and repaired, and why.",
+        ),
     ] = True,
     max_range: MaxRange = PLAUSIBLE_M[1],
     rerun: RerunOpt = None,

@@ -51,8 +51,10 @@ class Report:
         default_factory=list
     )
 
-    def add(self, res: Result) -> None:
-        """A result, in frame order: counted, listed if flagged or cleared, kept if among the most changed."""
+    def add(self, res: Result, label: str | None = None) -> None:
+        """A result, in frame order: counted, listed if flagged or cleared, kept if among the most changed.
+        ``label``: how the page names the frame (default: its name; a run of several sensors names each)."""
+        name = res.capture.name if label is None else label
         self.frames += 1
         self.flagged += res.flagged
         raw, out, mask = res.capture.frame.depth, res.depth, res.mask
@@ -65,16 +67,14 @@ class Report:
         if not (res.flagged or res.reason or n):
             return
         diff = np.abs(out[mask].astype(np.float64) - np.nan_to_num(raw[mask].astype(np.float64))) / metres
-        row = _Row(
-            res.capture.name, res.score, res.flagged, res.reason, n, filled, float(diff.max(initial=0))
-        )
+        row = _Row(name, res.score, res.flagged, res.reason, n, filled, float(diff.max(initial=0)))
         if len(self.rows) < ROWS:
             self.rows.append(row)
         else:
             self.more += 1
         full = len(self._worst) >= WORST
         if n and (not full or (n, -self.frames) > self._worst[0][:2]):  # copied only when kept
-            item = (n, -self.frames, res.capture.name, metres, np.array(raw), np.array(out), np.array(mask))
+            item = (n, -self.frames, name, metres, np.array(raw), np.array(out), np.array(mask))
             (heapq.heapreplace if full else heapq.heappush)(self._worst, item)
 
     def html(self) -> str:
@@ -88,10 +88,10 @@ class Report:
             "<p>reason: <b>detector</b>, its score reached the threshold; <b>scene</b>, the sensor's own "
             "scene found fresh interference; <b>detector+scene</b>, both; <b>cleared by scene</b>, the score "
             "reached the threshold but the frame matches the sensor's clean frames, so it was left as it "
-            "was.</p>"
+            "was. A score of <b>-</b>: the scene's evidence decided alone and the detector was not run.</p>"
         )
         cells = "".join(
-            f"<tr><td>{e(r.name)}</td><td>{r.score:.3f}</td><td>{int(r.flagged)}</td><td>{e(r.reason)}</td>"
+            f"<tr><td>{e(r.name)}</td><td>{_score(r.score)}</td><td>{int(r.flagged)}</td><td>{e(r.reason)}</td>"
             f"<td>{r.repaired}</td><td>{r.filled}</td><td>{r.largest_m:.3f}</td></tr>"
             for r in self.rows
         )
@@ -151,3 +151,8 @@ class Report:
         fig.savefig(buf, format="png", dpi=72, metadata={"Software": "d2sr"})
         plt.close(fig)
         return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _score(score: float) -> str:
+    """The detector's score as the table shows it; "-" where it was not run (NaN)."""
+    return "-" if np.isnan(score) else f"{score:.3f}"

@@ -49,9 +49,9 @@ def run_sim(
     """``loop_settings.sensors`` simulated L515s in one room, each its own loop (``settings``: its repair
     and threshold; the scene is not judged); returns the summary (per sensor and all together). With
     ``out``, every sensor's frames, masks and log are written (a rerun starts clean: the world's state is
-    not resumable). With its ``fill``: every slot without a frame (the laser off, or a frame dropped) is
-    synthesized from the sensor's last frame and its odometry (``d2sr.synth``) and written with the others
-    (needs ``out``)."""
+    not resumable), and report.html over all sensors (``loop_settings.report``). With its ``fill``: every
+    slot without a frame (the laser off, or a frame dropped) is synthesized from the sensor's last frame and
+    its odometry (``d2sr.synth``) and written with the others (needs ``out``)."""
     s = settings if settings is not None else RunSettings()
     ls = loop_settings if loop_settings is not None else LoopSettings()
     controller, sensors, seconds, active_frames = ls.controller, ls.sensors, ls.seconds, ls.active_frames
@@ -80,6 +80,9 @@ def run_sim(
     folder = RunFolder(out, logged, resumable=False, fill=fill) if out is not None else None
     fillers = [Filler(rig_intrinsics(rig)) for _ in range(sensors)] if fill else []
     synthesized = [0] * sensors
+    report = (
+        Report(f"d2sr run sim ({sensors} sensors)") if ls.report and folder is not None and render else None
+    )
     with folder or contextlib.nullcontext():
         loops = [
             SensorLoop(
@@ -94,6 +97,8 @@ def run_sim(
         for ev, res in run_room(room, loops, seconds, progress):
             if res is not None:
                 stats[ev.sensor].add(res)
+                if report is not None:
+                    report.add(res, f"sensor {ev.sensor}, slot {res.capture.name}")
                 if on_result is not None:
                     on_result(ev.sensor, res)
             if fill and folder is not None:
@@ -108,6 +113,8 @@ def run_sim(
         if fill:
             summary["synthesized"] = synthesized
         if folder is not None:
+            if report is not None:
+                report.write(folder.partial / "report.html")
             folder.finish(summary)
     return summary
 

@@ -117,7 +117,7 @@ class LoopSettings(Settings):
     trigger: str | None = Field(None, description="live: the trigger line (a d2sr.triggers spec).")
     fill: bool = Field(False, description="Also write a frame for every slot the laser skipped.")
     colour_topic: str | None = Field(None, description="A bag's colour stream, for fill.")
-    report: bool = Field(True, description="Write report.html into the run folder (a recording or a camera).")
+    report: bool = Field(True, description="Write report.html into the run folder (every source).")
 
     @field_validator("controller")
     @classmethod
