@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,realsense,train,viewer,triggers,ros2]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,realsense,train,viewer,triggers,ros2,fleet]'
 	# OrbbecSDK v2's wheel asks for numpy<2 and opencv-python; its module runs with what is installed.
 	$(BIN)/python -m pip install --quiet --no-deps 'pyorbbecsdk2>=2.1'
 	@touch $(STAMP)

@@ -61,7 +61,7 @@ LAYERS = {
     "sim": 5, "synth": 5, "triggers": 5,
     "contract": 6,
     "runtime": 7,
-    "models": 8, "ros2": 8,
+    "models": 8, "ros2": 8, "fleet": 8,
     "train": 9,
     "eval": 10,
     "cli": 11,

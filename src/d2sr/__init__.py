@@ -9,6 +9,8 @@ The library in a few names (``docs/api.md`` has runnable examples):
 - ``recover_recording(input, out, settings)``, ``detect_recording(input, out, settings)``: a recording in,
   a recording out (what ``d2sr recover`` and ``d2sr detect`` run); ``fill_recording(input, out,
   active_frames, ...)``: the frames a duty-cycled laser skipped, synthesized (``d2sr fill``).
+- ``recover_fleet(recordings, out, settings, cluster=Cluster(workers=2))``: many recordings repaired on Ray,
+  each as ``recover_recording`` repairs it (``d2sr fleet``; the ``fleet`` extra).
 - ``open_frames(path)``: read any supported recording; ``make_controller(name, ...)``: a de-synchronization
   controller on its own.
 - ``D2SRError`` and its kinds ``InputError``, ``ConfigError``, ``OutputError``: what d2sr raises on purpose.
@@ -29,6 +31,8 @@ _WHERE = {
     "Repaired": "d2sr.runtime.pipeline",
     "Window": "d2sr.runtime.pipeline",
     "recover_recording": "d2sr.runtime.batch",
+    "recover_fleet": "d2sr.fleet",
+    "Cluster": "d2sr.fleet",
     "detect_recording": "d2sr.runtime.batch",
     "Summary": "d2sr.runtime.batch",
     "Written": "d2sr.runtime.batch",
@@ -43,6 +47,7 @@ _WHERE = {
 }
 
 __all__ = [
+    "Cluster",
     "ConfigError",
     "D2SRError",
     "InputError",
@@ -58,6 +63,7 @@ __all__ = [
     "fill_recording",
     "make_controller",
     "open_frames",
+    "recover_fleet",
     "recover_recording",
     "repair",
 ]
@@ -65,6 +71,7 @@ __all__ = [
 if TYPE_CHECKING:
     from d2sr.desync import make_controller
     from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
+    from d2sr.fleet import Cluster, recover_fleet
     from d2sr.frames import open_frames
     from d2sr.runtime.batch import Summary, Written, detect_recording, recover_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair

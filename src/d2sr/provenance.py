@@ -16,13 +16,23 @@ import platform
 import shlex
 import subprocess
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
 from d2sr.version import WEIGHTS, __version__
 
-__all__ = ["KEYS", "MADE_BY", "command_line", "cpu", "git_commit", "model_hashes", "record", "stamp"]
+__all__ = [
+    "KEYS",
+    "MADE_BY",
+    "command_as",
+    "command_line",
+    "cpu",
+    "git_commit",
+    "model_hashes",
+    "record",
+    "stamp",
+]
 
 MADE_BY = "made_by"  # the key heading every JSON file d2sr writes ("d2sr <version>"): how it knows its own
 # The keys ``record`` writes; a result holding at least "command" and "commit" is traceable.
@@ -65,11 +75,25 @@ def git_commit() -> str:
     return commit
 
 
+_ARGV: list[Sequence[str]] = []  # ``command_as``'s, innermost last
+
+
+@contextlib.contextmanager
+def command_as(argv: Sequence[str]) -> Iterator[None]:
+    """Record ``argv`` as the command (instead of this process's ``sys.argv``) while the block runs: a
+    fleet's worker process writes what the user's ``d2sr fleet`` command made, not the worker's own argv."""
+    _ARGV.append(list(argv))
+    try:
+        yield
+    finally:
+        _ARGV.pop()
+
+
 def command_line(argv: Sequence[str] | None = None) -> str:
     """The command as a user would type it again: ``d2sr ...`` for the CLI, ``python SCRIPT ...`` for a
     script (its path relative to the checkout), ``python -m PACKAGE.MODULE ...`` for a module of a package
     in the checkout (the lab's, run from its root)."""
-    argv = list(sys.argv if argv is None else argv)
+    argv = list(argv if argv is not None else _ARGV[-1] if _ARGV else sys.argv)
     if not argv:
         return ""
     head, rest = argv[0], argv[1:]

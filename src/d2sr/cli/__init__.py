@@ -13,7 +13,21 @@ from typing import Annotated, NoReturn
 
 import typer
 
-from d2sr.cli import bench, data, desync, evaluate, fill, ros2, run, scenes, show, stages, train, trigger
+from d2sr.cli import (
+    bench,
+    data,
+    desync,
+    evaluate,
+    fill,
+    fleet,
+    ros2,
+    run,
+    scenes,
+    show,
+    stages,
+    train,
+    trigger,
+)
 from d2sr.errors import D2SRError
 from d2sr.ui import console, flush_warnings
 from d2sr.version import __version__
@@ -48,6 +62,7 @@ app.add_typer(scene_app, name="scene")
 COMMANDS: dict[str, Callable[..., None]] = {
     "detect": stages.detect,
     "recover": stages.recover,
+    "fleet": fleet.fleet,
     "fill": fill.fill,
     "run": run.run,
     "ros2": ros2.ros2,
@@ -112,6 +127,7 @@ EXTRAS = {
     "onnxruntime": "edge",
     "pyrealsense2": "realsense",
     "rerun": "viewer",
+    "ray": "fleet",
 }
 
 

@@ -27,7 +27,7 @@ from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.colour import PAIR_NS, decode_colour
 from d2sr.frames.png import decode_png, encode_png
-from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _bag_root, _open, _stamp, name_data_file
+from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _open, _stamp, bag_root, name_data_file
 
 __all__ = ["CONFIDENCE", "MASK", "REPAIRED", "BagCopy", "Synthesis"]
 
@@ -101,7 +101,7 @@ class BagCopy:
         if self.ros1:
             self.bag: Writer1 | Writer2 = Writer1(self.tmp)
         else:
-            self.bag = Writer2(self.tmp, version=9, storage_plugin=_storage(_bag_root(src)))
+            self.bag = Writer2(self.tmp, version=9, storage_plugin=_storage(bag_root(src)))
         self.bag.open()
         self.conns = {c.id: self._copy_connection(c) for c in self.reader.connections}
         kind = next(c.msgtype for c in self.reader.connections if c.topic == self.topic)

@@ -28,7 +28,7 @@ from d2sr.frames.colour import decode_colour
 from d2sr.frames.encoded import check_pixels
 from d2sr.frames.png import decode_png, encode_png
 
-__all__ = ["BagColours", "BagReader", "Ros1Writer", "Ros2Writer", "bag_topics", "is_ros2_bag"]
+__all__ = ["BagColours", "BagReader", "Ros1Writer", "Ros2Writer", "bag_root", "bag_topics", "is_ros2_bag"]
 
 IMAGE = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 INFO = "sensor_msgs/msg/CameraInfo"
@@ -42,7 +42,7 @@ def is_ros2_bag(path: Path) -> bool:
     return path.is_dir() and (path / "metadata.yaml").is_file()
 
 
-def _bag_root(path: Path) -> Path:
+def bag_root(path: Path) -> Path:
     """ROS 2 bags are folders; accept the .db3/.mcap file inside one as well."""
     if path.suffix in (".db3", ".mcap") and path.is_file() and (path.parent / "metadata.yaml").is_file():
         return path.parent
@@ -51,7 +51,7 @@ def _bag_root(path: Path) -> Path:
 
 def _open(path: Path) -> AnyReader:
     try:
-        reader = AnyReader([_bag_root(path)], default_typestore=_TS2)
+        reader = AnyReader([bag_root(path)], default_typestore=_TS2)
         reader.open()
     except (AnyReaderError, OSError, ValueError, KeyError, struct.error) as exc:
         raise InputError(

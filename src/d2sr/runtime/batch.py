@@ -98,11 +98,12 @@ def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Ite
             yield running.popleft().result()
 
 
-def repair_workers() -> tuple[int, int | None]:
-    """(frames repaired at once, onnxruntime threads each): on 2 cores, two frames on one thread each
-    repair 1.4-1.5x the frames a second of one frame on two (the guard and write-back run on one core, and
-    the model scales poorly). torch has threads of its own: one frame at a time."""
-    cores = os.cpu_count() or 1
+def repair_workers(cores: int | None = None) -> tuple[int, int | None]:
+    """(frames repaired at once, onnxruntime threads each) on ``cores`` (default: the machine's): on 2
+    cores, two frames on one thread each repair 1.4-1.5x the frames a second of one frame on two (the guard
+    and write-back run on one core, and the model scales poorly). torch has threads of its own: one frame at
+    a time."""
+    cores = cores if cores is not None else os.cpu_count() or 1
     workers = min(cores, 4)
     return workers, (cores // workers if workers > 1 else None)
 
@@ -249,12 +250,14 @@ def recover_recording(
     *,
     progress: Progress | None = None,
     say: Callable[[str], object] | None = None,
+    cores: int | None = None,
 ) -> Summary:
     """Repair a recording as ``settings`` say: only the frames the detector flags (with ``scene``, weighed
     against the still sensor's own scene), or every frame (``repair="all"``); the scene's own depth where it
     is trusted (``RunSettings.repairs_scene``); the recording's first ``prime`` frames primed into the
-    scene. ``written``: how the output is written (``Written``). Frames that are not flagged (unless every
-    frame is repaired) come out bit for bit as they went in."""
+    scene. ``written``: how the output is written (``Written``); ``cores``: how many it may use (default:
+    the machine's; the output is the same). Frames that are not flagged (unless every frame is repaired)
+    come out bit for bit as they went in."""
     from d2sr.runtime.viewer import LIVE, RerunLog
 
     s = settings if settings is not None else RunSettings()
@@ -282,7 +285,9 @@ def recover_recording(
             option="--rerun",
         )
     reuse_freed_memory()
-    workers, threads = repair_workers()
+    if cores is not None and cores < 1:
+        raise ConfigError(f"cores must be at least 1, got {cores}", "cores")
+    workers, threads = repair_workers(cores)
     # Repairing every frame, the scene's verdicts would go unused: it is judged only for its repair.
     scene_repair = s.repairs_scene
     scene = s.scene and (not every or scene_repair)
@@ -359,9 +364,9 @@ def recover_recording(
 def _inputs(input: Path) -> list[Path]:
     """What an output may not be, lie in or hold: the input, and a ROS 2 bag's whole folder when the input
     names the .db3/.mcap file inside it."""
-    from d2sr.frames.rosbag import _bag_root
+    from d2sr.frames.rosbag import bag_root
 
-    return list(dict.fromkeys([Path(input), _bag_root(Path(input))]))
+    return list(dict.fromkeys([Path(input), bag_root(Path(input))]))
 
 
 def _out_format(input: Path, format: str) -> str:

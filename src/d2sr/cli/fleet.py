@@ -1,0 +1,119 @@
+"""``d2sr fleet``: options parsed here, the work done by ``d2sr.fleet.recover_fleet`` on Ray."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from d2sr.cli.common import (
+    BackendOpt,
+    MaskLogit,
+    MaxRange,
+    ModelDir,
+    ModelName,
+    Overwrite,
+    Passes,
+    PrimeOpt,
+    Scale,
+    SceneFromOpt,
+    SceneOpt,
+    SceneRepairOpt,
+    Threshold,
+    Topic,
+)
+from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
+from d2sr.contract.repair import REPAIR_PASSES
+from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.runtime.batch import Written
+from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
+from d2sr.ui import console, print_line, progress_bar
+
+__all__ = ["fleet"]
+
+
+def fleet(
+    recordings: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Recordings, any that d2sr recover reads (PNG folders, npz, bags).", metavar="REC..."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="Output folder: OUT/<name> per recording, as d2sr recover writes it, and OUT/fleet.json."
+        ),
+    ],
+    workers: Annotated[
+        int | None,
+        typer.Option(help="Recordings repaired at once, one core each (default: every core of the cluster)."),
+    ] = None,
+    address: Annotated[
+        str | None,
+        typer.Option(
+            help="HOST:PORT of a running Ray cluster's head node (started with ray start), or auto; "
+            "default: a local cluster started for this run."
+        ),
+    ] = None,
+    depth_scale: Scale = None,
+    repair: Annotated[
+        str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
+    ] = "flagged",
+    model: ModelName = DEFAULT_MODEL,
+    threshold: Threshold = None,
+    mask_logit: MaskLogit = None,
+    passes: Passes = REPAIR_PASSES,
+    topic: Topic = None,
+    format: Annotated[str, typer.Option(help="auto, png or bag, as d2sr recover's --format.")] = "auto",
+    backend: BackendOpt = "auto",
+    models: ModelDir = WEIGHTS,
+    max_range: MaxRange = PLAUSIBLE_M[1],
+    scene: SceneOpt = True,
+    scene_from: SceneFromOpt = None,
+    scene_repair: SceneRepairOpt = None,
+    prime: PrimeOpt = PRIME_FRAMES,
+    report: Annotated[
+        bool, typer.Option("--report/--no-report", help="Each recording's report.html, as d2sr recover's.")
+    ] = True,
+    overwrite: Overwrite = False,
+) -> None:
+    """Repair many recordings on Ray, each exactly as d2sr recover would. Run again, it skips the
+    recordings done and redoes the rest; a broken recording does not stop the others (each failure is named
+    at the end, exit 1). Needs the fleet extra (Ray).
+
+    Example: d2sr fleet robots/*/depth/ --out repaired/ --workers 2
+    """
+    from d2sr.fleet import Cluster, FleetProgress, recover_fleet
+
+    settings = RunSettings(
+        depth_scale=depth_scale, topic=topic, repair=repair, model=model,
+        models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
+        max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,
+    )  # fmt: skip
+    written = Written(format, None, None, overwrite, report)
+    with progress_bar() as bar:
+        task = bar.add_task("fleet", total=None)
+
+        def show(p: FleetProgress) -> None:
+            what = f"fleet: {p.done} done, {p.failed} failed, {p.remaining} to go"
+            bar.update(task, description=what, completed=p.frames, total=max(p.total, 1))
+
+        s = recover_fleet(
+            recordings, out, settings, written, cluster=Cluster(workers, address), progress=show
+        )
+    table = Table("recording", "frames", "flagged", "repaired", "seconds", "status")
+    for o in s.outcomes:
+        table.add_row(o.name, str(o.frames), str(o.flagged), str(o.repaired), f"{o.seconds:.1f}", o.status)
+    console.print(table)
+    done = len(s.outcomes) - len(s.failed)
+    before = f" ({s.skipped} as a run before left them, not redone)" if s.skipped else ""
+    print_line(f"{done} of {len(s.outcomes)} recordings repaired{before}, {s.frames} frames this run "
+               f"in {s.seconds:.1f} s -> {s.out}")  # fmt: skip
+    for o in s.failed:
+        print(f"d2sr: error: {o.input}: {o.reason}", file=sys.stderr)
+    if s.failed:
+        raise typer.Exit(1)

@@ -1,0 +1,101 @@
+"""Where a fleet runs: a local Ray cluster started for it, or one the user started (``ray start --head``)
+joined at its address. An address that does not answer as a Ray cluster is refused in one line within a
+few seconds (Ray itself would retry for minutes)."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import socket
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from d2sr.errors import ConfigError
+
+__all__ = ["Cluster", "connected"]
+
+PROBE_S = 5.0  # how long an address has to answer
+# What a gRPC server (Ray's control store) says first to a client's HTTP/2 preface: a SETTINGS frame.
+_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n"
+_SETTINGS = 0x4
+
+
+@dataclass(frozen=True)
+class Cluster:
+    """``workers``: recordings repaired at once (default: a local cluster's cores, or every CPU of a
+    joined cluster), each task on one core; ``address``: ``HOST:PORT`` of a running cluster's head, or
+    ``auto`` (the one this machine runs); None starts a local cluster of ``workers`` cores for the run."""
+
+    workers: int | None = None
+    address: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.workers is not None and self.workers < 1:
+            raise ConfigError(f"workers must be at least 1, got {self.workers}", "workers")
+
+
+@contextlib.contextmanager
+def connected(cluster: Cluster) -> Iterator[Any]:
+    """Ray, connected as ``cluster`` says, for the block: a local cluster it started is stopped at the end;
+    a Ray the caller had already connected is used as it is (an address is still checked first)."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # these machines are often offline
+    import ray
+
+    address = None if cluster.address is None else _resolve(cluster.address)
+    if address is not None:
+        _probe(address)
+    if ray.is_initialized():
+        yield ray
+        return
+    quiet: dict[str, Any] = {"logging_level": logging.ERROR, "log_to_driver": False}
+    if address is None:
+        cores = cluster.workers or os.cpu_count() or 1
+        ray.init(num_cpus=cores, include_dashboard=False, **quiet)
+    else:
+        try:
+            ray.init(address=address, **quiet)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            raise ConfigError(f"address {cluster.address}: {_first(exc)}", "address") from None
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+def _resolve(address: str) -> str:
+    """``HOST:PORT`` as given, or what ``auto`` finds (the cluster this machine runs)."""
+    if address != "auto":
+        return address
+    from ray._private.services import canonicalize_bootstrap_address
+
+    try:
+        found = canonicalize_bootstrap_address("auto")
+    except (ConnectionError, RuntimeError, ValueError) as exc:
+        raise ConfigError(f"address auto: {_first(exc)}", "address") from None
+    if not found:
+        raise ConfigError("address auto: no Ray cluster runs on this machine (ray start --head)", "address")
+    return str(found)
+
+
+def _probe(address: str) -> None:
+    """Refuse an address that is not ``HOST:PORT`` of a server that speaks gRPC, as Ray's head does."""
+    host, sep, port = address.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ConfigError(f"address {address!r}: give HOST:PORT of a Ray cluster's head, or auto", "address")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=PROBE_S) as s:
+            s.settimeout(PROBE_S)
+            s.sendall(_PREFACE)
+            head = s.recv(9)
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise ConfigError(f"address {address}: no Ray cluster answers there ({why})", "address") from None
+    if len(head) < 9 or head[3] != _SETTINGS:
+        raise ConfigError(f"address {address}: something answers there, but not a Ray cluster", "address")
+
+
+def _first(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

@@ -1,0 +1,157 @@
+"""d2sr fleet (d2sr.fleet): many recordings on a local Ray cluster of 2 CPUs started here, each written
+exactly as d2sr recover writes it; a broken one among them, a rerun, a wrong address, a killed worker."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from d2sr.errors import ConfigError, OutputError
+from d2sr.fleet import LEDGER, Cluster, FleetProgress, recover_fleet
+from d2sr.runtime.batch import recover_recording
+from d2sr.runtime.settings import RunSettings
+from helpers import d2sr_inprocess
+
+ray = pytest.importorskip("ray")  # the fleet extra: installed by make test
+
+SETTINGS = RunSettings(depth_scale=4000.0, repair="all", scene=False)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+def _recording(folder: Path, frames: int, seed: int, size: tuple[int, int] = (96, 128)) -> Path:
+    """A still room at 4000 units per metre, a patch read too near on every other frame."""
+    folder.mkdir(parents=True)
+    rng = np.random.default_rng(seed)
+    h, w = size
+    room = 2.0 + 0.5 * np.linspace(0, 1, w)[None, :] + 0.2 * np.linspace(0, 1, h)[:, None]
+    for i in range(frames):
+        d = room + rng.normal(0, 0.003, room.shape)
+        if i % 2:
+            d[20:50, 30:70] -= 0.4
+        cv2.imwrite(str(folder / f"{i:04d}.png"), np.rint(d * 4000).astype(np.uint16))
+    return folder
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    """Every file under ``root`` but the manifest (its command names the command that wrote it)."""
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and p.name != ".d2sr-manifest.json"
+    }
+
+
+def test_a_fleet_writes_what_recover_writes_names_a_broken_recording_and_a_rerun_redoes_nothing(
+    cluster, tmp_path
+):
+    recs = [_recording(tmp_path / "robot1" / "cam0", 12, 1), _recording(tmp_path / "robot2" / "cam0", 9, 2)]
+    broken = _recording(tmp_path / "broken", 4, 3)
+    (broken / "0002.png").write_bytes((broken / "0002.png").read_bytes()[:200])  # a truncated PNG
+    out = tmp_path / "out"
+    seen: list[FleetProgress] = []
+    s = recover_fleet([*recs, broken], out, SETTINGS, cluster=Cluster(workers=2), progress=seen.append)
+    assert [o.name for o in s.outcomes] == ["robot1__cam0", "robot2__cam0", "broken"]
+    assert [o.status for o in s.outcomes] == ["done", "done", "failed"]
+    assert "truncated" in s.failed[0].reason and "\n" not in s.failed[0].reason
+    assert s.frames == 21 and [o.frames for o in s.outcomes[:2]] == [12, 9]
+    assert seen and seen[-1].remaining == 0 and seen[-1].failed == 1
+    for rec, name in zip(recs, ("robot1__cam0", "robot2__cam0"), strict=True):
+        alone = tmp_path / f"alone_{name}"
+        recover_recording(rec, alone, SETTINGS)
+        assert _files(out / name) == _files(alone)  # byte for byte, report.html and meta.json included
+        manifest = json.loads((out / name / ".d2sr-manifest.json").read_text())
+        assert manifest["command"].startswith(("d2sr ", "python "))  # the driver's, not a Ray worker's argv
+    ledger = json.loads((out / LEDGER).read_text())
+    assert ledger["totals"]["done"] == 2 and ledger["commit"] and ledger["command"]
+    assert not (out / "broken").exists()  # nothing half-written
+    before = {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()}
+    again = recover_fleet([*recs, broken], out, SETTINGS, cluster=Cluster(workers=2))
+    assert again.skipped == 3 and again.frames == 0 and len(again.failed) == 1
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and p.name != LEDGER} == {
+        p: t for p, t in before.items() if p.name != LEDGER
+    }
+    # a recording done under other settings is not silently mixed with new ones
+    with pytest.raises(ConfigError, match="other settings"):
+        recover_fleet(recs, out, SETTINGS.model_copy(update={"repair": "flagged"}))
+    # a removed output is redone; the broken recording, mended, is redone too
+    import shutil
+
+    shutil.rmtree(out / "robot2__cam0")
+    (broken / "0002.png").unlink()
+    third = recover_fleet([*recs, broken], out, SETTINGS, cluster=Cluster(workers=2))
+    assert third.skipped == 1 and [o.status for o in third.outcomes] == ["done"] * 3
+    assert _files(out / "robot2__cam0") == _files(tmp_path / "alone_robot2__cam0")
+
+
+def test_a_killed_worker_is_retried_and_its_output_is_whole_and_the_same(cluster, tmp_path):
+    rec = _recording(tmp_path / "long", 80, 7, size=(240, 320))
+    killed: list[int] = []
+
+    def kill_once(p: FleetProgress) -> None:
+        if not killed and p.frames >= 10 and p.running:
+            pid = next(iter(p.running.values()))
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    s = recover_fleet([rec], tmp_path / "out", SETTINGS, cluster=Cluster(workers=1), progress=kill_once)
+    assert killed and s.outcomes[0].status == "done" and s.outcomes[0].frames == 80
+    recover_recording(rec, tmp_path / "alone", SETTINGS)
+    assert _files(tmp_path / "out" / "long") == _files(tmp_path / "alone")
+    leftovers = [p.name for p in (tmp_path / "out").iterdir() if p.name.startswith(".long.")]
+    assert leftovers == []  # the killed attempt's temporary went when the retry began
+
+
+def test_the_command_line_names_each_failure_and_refuses_a_wrong_address_in_one_line(cluster, tmp_path):
+    rec = _recording(tmp_path / "rec", 4, 1)
+    bad = tmp_path / "empty"
+    bad.mkdir()
+    code, out, err = d2sr_inprocess(
+        "fleet", str(rec), str(bad), "--out", str(tmp_path / "out"), "--depth-scale", "4000", "--no-scene"
+    )
+    assert code == 1 and "1 of 2 recordings repaired" in out
+    assert len(err.strip().splitlines()) == 1 and err.startswith(f"d2sr: error: {bad}:")
+    started = time.perf_counter()
+    code, _, err = d2sr_inprocess(
+        "fleet", str(rec), "--out", str(tmp_path / "o2"), "--address", "127.0.0.1:1"
+    )
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "no Ray cluster answers" in err
+    assert time.perf_counter() - started < 60  # refused, not retried for minutes (Ray's own way)
+    code, _, err = d2sr_inprocess("fleet", str(rec), "--out", str(tmp_path / "o3"), "--address", "nonsense")
+    assert code == 2 and "HOST:PORT" in err
+
+
+def test_an_output_folder_that_is_not_a_fleet_s_is_refused_and_nothing_is_written(tmp_path):
+    rec = _recording(tmp_path / "rec", 2, 1)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="did not make"):
+        recover_fleet([rec], mine, SETTINGS)
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
+    with pytest.raises(OutputError, match="input"):
+        recover_fleet([rec], rec / "out", SETTINGS)
+    with pytest.raises(ConfigError, match="no recordings"):
+        recover_fleet([], tmp_path / "o", SETTINGS)
+
+
+def test_without_ray_the_command_says_how_to_install_it(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ray", None)
+    rec = _recording(tmp_path / "rec", 2, 1)
+    code, _, err = d2sr_inprocess("fleet", str(rec), "--out", str(tmp_path / "out"), "--depth-scale", "4000")
+    assert code == 2 and "pip install '.[fleet]'" in err and len(err.strip().splitlines()) == 1
