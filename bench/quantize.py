@@ -22,6 +22,7 @@ from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
 from d2sr.eval.speed import write_result
 from d2sr.models.onnx.quantize import int8_path, quantize
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import RunSettings
 from harness import check_output, output_args
 
 
@@ -59,7 +60,7 @@ def main() -> None:
         x = ts.metres(1)[None]
         for int8 in (False, True):
             key = "int8" if int8 else "fp32"
-            net = open_backend("unet8", "onnx", wdir, int8=int8)
+            net = open_backend(RunSettings(model="unet8", backend="onnx", models=wdir, int8=int8))
             result["per_model"]["detector"][f"{key}_ms"] = round(ms(lambda net=net: net.scores(x)), 2)
             result["per_model"]["unet8"][f"{key}_ms"] = round(ms(lambda net=net: net.recover(x)), 2)
             scores = np.array([float(net.scores(ts.metres(i)[None])[0]) for i in range(len(ts.frames))])

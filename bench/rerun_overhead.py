@@ -18,6 +18,7 @@ from d2sr.eval.speed import write_result
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
+from d2sr.runtime.settings import RunSettings
 from d2sr.runtime.viewer import RerunLog
 from harness import check_output, output_args
 
@@ -51,7 +52,7 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    net = open_backend("unet8", "onnx")
+    net = open_backend(RunSettings(model="unet8", backend="onnx"))
     plain, logged, frames, size = [], [], 0, 0
     with tempfile.TemporaryDirectory() as tmp:
         _once(net, 2.0, args.sensors, None)  # warm up the sessions

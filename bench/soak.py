@@ -21,6 +21,7 @@ from d2sr.eval.speed import frame_4000, write_result
 from d2sr.frames import Frame
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
+from d2sr.runtime.settings import RunSettings
 from d2sr.runtime.sources import RoomTrigger
 from d2sr.runtime.stats import RunStats
 from d2sr.sim.dataset import TEST_SEED
@@ -49,7 +50,7 @@ def main() -> None:
     cfg = TimingConfig(active_frames=10)
     seconds = args.frames / (sensors * cfg.active_frames) + 1
     room = SimRoom(make_rig(0, sensors=sensors), cfg, seed=0, seconds=2.0, render=False)
-    net = open_backend("unet8", "onnx", threads=1)
+    net = open_backend(RunSettings(model="unet8", backend="onnx", threads=1))
     loops = [
         SensorLoop(
             net, make_controller(DEFAULT_CONTROLLER, 30, cfg.active_frames, seed=i), RoomTrigger(room, i)

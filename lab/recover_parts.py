@@ -22,6 +22,7 @@ from d2sr.contract.catalog import padded
 from d2sr.contract.repair import guard, repair_frame
 from d2sr.eval.speed import write_result
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import RunSettings
 from lab.held_out import worst_case
 
 PARTS = ("metres", "pass 1", "guard 1", "fill", "pass 2", "guard 2 + write-back")
@@ -36,7 +37,7 @@ def main() -> None:
     check_output(ap, args)
     scale = 4000.0
     frames = [frame for _, frame in worst_case(args.data)]
-    net = open_backend("unet8", "onnx", detector=None)
+    net = open_backend(RunSettings(model="unet8", backend="onnx"), detector=False)
     cut = net.mask_logit
     ms: dict[str, list[float]] = {k: [] for k in (*PARTS, "total")}
     for run in range(args.runs + 1):

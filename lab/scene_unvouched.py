@@ -12,11 +12,12 @@ import numpy as np
 
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import PRIME_FRAMES
+from d2sr.runtime.settings import RunSettings
 from lab.held_out import SEALED, SETS, clean_sequences, every_other, outside_set
 from lab.scene_gate import cell
 from lab.scene_gate import flags as loop_flags
 
-net = open_backend("unet8", "onnx")
+net = open_backend(RunSettings(model="unet8", backend="onnx"))
 data = Path("../shared/data")
 L = outside_set(data)
 

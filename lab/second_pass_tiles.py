@@ -22,6 +22,7 @@ from d2sr.contract.repair import refill
 from d2sr.eval.speed import write_result
 from d2sr.frames.base import to_metres
 from d2sr.runtime.backends import open_backend
+from d2sr.runtime.settings import RunSettings
 from lab.held_out import worst_case
 
 TILE = 32
@@ -34,7 +35,7 @@ def main() -> None:
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
-    net = open_backend("unet8", detector=None, threads=1)
+    net = open_backend(RunSettings(model="unet8", threads=1), detector=False)
     kept, tiles = [], []
     for _, frame in worst_case(args.data):
         metres = padded(to_metres(frame, 4000.0)[None])

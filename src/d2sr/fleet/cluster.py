@@ -54,14 +54,26 @@ def connected(cluster: Cluster) -> Iterator[Any]:
         cores = cluster.workers or os.cpu_count() or 1
         ray.init(num_cpus=cores, include_dashboard=False, **quiet)
     else:
+        _use_token()
         try:
-            ray.init(address=address, **quiet)
+            ray.init(address=cluster.address, **quiet)
         except (ConnectionError, RuntimeError, ValueError) as exc:
             raise ConfigError(f"address {cluster.address}: {_first(exc)}", "address") from None
     try:
         yield ray
     finally:
         ray.shutdown()
+
+
+def _use_token() -> None:
+    """Present this machine's Ray token (``ray start`` makes one, ``~/.ray/auth_token``) to a cluster joined
+    at its address, as Ray does by itself only for ``auto``."""
+    with contextlib.suppress(ImportError, AttributeError):
+        from ray._private.authentication.authentication_token_setup import (
+            maybe_enable_token_auth_if_token_available,
+        )
+
+        maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
 
 
 def _resolve(address: str) -> str:
