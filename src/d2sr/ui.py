@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
-__all__ = ["NA", "console", "flush_warnings", "print_line", "progress_bar", "warn"]
+__all__ = ["NA", "console", "flush_warnings", "print_line", "progress_bar", "take_warnings", "warn"]
 
 console = Console()
 if not console.is_terminal:  # a log or a pipe: tables print whole instead of cut at 80 columns ("0.01…")
@@ -29,6 +29,13 @@ def warn(message: str) -> None:
     """One line on stderr for what may be a mistake but is not an error. It waits until the work starts
     (a progress bar opens) or the command ends well: a command that fails prints its error alone."""
     _pending.append(f"d2sr: warning: {message}")
+
+
+def take_warnings() -> list[str]:
+    """The warnings waiting, taken (a fleet's worker hands its recording's to the command that shows them)."""
+    taken = list(_pending)
+    _pending.clear()
+    return taken
 
 
 def flush_warnings(show: bool = True) -> None:

@@ -17,7 +17,7 @@ from d2sr.errors import ConfigError, OutputError
 from d2sr.fleet import LEDGER, Cluster, FleetProgress, recover_fleet
 from d2sr.runtime.batch import recover_recording
 from d2sr.runtime.settings import RunSettings
-from helpers import d2sr_inprocess
+from helpers import BAG_TOPIC, d2sr_inprocess, write_bag
 
 ray = pytest.importorskip("ray")  # the fleet extra: installed by make test
 
@@ -74,7 +74,7 @@ def test_a_fleet_writes_what_recover_writes_names_a_broken_recording_and_a_rerun
         recover_recording(rec, alone, SETTINGS)
         assert _files(out / name) == _files(alone)  # byte for byte, report.html and meta.json included
         manifest = json.loads((out / name / ".d2sr-manifest.json").read_text())
-        assert manifest["command"].startswith(("d2sr ", "python "))  # the driver's, not a Ray worker's argv
+        assert "default_worker" not in manifest["command"]  # the driver's command, not a Ray worker's argv
     ledger = json.loads((out / LEDGER).read_text())
     assert ledger["totals"]["done"] == 2 and ledger["commit"] and ledger["command"]
     assert not (out / "broken").exists()  # nothing half-written
@@ -95,6 +95,22 @@ def test_a_fleet_writes_what_recover_writes_names_a_broken_recording_and_a_rerun
     third = recover_fleet([*recs, broken], out, SETTINGS, cluster=Cluster(workers=2))
     assert third.skipped == 1 and [o.status for o in third.outcomes] == ["done"] * 3
     assert _files(out / "robot2__cam0") == _files(tmp_path / "alone_robot2__cam0")
+
+
+def test_bags_give_the_bags_recover_gives(cluster, tmp_path):
+    bags = tmp_path / "bags"
+    bags.mkdir()
+    write_bag(bags / "run1.bag", "ros1")
+    write_bag(bags / "run2", "mcap")
+    settings = RunSettings(depth_scale=1000.0, repair="all", scene=False, topic=BAG_TOPIC)
+    s = recover_fleet([bags / "run1.bag", bags / "run2"], tmp_path / "out", settings)
+    assert [o.name for o in s.outcomes] == ["run1.bag", "run2"] and not s.failed
+    alone = tmp_path / "alone"  # d2sr recover REC --out alone/<name>: a ROS 2 bag's files take its name
+    recover_recording(bags / "run1.bag", alone / "run1.bag", settings)
+    recover_recording(bags / "run2", alone / "run2", settings)
+    for name in ("run1.bag", "run1.bag.report.html"):  # the report beside a bag out, as recover puts it
+        assert (tmp_path / "out" / name).read_bytes() == (alone / name).read_bytes()
+    assert _files(tmp_path / "out" / "run2") == _files(alone / "run2")
 
 
 def test_a_killed_worker_is_retried_and_its_output_is_whole_and_the_same(cluster, tmp_path):

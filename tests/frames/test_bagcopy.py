@@ -9,70 +9,12 @@ import cv2
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Writer2
-from rosbags.typesys import Stores, get_typestore
 
 from d2sr.frames.png import encode_png
+from helpers import BAG_FRAMES as N
+from helpers import BAG_TOPIC as TOPIC
 from helpers import d2sr_inprocess
-
-TOPIC = "/camera/depth/image_raw"
-N = 5
-
-
-def _frames() -> list[np.ndarray]:
-    rng = np.random.default_rng(0)
-    out = []
-    for _ in range(N):
-        d = (rng.uniform(1.0, 4.0, (96, 128)) * 1000).astype(np.uint16)
-        d[rng.random(d.shape) < 0.3] = 0
-        out.append(d)
-    return out
-
-
-def _write_bag(path: Path, kind: str, encoding: str = "16UC1") -> list[np.ndarray]:
-    """A bag as a robot records it: depth (16UC1 mm or 32FC1 m) at 30 Hz, an IMU at 200 Hz."""
-    ros1 = kind == "ros1"
-    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
-    T = ts.types
-    if ros1:
-        bag: Writer1 | Writer2 = Writer1(path)
-    else:
-        bag = Writer2(
-            path, version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
-        )
-    frames = _frames()
-    with bag:
-        depth = bag.add_connection(TOPIC, "sensor_msgs/msg/Image", typestore=ts)
-        imu = bag.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
-        ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
-
-        def header(ns: int, frame: str) -> object:
-            t = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
-            return T["std_msgs/msg/Header"](stamp=t, frame_id=frame, **({"seq": 0} if ros1 else {}))
-
-        v3 = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=9.8)
-        q = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
-        cov = np.zeros(9)
-        for k in range(N * 7):
-            ns = 10**9 + k * 5_000_000
-            m = T["sensor_msgs/msg/Imu"](header(ns, "imu"), q, cov, v3, cov, v3, cov)
-            bag.write(imu, ns, ser(m, "sensor_msgs/msg/Imu"))
-        for i, d in enumerate(frames):
-            ns = 10**9 + i * 33_333_333
-            data = d if encoding == "16UC1" else np.where(d > 0, d / 1000.0, np.nan).astype(np.float32)
-            msg = T["sensor_msgs/msg/Image"](
-                header(ns, "depth"),
-                96,
-                128,
-                encoding,
-                0,
-                128 * data.itemsize,
-                np.frombuffer(data.tobytes(), np.uint8),
-            )
-            bag.write(depth, ns + 1000, ser(msg, "sensor_msgs/msg/Image"))
-    return frames
+from helpers import write_bag as _write_bag
 
 
 def _read(path: Path) -> dict[str, list[tuple[int, object, bytes]]]:

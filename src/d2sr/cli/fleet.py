@@ -113,6 +113,9 @@ def fleet(
     before = f" ({s.skipped} as a run before left them, not redone)" if s.skipped else ""
     print_line(f"{done} of {len(s.outcomes)} recordings repaired{before}, {s.frames} frames this run "
                f"in {s.seconds:.1f} s -> {s.out}")  # fmt: skip
+    for o in s.outcomes:
+        for w in o.warnings:
+            print(w if w.startswith("d2sr: ") else f"d2sr: warning: {w}", file=sys.stderr)
     for o in s.failed:
         print(f"d2sr: error: {o.input}: {o.reason}", file=sys.stderr)
     if s.failed:

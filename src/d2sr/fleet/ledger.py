@@ -38,6 +38,7 @@ class Outcome(BaseModel):
     # A failure of the recording's own (a broken file, a wrong scale): the recording as it was then
     # (``fingerprint``). Run again on the same recording, it would fail the same way: it is not redone.
     fingerprint: str | None = None
+    warnings: list[str] = Field(default_factory=list, description="what d2sr warned of, one line each")
 
 
 class Ledger(BaseModel):

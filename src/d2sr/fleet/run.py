@@ -19,6 +19,7 @@ from d2sr.frames.rosbag import bag_root
 from d2sr.provenance import command_as
 from d2sr.runtime.batch import Written, recover_recording
 from d2sr.runtime.settings import RunSettings
+from d2sr.ui import take_warnings
 
 __all__ = ["FleetProgress", "FleetSummary", "recover_fleet"]
 
@@ -182,7 +183,8 @@ def _task(name: str, input: str, out: str, written: Written, shared: tuple[RunSe
         if done % REPORT_EVERY == 0 or done == total:
             tally.add.remote(name, done, total)
 
-    base = {"name": name, "input": input}
+    take_warnings()  # an earlier task's in this worker were handed on with it
+    base: dict[str, Any] = {"name": name, "input": input}
     try:
         with command_as(argv):
             s = recover_recording(Path(input), Path(out), settings, written, progress=progress, cores=1)
@@ -194,6 +196,7 @@ def _task(name: str, input: str, out: str, written: Written, shared: tuple[RunSe
         return Outcome(**base, status="failed", reason=f"{type(exc).__name__}: {_line(exc)}")
     finally:
         tally.stop.remote(name)
+        base["warnings"] = [_line(Exception(w)) for w in take_warnings()]
     report = str(s.report.relative_to(Path(out).parent)) if s.report is not None else None
     seconds = round(time.perf_counter() - started, 3)
     return Outcome(**base, status="done", frames=s.frames, flagged=s.flagged, repaired=s.repaired,

@@ -27,7 +27,7 @@ from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.colour import PAIR_NS, decode_colour
 from d2sr.frames.png import decode_png, encode_png
-from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _open, _stamp, bag_root, name_data_file
+from d2sr.frames.rosbag import _HEADER, _TS1, _TS2, _open, _stamp, bag_root, staged, unstage
 
 __all__ = ["CONFIDENCE", "MASK", "REPAIRED", "BagCopy", "Synthesis"]
 
@@ -85,7 +85,8 @@ class BagCopy:
         self.ts = _TS1 if ros1 else _TS2
         self.reader = _open(src)
         self.tmp: Path | None = temp_for(self.out, is_dir=not ros1)
-        discard(self.tmp)  # rosbags makes the file or folder itself
+        if ros1:
+            discard(self.tmp)  # rosbags makes the file itself
         try:
             self._open_writer(src)
         except BaseException:
@@ -101,7 +102,8 @@ class BagCopy:
         if self.ros1:
             self.bag: Writer1 | Writer2 = Writer1(self.tmp)
         else:
-            self.bag = Writer2(self.tmp, version=9, storage_plugin=_storage(bag_root(src)))
+            stage = staged(self.tmp, self.out.name)
+            self.bag = Writer2(stage, version=9, storage_plugin=_storage(bag_root(src)))
         self.bag.open()
         self.conns = {c.id: self._copy_connection(c) for c in self.reader.connections}
         kind = next(c.msgtype for c in self.reader.connections if c.topic == self.topic)
@@ -236,7 +238,7 @@ class BagCopy:
         self.bag.close()
         self.reader.close()
         if not self.ros1:
-            name_data_file(self.tmp, self.out.name)
+            unstage(self.tmp, self.out.name)
         commit(self.tmp, self.out)
         self.tmp = None
 

@@ -8,7 +8,6 @@ PNG). ``--topic`` picks one; without it the single depth-looking topic is used.
 from __future__ import annotations
 
 import contextlib
-import glob
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -21,7 +20,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
-from d2sr.atomic import CALLER, discard
+from d2sr.atomic import CALLER
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer
 from d2sr.frames.colour import decode_colour
@@ -312,7 +311,7 @@ class _BagWriter(Writer):
         self._bag.close()
         if self.is_dir:
             assert self._tmp is not None
-            name_data_file(self._tmp, self.path.name)
+            unstage(self._tmp, self.path.name)
 
     def abort(self) -> None:
         if self._bag is not None:
@@ -321,16 +320,20 @@ class _BagWriter(Writer):
         super().abort()
 
 
-def name_data_file(folder: Path, bag: str) -> None:
-    """Give a ROS 2 bag written in a temporary folder the data file name rosbag2 gives
-    (``<bag>_0.db3`` / ``<bag>_0.mcap``), in the folder and in its ``metadata.yaml``."""
-    meta = folder / "metadata.yaml"
-    text = meta.read_text()
-    for data in sorted(folder.glob(f"{glob.escape(folder.name)}.*")):  # rosbags names it after its folder
-        final = f"{bag}_0{data.suffix}"
-        data.rename(folder / final)
-        text = text.replace(data.name, final)
-    meta.write_text(text)
+def staged(tmp: Path, bag: str) -> Path:
+    """Where rosbags writes a ROS 2 bag that becomes the folder ``tmp`` once finished (``unstage``): a folder
+    ``<bag>_0`` inside it, so that rosbags names the data file as rosbag2 does (``<bag>_0.mcap``), in the
+    folder, in ``metadata.yaml`` and in the metadata the data file carries: never a temporary name, so the
+    same bag is written byte for byte whatever the process."""
+    return tmp / f"{bag}_0"
+
+
+def unstage(tmp: Path, bag: str) -> None:
+    """Move a finished bag's files from ``staged(tmp, bag)`` up into ``tmp``."""
+    stage = staged(tmp, bag)
+    for f in sorted(stage.iterdir()):
+        f.rename(tmp / f.name)
+    stage.rmdir()
 
 
 class Ros1Writer(_BagWriter):
@@ -363,6 +366,5 @@ class Ros2Writer(_BagWriter):
 
     def _open_bag(self) -> None:
         assert self._tmp is not None
-        discard(self._tmp)  # rosbags creates the folder itself
-        self._bag = Writer2(self._tmp, version=9, storage_plugin=self.storage)
+        self._bag = Writer2(staged(self._tmp, self.path.name), version=9, storage_plugin=self.storage)
         self._bag.open()
