@@ -662,8 +662,9 @@ class _Guesses(FakeNet):
 def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
     """``scene_repair`` with ``repair="all"``: a model that would move every pixel moves none that reads
     within its scene's range, on a clean frame or around a shifted patch; the patch's trusted pixels take
-    the scene's depth; dropouts are still the model's to fill. Without ``scene_repair`` the model's guess
-    stands (the guard alone lets a 1.5 m move through where no neighbour is trusted)."""
+    the scene's depth; the clean frame's dropouts, with no return moved, are the sensor's own and stay.
+    Without ``scene_repair`` the model's guess stands (the guard alone lets a 1.5 m move through where no
+    neighbour is trusted)."""
     rng = np.random.default_rng(7)
     loops = [
         SensorLoop(
@@ -682,7 +683,8 @@ def test_the_scene_keeps_a_model_off_the_pixels_that_read_as_the_scene():
     returned = clean > 0
     assert np.array_equal(on.depth[returned], clean[returned]) and not on.mask[returned].any()
     assert (off.depth[returned] != clean[returned]).mean() > 0.9
-    assert (on.depth[~returned] > 0).all()  # dropouts: the model's to fill, as without the scene
+    assert np.array_equal(on.depth, clean)  # its dropouts too: holes alone are the sensor's own
+    assert (off.depth[~returned] > 0).all()  # where the model moves returns, it fills the holes with them
     truth = _scene(rng)
     hit = truth.copy()
     patch = np.s_[40:70, 30:80]
