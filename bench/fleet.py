@@ -55,7 +55,7 @@ def rss_mb(pid: int) -> float | None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=4)
-    ap.add_argument("--frames", type=int, default=60, help="frames per recording of the speed runs")
+    ap.add_argument("--frames", type=int, default=120, help="frames per recording of the speed runs")
     ap.add_argument("--long", type=int, default=3000, help="frames of the memory run's recording (320x240)")
     ap.add_argument("--repeats", type=int, default=3, help="runs per worker count (the median is reported)")
     output_args(ap)
