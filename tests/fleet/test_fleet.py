@@ -148,6 +148,7 @@ def test_the_command_line_names_each_failure_and_refuses_a_wrong_address_in_one_
     assert time.perf_counter() - started < 60  # refused, not retried for minutes (Ray's own way)
     code, _, err = d2sr_inprocess("fleet", str(rec), "--out", str(tmp_path / "o3"), "--address", "nonsense")
     assert code == 2 and "HOST:PORT" in err
+    assert not (tmp_path / "o2").exists() and not (tmp_path / "o3").exists()  # refused before any write
 
 
 def test_an_output_folder_that_is_not_a_fleet_s_is_refused_and_nothing_is_written(tmp_path):

@@ -103,14 +103,16 @@ def recover_fleet(
     outcomes: dict[str, Outcome] = dict(kept)
     new = ledger is None
     ledger = Ledger(settings=wanted, recordings=[outcomes[n] for n in names if n in outcomes])
-    ledger.write(root)
-    if new:  # the folder is the fleet's from now on: a later run takes it, nothing else does
-        record_manifest(root, [LEDGER])
     todo = [(n, p) for n, p in zip(names, paths, strict=True) if n not in kept]
     started = time.perf_counter()
     frames = 0
     if todo:
-        frames = _run(_Job(root, s, wr, names, ledger, outcomes), todo, cl, progress)
+        with connected(cl) as ray:  # before anything is written: a cluster that is not there leaves nothing
+            root.mkdir(parents=True, exist_ok=True)
+            ledger.write(root)
+            if new:  # the folder is the fleet's from now on: a later run takes it, nothing else does
+                record_manifest(root, [LEDGER])
+            frames = _run(ray, _Job(root, s, wr, names, ledger, outcomes), todo, cl.workers, progress)
     seconds = time.perf_counter() - started
     final = [outcomes[n] for n in names]
     ledger = Ledger(settings=wanted, recordings=final)
@@ -137,37 +139,41 @@ class _Job:
 
 
 def _run(
-    job: _Job, todo: list[tuple[str, Path]], cl: Cluster, progress: Callable[[FleetProgress], None] | None
+    ray: Any,
+    job: _Job,
+    todo: list[tuple[str, Path]],
+    workers: int | None,
+    progress: Callable[[FleetProgress], None] | None,
 ) -> int:
-    """Run the recordings ``todo`` on Ray, each outcome recorded as it comes; the frames repaired."""
+    """Run the recordings ``todo`` on Ray, at most ``workers`` at once, each outcome recorded as it comes;
+    the frames repaired."""
     root, s, wr, outcomes = job.root, job.settings, job.written, job.outcomes
     argv = list(sys.argv)
-    with connected(cl) as ray:
-        cap = cl.workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
-        task = ray.remote(num_cpus=1, max_retries=RETRIES)(_task)
-        tally = ray.remote(num_cpus=0)(Tally).remote()
-        shared = ray.put((s, argv))
-        waiting = list(reversed(todo))
-        running: dict[Any, tuple[str, Path]] = {}
-        before = len(outcomes)
-        while waiting or running:
-            while waiting and len(running) < cap:
-                name, path = waiting.pop()
-                redo = wr.overwrite or (root / name).exists() or (root / name).is_symlink()
-                how = Written(wr.format, None, wr.colour_topic, redo, wr.report)
-                ref = task.remote(name, str(path), str(root / name), how, shared, tally)
-                running[ref] = (name, path)
-            ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
-            for ref in ready:
-                name, path = running.pop(ref)
-                job.finished(_outcome(ray, ref, name, path))
-            if progress is not None:
-                frames, total, live = ray.get(tally.read.remote())
-                failed = sum(o.status == "failed" for o in outcomes.values())
-                finished = len(outcomes) - before
-                progress(FleetProgress(frames, total, len(outcomes) - failed, failed,
-                                       len(todo) - finished, live))  # fmt: skip
-        frames_done: int = ray.get(tally.read.remote())[0]
+    cap = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
+    task = ray.remote(num_cpus=1, max_retries=RETRIES)(_task)
+    tally = ray.remote(num_cpus=0)(Tally).remote()
+    shared = ray.put((s, argv))
+    waiting = list(reversed(todo))
+    running: dict[Any, tuple[str, Path]] = {}
+    before = len(outcomes)
+    while waiting or running:
+        while waiting and len(running) < cap:
+            name, path = waiting.pop()
+            redo = wr.overwrite or (root / name).exists() or (root / name).is_symlink()
+            how = Written(wr.format, None, wr.colour_topic, redo, wr.report)
+            ref = task.remote(name, str(path), str(root / name), how, shared, tally)
+            running[ref] = (name, path)
+        ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
+        for ref in ready:
+            name, path = running.pop(ref)
+            job.finished(_outcome(ray, ref, name, path))
+        if progress is not None:
+            frames, total, live = ray.get(tally.read.remote())
+            failed = sum(o.status == "failed" for o in outcomes.values())
+            finished = len(outcomes) - before
+            progress(FleetProgress(frames, total, len(outcomes) - failed, failed,
+                                   len(todo) - finished, live))  # fmt: skip
+    frames_done: int = ray.get(tally.read.remote())[0]
     return frames_done
 
 
@@ -240,7 +246,6 @@ def _open_folder(out: Path, inputs: list[Path]) -> Path:
     root = check_out(out, is_dir=True, inputs=roots, resume=True)
     if root.exists() and any(root.iterdir()) and not (root / LEDGER).is_file():
         raise OutputError(f"--out {out} is a d2sr output but not a fleet's (no {LEDGER}); name a new folder")
-    root.mkdir(parents=True, exist_ok=True)
     return root
 
 
