@@ -6,7 +6,8 @@ IDL (tools/ros2_peer.py), on one ROS_DOMAIN_ID picked at random.
   project's generator never made; counts what comes back on /repaired and /mask with the stamps kept, the
   RMSE of the corrupted frames before and after (against the frame before corruption, over its returns),
   and the node's exit code on SIGINT.
-* ``rate``: ``--seconds`` (10) of 640x480 L515 frames at 30 Hz, every other one corrupted: frames back, the
+* ``rate``: ``--seconds`` (10) of 640x480 L515 frames at 30 Hz, every other one corrupted (``--every``:
+  every one, each its own draw, issue 66's worst case): frames back, the
   time each spent in the node (from taken off its reader to its last message written) and the time from
   the peer's write to the repaired frame reaching the peer, median and p99.
 
@@ -101,6 +102,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--seconds", type=float, default=10.0, help="length of the 30 Hz run")
+    ap.add_argument("--every", action="store_true", help="the 30 Hz run: every frame interfered (worst case)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -139,11 +141,17 @@ def main() -> None:
         "write_to_repaired": ms(list(lag.values())) if lag else {},
     }
     # The rate: 640x480 at 30 Hz.
-    pool = [s for s, _, _ in items[:10]]
-    sent = [pool[k % len(pool)] for k in range(round(30 * args.seconds))]
+    if args.every:  # issue 66's worst case: every frame with interference, each its own draw
+        clean = [c for _, c, _ in items]
+        n = round(30 * args.seconds)
+        sent = [outside_interference(clean[k % len(clean)], 4000.0, 7 + k) for k in range(n)]
+    else:
+        pool = [s for s, _, _ in items[:10]]
+        sent = [pool[k % len(pool)] for k in range(round(30 * args.seconds))]
     domain = rng.randint(100, 232)
     got, lag, out, code = exchange(domain, sent, 30.0)
     result["rate_30hz"] = {
+        "every_frame_interfered": args.every,
         "domain": domain,
         "published": len(sent),
         "repaired_received": len(got["repaired"]),
