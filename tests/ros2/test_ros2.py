@@ -234,3 +234,35 @@ def test_node_takes_the_scene_option():
         assert node.pipeline.loop.settings.scene
     finally:
         node.close()
+
+
+def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
+    """Frames come faster than the repair: at most ``WAITING`` frames wait; older ones are dropped, counted
+    and said once, never queued without bound; every frame is either published or counted as dropped."""
+    from d2sr.ros2.node import WAITING, Ros2Node
+
+    said: list[str] = []
+    node = Ros2Node("/cam/depth", 4000.0, domain=random.randint(100, 200), say=said.append)
+    slow = node.pipeline.finish
+
+    def finish(decided):  # a repair far slower than the frames come
+        time.sleep(0.15)
+        return slow(decided)
+
+    node.pipeline.finish = finish  # type: ignore[method-assign]
+    try:
+        depth = room(0)
+        h, w = depth.shape
+        n = 20
+        for k in range(n):
+            msg = Image(
+                Header(Time(1000 + k, 0), "depth"), h, w, "16UC1", 0, 2 * w, depth.view(np.uint8).ravel()
+            )
+            node.receive(msg, time.monotonic())
+            assert len(node._waiting) <= WAITING and len(node._running) <= 2 * node._workers
+        stats = node.spin(seconds=0.2)
+    finally:
+        node.close()
+    assert stats.received == n and stats.published + stats.dropped == n
+    assert stats.dropped >= n - 2 * node._workers - WAITING
+    assert sum("dropped" in line for line in said) == 1

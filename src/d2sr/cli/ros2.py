@@ -95,5 +95,5 @@ def ros2(
     )
     print_line(
         f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
-        f"skipped, {stats.synthesized} synthesized){timing}"
+        f"skipped, {stats.dropped} dropped while behind, {stats.synthesized} synthesized){timing}"
     )

@@ -51,18 +51,23 @@ def domain_id() -> int:
 
 
 LATENCY_WINDOW = 10_000  # frames whose latency the node's figures cover (about 5 min at 30 Hz)
+# Frames taken but not yet started, at most: when the repair cannot keep up, the oldest of them is dropped
+# (counted, said once) rather than queued, so a robot behind the node gets recent depth, not a growing lag.
+WAITING = 2
 MIN_SIDE = 8  # pixels: a smaller image is no depth frame the models can judge
 
 
 @dataclass
 class Stats:
-    """What a node did: frames in, out, refused (malformed, or an encoding it does not take), flagged;
-    seconds each of the last ``LATENCY_WINDOW`` frames spent in the node, from taken off the reader to its
-    last message written (a fixed window: the node's memory stays flat however long it runs)."""
+    """What a node did: frames in, out, refused (malformed, or an encoding it does not take), dropped (not
+    started when newer frames came and the repair was behind), flagged; seconds each of the last
+    ``LATENCY_WINDOW`` frames spent in the node, from taken off the reader to its last message written (a
+    fixed window: the node's memory stays flat however long it runs)."""
 
     received: int = 0
     published: int = 0
     refused: int = 0
+    dropped: int = 0
     flagged: int = 0
     synthesized: int = 0
     seconds: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCY_WINDOW))
@@ -124,7 +129,9 @@ class Ros2Node:
         workers, threads = repair_workers()
         self.pipeline = Pipeline(depth_scale, threads=threads, **pipeline)
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="d2sr-ros2")
+        self._workers = workers
         self._running: deque[tuple[Any, float, Future[Any]]] = deque()
+        self._waiting: deque[tuple[Any, float]] = deque()  # taken, not started (at most ``WAITING``)
         self._warm_up()
         self.depth_scale = depth_scale
         self.say = say or (lambda line: None)
@@ -178,19 +185,39 @@ class Ros2Node:
         end = None if seconds is None else time.monotonic() + seconds
         while not self._stop.is_set() and (end is None or time.monotonic() < end):
             self._waitset.wait(self._duration(milliseconds=2 if self._running else 100))
-            for sample in self.reader.take(N=4):
+            for sample in self.reader.take(N=64):
                 if getattr(sample, "sample_info", None) is not None and not sample.sample_info.valid_data:
                     continue
-                self.handle(sample, time.monotonic())
+                self.receive(sample, time.monotonic())
             if self.colour_reader is not None:
                 for sample in self.colour_reader.take(N=8):
                     if getattr(sample, "sample_info", None) is None or sample.sample_info.valid_data:
                         self._colour(sample, time.monotonic())
             self._publish_done()
+            self._start_waiting()
             self._synthesize_due(time.monotonic())
-        while self._running:
-            self._publish_done(wait=True)
+        while self._running or self._waiting:
+            self._publish_done(wait=bool(self._running))
+            self._start_waiting()
         return self.stats
+
+    def receive(self, msg: Any, taken: float) -> None:
+        """A message off the reader: it waits for a free worker; beyond ``WAITING`` such frames the oldest is
+        dropped (counted in ``Stats.dropped`` and ``/status``, said once)."""
+        self._waiting.append((msg, taken))
+        while len(self._waiting) > WAITING:
+            self._waiting.popleft()
+            self.stats.received += 1
+            self.stats.dropped += 1
+            self._warn(f"{self.topic}: the repair is behind the frame rate; the oldest frames not started "
+                       "are dropped (counted in /status as dropped)", "dropped")  # fmt: skip
+        self._start_waiting()
+
+    def _start_waiting(self) -> None:
+        """Start waiting frames, oldest first, while a worker is free."""
+        while self._waiting and len(self._running) < 2 * self._workers:
+            msg, taken = self._waiting.popleft()
+            self.handle(msg, taken)
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)
@@ -224,8 +251,6 @@ class Ros2Node:
             self._refuse(type(exc).__name__, f"{self.topic}: a frame failed ({type(exc).__name__}); skipped")
             return
         self._running.append((msg, taken, self._pool.submit(self.pipeline.finish, decided)))
-        if len(self._running) > 6:  # the workers are behind: wait for the oldest rather than pile up
-            self._publish_done(wait=True)
 
     def _refuse(self, kind: str, line: str) -> None:
         self.stats.refused += 1
@@ -360,6 +385,7 @@ class Ros2Node:
             "score": f"{r.score:.4f}",
             "repaired_pixels": str(repaired),
             "synthesized": "false",
+            "dropped": str(self.stats.dropped),
             "period": str(w.period),
             "window_offset": str(w.offset),
             "active_frames": str(w.active_frames),
