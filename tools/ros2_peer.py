@@ -1,6 +1,7 @@
-"""A ROS 2 peer of ``d2sr ros2`` with nothing of d2sr in it: its own IDL for sensor_msgs/Image and
-diagnostic_msgs/DiagnosticStatus, Cyclone DDS's own serializer, as any ROS 2 node on the wire would be.
-It publishes depth frames and collects what the node sends back (the loopback test and the bench use it).
+"""A ROS 2 peer of ``d2sr ros2`` with nothing of d2sr in it: its own IDL for sensor_msgs/Image,
+sensor_msgs/CameraInfo and diagnostic_msgs/DiagnosticStatus, Cyclone DDS's own serializer, as any ROS 2
+node on the wire would be. It publishes depth frames (and their camera_info) and collects what the node
+sends back (the loopback test and the bench use it).
 """
 
 from dataclasses import dataclass, field
@@ -9,7 +10,7 @@ import numpy as np
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -62,6 +63,39 @@ class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnost
     message: str
     hardware_id: str
     values: sequence[KeyValue] = field(default_factory=list)
+
+
+@dataclass
+class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
+    x_offset: uint32 = 0
+    y_offset: uint32 = 0
+    height: uint32 = 0
+    width: uint32 = 0
+    do_rectify: bool = False
+
+
+@dataclass
+class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
+    header: Header = field(default_factory=Header)
+    height: uint32 = 0
+    width: uint32 = 0
+    distortion_model: str = ""
+    d: sequence[float64] = field(default_factory=list)
+    k: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    r: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    p: array[float64, 12] = field(default_factory=lambda: [0.0] * 12)
+    binning_x: uint32 = 0
+    binning_y: uint32 = 0
+    roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+
+
+def camera_info(sec: int, nanosec: int = 0) -> CameraInfo:
+    """An L515-like 640x480 calibration with a stamp (d2sr's own camera_info comes back with the image's)."""
+    k = [461.2, 0.0, 329.2, 0.0, 461.6, 243.1, 0.0, 0.0, 1.0]
+    p = [461.2, 0.0, 329.2, 0.0, 0.0, 461.6, 243.1, 0.0, 0.0, 0.0, 1.0, 0.0]
+    r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    head = Header(Time(sec, nanosec), "camera_depth_optical_frame")
+    return CameraInfo(head, 480, 640, "plumb_bob", [0.0] * 5, k, r, p, 0, 0, RegionOfInterest())
 
 
 class Ready(Image):
@@ -119,6 +153,7 @@ class Peer:
         topic: str = "/camera/depth/image_rect_raw",
         reliable: bool = True,
         colour_topic: str | None = None,
+        info: bool = False,
     ) -> None:
         self.dp = DomainParticipant(domain)
         name = "rt" + topic
@@ -132,6 +167,14 @@ class Peer:
             "mask": DataReader(self.dp, Topic(self.dp, name + "/mask", Image), qos=keep),
             "status": DataReader(self.dp, Topic(self.dp, name + "/status", DiagnosticStatus), qos=keep),
         }
+        self.info = None
+        if info:  # camera_info beside the input (image_transport's pairing); the node's beside /repaired
+            parent = name.rsplit("/", 1)[0]
+            qos = Qos(rel, Policy.History.KeepLast(8))
+            self.info = DataWriter(self.dp, Topic(self.dp, parent + "/camera_info", CameraInfo), qos=qos)
+            self.readers["camera_info"] = DataReader(
+                self.dp, Topic(self.dp, name + "/camera_info", CameraInfo), qos=keep
+            )
         self.colour = None
         if colour_topic is not None:
             qos = Qos(rel, Policy.History.KeepLast(8))
@@ -145,6 +188,8 @@ class Peer:
         if not self.writer.get_matched_subscriptions():
             return False
         if self.colour is not None and not self.colour.get_matched_subscriptions():
+            return False
+        if self.info is not None and not self.info.get_matched_subscriptions():
             return False
         return all(r.get_matched_publications() for r in self.readers.values())
 

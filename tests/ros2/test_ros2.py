@@ -266,3 +266,49 @@ def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
     assert stats.received == n and stats.published + stats.dropped == n
     assert stats.dropped >= n - 2 * node._workers - WAITING
     assert sum("dropped" in line for line in said) == 1
+
+
+def test_camera_info_bytes_are_rosbags_bytes():
+    from d2sr.ros2.msgs import CameraInfo, RegionOfInterest
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    t = ts.types
+    ours = CameraInfo(Header(Time(5, 7), "cam"), 480, 640, "plumb_bob", [0.1, -0.2, 0.0, 0.0, 0.01],
+                      [1.0] * 9, [2.0] * 9, [3.0] * 12, 1, 2, RegionOfInterest(1, 2, 3, 4, True))  # fmt: skip
+    theirs = t["sensor_msgs/msg/CameraInfo"](
+        t["std_msgs/msg/Header"](t["builtin_interfaces/msg/Time"](5, 7), "cam"), 480, 640, "plumb_bob",
+        np.array([0.1, -0.2, 0.0, 0.0, 0.01]), np.full(9, 1.0), np.full(9, 2.0), np.full(12, 3.0), 1, 2,
+        t["sensor_msgs/msg/RegionOfInterest"](1, 2, 3, 4, True),
+    )  # fmt: skip
+    assert ours.serialize() == bytes(ts.serialize_cdr(theirs, "sensor_msgs/msg/CameraInfo"))
+
+
+@pytest.mark.slow
+def test_node_republishes_camera_info_beside_repaired_with_each_frame_s_stamp():
+    domain = random.randint(100, 200)
+    node = _node(domain, "--depth-scale", "4000")
+    peer = ros2_peer.Peer(domain, info=True)
+    end = time.monotonic() + 30
+    while not peer.matched():
+        assert time.monotonic() < end, "the node never matched the peer's topics"
+        time.sleep(0.05)
+    got: dict[str, list] = {"repaired": [], "camera_info": []}
+    try:
+        for k in range(5):
+            assert peer.info is not None
+            peer.info.write(ros2_peer.camera_info(1000 + k, 500))
+            time.sleep(0.02)
+            peer.writer.write(ros2_peer.image(room(k), 1000 + k, 500))
+            time.sleep(0.1)
+        end = time.monotonic() + 10
+        while time.monotonic() < end and len(got["camera_info"]) < 5:
+            for key, new in peer.take().items():
+                if key in got:
+                    got[key] += new
+            time.sleep(0.05)
+    finally:
+        node.send_signal(signal.SIGINT)
+        node.communicate(timeout=30)
+    stamps = [(m.header.stamp.sec, m.header.stamp.nanosec) for m in got["camera_info"]]
+    assert stamps == [(m.header.stamp.sec, m.header.stamp.nanosec) for m in got["repaired"]]
+    assert len(stamps) == 5 and got["camera_info"][0].k[0] == pytest.approx(461.2)

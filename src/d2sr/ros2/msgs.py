@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 
-__all__ = ["DiagnosticStatus", "Header", "Image", "KeyValue", "Time"]
+__all__ = ["CameraInfo", "DiagnosticStatus", "Header", "Image", "KeyValue", "RegionOfInterest", "Time"]
 
 IMAGE = "sensor_msgs/msg/Image"
 
@@ -86,3 +86,30 @@ class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnost
     message: str = ""
     hardware_id: str = ""
     values: sequence[KeyValue] = field(default_factory=list)
+
+
+@dataclass
+class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
+    x_offset: uint32 = 0
+    y_offset: uint32 = 0
+    height: uint32 = 0
+    width: uint32 = 0
+    do_rectify: bool = False
+
+
+@dataclass
+class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
+    """The camera's calibration beside an image (image_transport pairs ``<ns>/image`` with
+    ``<ns>/camera_info``)."""
+
+    header: Header = field(default_factory=Header)
+    height: uint32 = 0
+    width: uint32 = 0
+    distortion_model: str = ""
+    d: sequence[float64] = field(default_factory=list)
+    k: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    r: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    p: array[float64, 12] = field(default_factory=lambda: [0.0] * 12)
+    binning_x: uint32 = 0
+    binning_y: uint32 = 0
+    roi: RegionOfInterest = field(default_factory=RegionOfInterest)

@@ -120,7 +120,7 @@ class Ros2Node:
             from cyclonedds.util import duration
         except ImportError:
             raise InputError("d2sr ros2 needs Cyclone DDS: pip install '.[ros2]'") from None
-        from d2sr.ros2.msgs import DiagnosticStatus, Image
+        from d2sr.ros2.msgs import CameraInfo, DiagnosticStatus, Image
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline
 
@@ -154,6 +154,15 @@ class Ros2Node:
         self.status = DataWriter(
             self.participant, Topic(self.participant, f"{name}/status", DiagnosticStatus), qos=speak
         )
+        # The camera's calibration, as image_transport pairs it: taken from beside the input image
+        # (<namespace>/camera_info) and written beside the repaired one (T/camera_info) with its stamp.
+        parent = self.topic.rsplit("/", 1)[0]
+        info_in = Topic(self.participant, dds_topic(f"{parent}/camera_info"), CameraInfo)
+        self.info_reader = DataReader(self.participant, info_in, qos=listen)
+        self.info = DataWriter(
+            self.participant, Topic(self.participant, f"{name}/camera_info", CameraInfo), qos=speak
+        )
+        self._info: Any = None  # the latest camera_info taken
         self._waitset = WaitSet(self.participant)
         # Wake on data (a reader attached alone wakes only on its status changes).
         any_state = SampleState.Any | ViewState.Any | InstanceState.Any
@@ -189,6 +198,7 @@ class Ros2Node:
                 if getattr(sample, "sample_info", None) is not None and not sample.sample_info.valid_data:
                     continue
                 self.receive(sample, time.monotonic())
+            self._take_info()
             if self.colour_reader is not None:
                 for sample in self.colour_reader.take(N=8):
                     if getattr(sample, "sample_info", None) is None or sample.sample_info.valid_data:
@@ -200,6 +210,30 @@ class Ros2Node:
             self._publish_done(wait=bool(self._running))
             self._start_waiting()
         return self.stats
+
+    def _take_info(self) -> None:
+        """Keep the latest camera_info (a malformed one is skipped with a warning, once)."""
+        try:
+            for sample in self.info_reader.take(N=8):
+                info = getattr(sample, "sample_info", None)
+                if info is None or info.valid_data:
+                    self._info = sample
+        except Exception as exc:  # a message Cyclone cannot decode must not stop the node
+            self._warn(
+                f"{self.topic}: a camera_info could not be read ({type(exc).__name__}); skipped", "info"
+            )
+
+    def _write_info(self, header: Any) -> None:
+        """The latest camera_info again, beside the repaired frame, with that frame's header (stamp)."""
+        from d2sr.ros2.msgs import CameraInfo
+
+        i = self._info
+        if i is None:
+            return
+        self.info.write(
+            CameraInfo(header, i.height, i.width, i.distortion_model, list(i.d), list(i.k), list(i.r),
+                       list(i.p), i.binning_x, i.binning_y, i.roi)
+        )  # fmt: skip
 
     def receive(self, msg: Any, taken: float) -> None:
         """A message off the reader: it waits for a free worker; beyond ``WAITING`` such frames the oldest is
@@ -303,6 +337,7 @@ class Ros2Node:
         enc = "32FC1" if out.dtype.kind == "f" else "16UC1"
         self.repaired.write(Image(header, h, w, enc, 0, w * out.itemsize, out.view(np.uint8).reshape(-1)))
         self.mask.write(Image(header, h, w, "mono8", 0, w, np.zeros(h * w, np.uint8)))
+        self._write_info(header)
         conf = confidence_image(s.confidence)
         self.confidence.write(Image(header, h, w, "mono8", 0, w, conf.reshape(-1)))
         self.status.write(self._synth_status(header, s))
@@ -346,6 +381,7 @@ class Ros2Node:
         )
         mask = np.where(r.mask, 255, 0).astype(np.uint8)
         self.mask.write(Image(msg.header, h, w, "mono8", 0, w, mask.reshape(-1)))
+        self._write_info(msg.header)
         self.status.write(self._status(msg, r, int(r.mask.sum())))
         self.stats.published += 1
         self.stats.flagged += r.interfered
