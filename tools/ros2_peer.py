@@ -89,6 +89,12 @@ class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
     roi: RegionOfInterest = field(default_factory=RegionOfInterest)
 
 
+@dataclass
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    header: Header = field(default_factory=Header)
+    status: sequence[DiagnosticStatus] = field(default_factory=list)
+
+
 def camera_info(sec: int, nanosec: int = 0) -> CameraInfo:
     """An L515-like 640x480 calibration with a stamp (d2sr's own camera_info comes back with the image's)."""
     k = [461.2, 0.0, 329.2, 0.0, 461.6, 243.1, 0.0, 0.0, 1.0]
@@ -154,6 +160,7 @@ class Peer:
         reliable: bool = True,
         colour_topic: str | None = None,
         info: bool = False,
+        diagnostics: bool = False,
     ) -> None:
         self.dp = DomainParticipant(domain)
         name = "rt" + topic
@@ -174,6 +181,10 @@ class Peer:
             self.info = DataWriter(self.dp, Topic(self.dp, parent + "/camera_info", CameraInfo), qos=qos)
             self.readers["camera_info"] = DataReader(
                 self.dp, Topic(self.dp, name + "/camera_info", CameraInfo), qos=keep
+            )
+        if diagnostics:
+            self.readers["diagnostics"] = DataReader(
+                self.dp, Topic(self.dp, "rt/diagnostics", DiagnosticArray), qos=keep
             )
         self.colour = None
         if colour_topic is not None:

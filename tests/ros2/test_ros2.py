@@ -287,12 +287,12 @@ def test_camera_info_bytes_are_rosbags_bytes():
 def test_node_republishes_camera_info_beside_repaired_with_each_frame_s_stamp():
     domain = random.randint(100, 200)
     node = _node(domain, "--depth-scale", "4000")
-    peer = ros2_peer.Peer(domain, info=True)
+    peer = ros2_peer.Peer(domain, info=True, diagnostics=True)
     end = time.monotonic() + 30
     while not peer.matched():
         assert time.monotonic() < end, "the node never matched the peer's topics"
         time.sleep(0.05)
-    got: dict[str, list] = {"repaired": [], "camera_info": []}
+    got: dict[str, list] = {"repaired": [], "camera_info": [], "diagnostics": []}
     try:
         for k in range(5):
             assert peer.info is not None
@@ -301,7 +301,7 @@ def test_node_republishes_camera_info_beside_repaired_with_each_frame_s_stamp():
             peer.writer.write(ros2_peer.image(room(k), 1000 + k, 500))
             time.sleep(0.1)
         end = time.monotonic() + 10
-        while time.monotonic() < end and len(got["camera_info"]) < 5:
+        while time.monotonic() < end and (len(got["camera_info"]) < 5 or len(got["diagnostics"]) < 2):
             for key, new in peer.take().items():
                 if key in got:
                     got[key] += new
@@ -310,5 +310,25 @@ def test_node_republishes_camera_info_beside_repaired_with_each_frame_s_stamp():
         node.send_signal(signal.SIGINT)
         node.communicate(timeout=30)
     stamps = [(m.header.stamp.sec, m.header.stamp.nanosec) for m in got["camera_info"]]
+    # /diagnostics, once a second: this camera's counts, latency and window
+    assert got["diagnostics"], "no /diagnostics in the run"
+    last = {kv.key: kv.value for kv in got["diagnostics"][-1].status[0].values}
+    assert got["diagnostics"][-1].status[0].hardware_id == "/camera/depth/image_rect_raw"
+    assert int(last["frames_in"]) <= 5 and {"dropped", "latency_p99_ms", "window_offset"} <= set(last)
     assert stamps == [(m.header.stamp.sec, m.header.stamp.nanosec) for m in got["repaired"]]
     assert len(stamps) == 5 and got["camera_info"][0].k[0] == pytest.approx(461.2)
+
+
+def test_diagnostics_bytes_are_rosbags_bytes():
+    from d2sr.ros2.msgs import DiagnosticArray
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    t = ts.types
+    status = DiagnosticStatus(1, "d2sr: /cam", "ok", "/cam", [KeyValue("frames_in", "3")])
+    ours = DiagnosticArray(Header(Time(9, 1), ""), [status])
+    theirs = t["diagnostic_msgs/msg/DiagnosticArray"](
+        t["std_msgs/msg/Header"](t["builtin_interfaces/msg/Time"](9, 1), ""),
+        [t["diagnostic_msgs/msg/DiagnosticStatus"](1, "d2sr: /cam", "ok", "/cam",
+                                                   [t["diagnostic_msgs/msg/KeyValue"]("frames_in", "3")])],
+    )  # fmt: skip
+    assert ours.serialize() == bytes(ts.serialize_cdr(theirs, "diagnostic_msgs/msg/DiagnosticArray"))

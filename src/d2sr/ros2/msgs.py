@@ -11,7 +11,16 @@ import numpy as np
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 
-__all__ = ["CameraInfo", "DiagnosticStatus", "Header", "Image", "KeyValue", "RegionOfInterest", "Time"]
+__all__ = [
+    "CameraInfo",
+    "DiagnosticArray",
+    "DiagnosticStatus",
+    "Header",
+    "Image",
+    "KeyValue",
+    "RegionOfInterest",
+    "Time",
+]
 
 IMAGE = "sensor_msgs/msg/Image"
 
@@ -113,3 +122,11 @@ class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
     binning_x: uint32 = 0
     binning_y: uint32 = 0
     roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+
+
+@dataclass
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    """``/diagnostics``: one status per camera (what ROS 2's diagnostic tools read)."""
+
+    header: Header = field(default_factory=Header)
+    status: sequence[DiagnosticStatus] = field(default_factory=list)

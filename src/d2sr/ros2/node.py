@@ -54,6 +54,7 @@ LATENCY_WINDOW = 10_000  # frames whose latency the node's figures cover (about 
 # Frames taken but not yet started, at most: when the repair cannot keep up, the oldest of them is dropped
 # (counted, said once) rather than queued, so a robot behind the node gets recent depth, not a growing lag.
 WAITING = 2
+DIAGNOSTICS_S = 1.0  # how often /diagnostics is written (ROS 2's diagnostic aggregator expects about 1 Hz)
 MIN_SIDE = 8  # pixels: a smaller image is no depth frame the models can judge
 
 
@@ -120,7 +121,7 @@ class Ros2Node:
             from cyclonedds.util import duration
         except ImportError:
             raise InputError("d2sr ros2 needs Cyclone DDS: pip install '.[ros2]'") from None
-        from d2sr.ros2.msgs import CameraInfo, DiagnosticStatus, Image
+        from d2sr.ros2.msgs import CameraInfo, DiagnosticArray, DiagnosticStatus, Image
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline
 
@@ -132,6 +133,7 @@ class Ros2Node:
         self._workers = workers
         self._running: deque[tuple[Any, float, Future[Any]]] = deque()
         self._waiting: deque[tuple[Any, float]] = deque()  # taken, not started (at most ``WAITING``)
+        self._last_trouble = (0, 0)  # dropped and refused at the last /diagnostics
         self._warm_up()
         self.depth_scale = depth_scale
         self.say = say or (lambda line: None)
@@ -163,6 +165,11 @@ class Ros2Node:
             self.participant, Topic(self.participant, f"{name}/camera_info", CameraInfo), qos=speak
         )
         self._info: Any = None  # the latest camera_info taken
+        # Per camera, once a second: frames in and out, dropped, the interfered share, latency, the window.
+        self.diagnostics = DataWriter(
+            self.participant, Topic(self.participant, "rt/diagnostics", DiagnosticArray), qos=speak
+        )
+        self._next_diagnostics = time.monotonic() + DIAGNOSTICS_S
         self._waitset = WaitSet(self.participant)
         # Wake on data (a reader attached alone wakes only on its status changes).
         any_state = SampleState.Any | ViewState.Any | InstanceState.Any
@@ -206,6 +213,9 @@ class Ros2Node:
             self._publish_done()
             self._start_waiting()
             self._synthesize_due(time.monotonic())
+            if time.monotonic() >= self._next_diagnostics:
+                self._next_diagnostics = time.monotonic() + DIAGNOSTICS_S
+                self.diagnostics.write(self._diagnostics())
         while self._running or self._waiting:
             self._publish_done(wait=bool(self._running))
             self._start_waiting()
@@ -410,6 +420,34 @@ class Ros2Node:
         rows = data.reshape(h, step)[:, :row]
         depth = np.ascontiguousarray(rows).view(dtype.newbyteorder(">" if msg.is_bigendian else "<"))
         return depth.astype(dtype, copy=False)
+
+    def _diagnostics(self) -> Any:
+        """``/diagnostics``: this camera's status (WARN while frames are being dropped or refused)."""
+        from d2sr.ros2.msgs import DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time
+
+        st, w = self.stats, self.pipeline.window
+        lat = st.latency_ms() if st.published else {"median": float("nan"), "p99": float("nan")}
+        values = {
+            "frames_in": str(st.received),
+            "frames_out": str(st.published),
+            "dropped": str(st.dropped),
+            "refused": str(st.refused),
+            "synthesized": str(st.synthesized),
+            "interfered_share": f"{st.flagged / st.published:.4f}" if st.published else "n/a",
+            "latency_median_ms": f"{lat['median']:.1f}" if st.published else "n/a",
+            "latency_p99_ms": f"{lat['p99']:.1f}" if st.published else "n/a",
+            "period": str(w.period),
+            "window_offset": str(w.offset),
+            "active_frames": str(w.active_frames),
+            "total_frames": str(w.total_frames),
+        }
+        behind = (st.dropped, st.refused) != self._last_trouble
+        self._last_trouble = (st.dropped, st.refused)
+        message = "dropping or refusing frames" if behind else "ok"
+        status = DiagnosticStatus(1 if behind else 0, f"d2sr: {self.topic}", message, self.topic,
+                                  [KeyValue(k, v) for k, v in values.items()])  # fmt: skip
+        now = time.time_ns()
+        return DiagnosticArray(Header(Time(now // 10**9, now % 10**9), ""), [status])
 
     def _status(self, msg: Any, r: Any, repaired: int) -> Any:
         from d2sr.ros2.msgs import DiagnosticStatus, KeyValue
