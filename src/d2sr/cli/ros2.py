@@ -40,6 +40,14 @@ def ros2(
     qos: Annotated[
         str, typer.Option(help="Reliability of what the node publishes: reliable or best-effort.")
     ] = ("reliable"),
+    transport: Annotated[
+        str,
+        typer.Option(
+            help="How images travel: raw (sensor_msgs/Image on TOPIC) or compressedDepth "
+            "(TOPIC/compressedDepth in, TOPIC/repaired/compressedDepth out beside the raw TOPIC/repaired), "
+            "as image_transport names them."
+        ),
+    ] = "raw",
     trigger: TriggerOpt = None,
     colour_topic: Annotated[
         str | None,
@@ -78,8 +86,8 @@ def ros2(
         passes=passes, scene=scene, scene_from=scene_from,
     )  # fmt: skip
     node = Ros2Node(
-        topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, controller=controller,
-        active_frames=active_frames, trigger=trigger, settings=settings,
+        topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, transport=transport,
+        controller=controller, active_frames=active_frames, trigger=trigger, settings=settings,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())

@@ -13,6 +13,7 @@ from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 
 __all__ = [
     "CameraInfo",
+    "CompressedImage",
     "DiagnosticArray",
     "DiagnosticStatus",
     "Header",
@@ -130,3 +131,39 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnosti
 
     header: Header = field(default_factory=Header)
     status: sequence[DiagnosticStatus] = field(default_factory=list)
+
+
+COMPRESSED = "sensor_msgs/msg/CompressedImage"
+
+
+@dataclass
+class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedImage_"):
+    """image_transport's compressed images (``<topic>/compressedDepth``: a 12-byte header, then a PNG),
+    its bytes through rosbags' codec as ``Image``'s."""
+
+    header: Header = field(default_factory=Header)
+    format: str = ""
+    data: sequence[uint8] = field(default_factory=list)
+
+    def serialize(self, buffer: Any = None, endianness: Any = None, use_version_2: Any = None) -> bytes:
+        ts = _store()
+        t = ts.types
+        msg = t[COMPRESSED](
+            header=t["std_msgs/msg/Header"](
+                stamp=t["builtin_interfaces/msg/Time"](
+                    sec=self.header.stamp.sec, nanosec=self.header.stamp.nanosec
+                ),
+                frame_id=self.header.frame_id,
+            ),
+            format=self.format,
+            data=np.ascontiguousarray(self.data, dtype=np.uint8).reshape(-1),
+        )
+        return bytes(ts.serialize_cdr(msg, COMPRESSED))
+
+    @classmethod
+    def deserialize(
+        cls, data: bytes, has_header: bool = True, use_version_2: Any = None
+    ) -> "CompressedImage":
+        m = _store().deserialize_cdr(data, COMPRESSED)
+        stamp = Time(m.header.stamp.sec, m.header.stamp.nanosec)
+        return cls(Header(stamp, m.header.frame_id), m.format, m.data)

@@ -23,7 +23,7 @@ from d2sr.runtime.stats import median_p99_ms
 from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.synth.recording import confidence_image
 
-__all__ = ["ENCODINGS", "QOS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
+__all__ = ["ENCODINGS", "QOS", "TRANSPORTS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
 
 #: Depth encodings the node takes (REP 118: 16-bit in millimetres unless told, float in metres).
 ENCODINGS: dict[str, np.dtype[Any]] = {
@@ -32,6 +32,9 @@ ENCODINGS: dict[str, np.dtype[Any]] = {
     "32FC1": np.dtype(np.float32),
 }
 QOS = ("reliable", "best-effort")
+#: How images travel (image_transport's names): raw ``sensor_msgs/Image``, or ``compressedDepth`` (a PNG in
+#: a ``CompressedImage`` on ``<topic>/compressedDepth``, as orbbec_camera and realsense-ros publish it).
+TRANSPORTS = ("raw", "compressedDepth")
 _NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -92,10 +95,14 @@ class Ros2Node:
         domain: int | None = None,
         say: Callable[[str], None] | None = None,
         colour_topic: str | None = None,
+        transport: str = "raw",
         **pipeline: Any,
     ) -> None:
         if qos not in QOS:
             raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
+        if transport not in TRANSPORTS:
+            raise ConfigError(f"--transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.compressed = transport == "compressedDepth"
         if depth_scale is not None and not (
             isinstance(depth_scale, int | float) and np.isfinite(depth_scale) and depth_scale > 0
         ):
@@ -121,7 +128,7 @@ class Ros2Node:
             from cyclonedds.util import duration
         except ImportError:
             raise InputError("d2sr ros2 needs Cyclone DDS: pip install '.[ros2]'") from None
-        from d2sr.ros2.msgs import CameraInfo, DiagnosticArray, DiagnosticStatus, Image
+        from d2sr.ros2.msgs import CameraInfo, CompressedImage, DiagnosticArray, DiagnosticStatus, Image
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline
 
@@ -147,7 +154,15 @@ class Ros2Node:
             speak = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(8))
         else:
             speak = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(8))
-        image_in = Topic(self.participant, name, Image)
+        if self.compressed:
+            image_in = Topic(self.participant, f"{name}/compressedDepth", CompressedImage)
+            self.repaired_compressed = DataWriter(
+                self.participant,
+                Topic(self.participant, f"{name}/repaired/compressedDepth", CompressedImage),
+                qos=speak,
+            )
+        else:
+            image_in = Topic(self.participant, name, Image)
         self.reader = DataReader(self.participant, image_in, qos=listen)
         self.repaired = DataWriter(
             self.participant, Topic(self.participant, f"{name}/repaired", Image), qos=speak
@@ -386,9 +401,12 @@ class Ros2Node:
 
         out = np.ascontiguousarray(r.depth)
         h, w = out.shape
+        encoding = msg.encoding if not self.compressed else "32FC1" if out.dtype.kind == "f" else "16UC1"
         self.repaired.write(
-            Image(msg.header, h, w, msg.encoding, 0, w * out.itemsize, out.view(np.uint8).reshape(-1))
+            Image(msg.header, h, w, encoding, 0, w * out.itemsize, out.view(np.uint8).reshape(-1))
         )
+        if self.compressed:
+            self.repaired_compressed.write(_compress(msg, out, r.mask))
         mask = np.where(r.mask, 255, 0).astype(np.uint8)
         self.mask.write(Image(msg.header, h, w, "mono8", 0, w, mask.reshape(-1)))
         self._write_info(msg.header)
@@ -400,6 +418,11 @@ class Ros2Node:
     def _depth(self, msg: Any) -> np.ndarray | None:
         """The message's depth image, or None (with a warning once per kind) for one the node does not take;
         sizes are checked before any array is made."""
+        if self.compressed:
+            from d2sr.frames.rosbag import decode_image
+            from d2sr.ros2.msgs import COMPRESSED
+
+            return decode_image(msg, COMPRESSED, f"{self.topic}/compressedDepth")[0]
         dtype = ENCODINGS.get(msg.encoding) if isinstance(msg.encoding, str) else None
         if dtype is None:
             self._warn(f"{self.topic}: encoding {str(msg.encoding)[:40]!r} is not a depth image d2sr takes "
@@ -482,6 +505,25 @@ class Ros2Node:
 
 
 _KINDS = 64  # kinds of warning a node remembers (and says once each)
+
+
+def _compress(msg: Any, depth: np.ndarray, mask: np.ndarray) -> Any:
+    """The repaired frame as ``msg`` came (compressedDepth: its 12-byte header, then a PNG): the input's
+    quantized pixels with the repaired ones written in, so every other pixel is as it was."""
+    from d2sr.frames.png import decode_png, encode_png
+    from d2sr.frames.rosbag import _HEADER
+    from d2sr.ros2.msgs import CompressedImage
+
+    raw = bytes(msg.data)
+    head, img = raw[: _HEADER.size], decode_png(raw[_HEADER.size :], "compressedDepth")
+    if str(msg.format).startswith("32FC1"):  # inverse depth, quantized: img = a / depth + b
+        _, a, b = _HEADER.unpack(head)
+        d = np.maximum(depth[mask].astype(np.float64), 1e-6)
+        img[mask] = np.where(depth[mask] > 0, np.clip(np.rint(a / d + b), 1, 65535), 0).astype(np.uint16)
+    else:
+        img[mask] = depth[mask]
+    data = np.frombuffer(head + encode_png(img, "compressedDepth"), np.uint8)
+    return CompressedImage(msg.header, str(msg.format), data)
 
 
 def _stamp(msg: Any) -> int:
