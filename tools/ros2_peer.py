@@ -115,6 +115,35 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnosti
     status: sequence[DiagnosticStatus] = field(default_factory=list)
 
 
+@dataclass
+class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
+    data: array[uint8, 24] = field(default_factory=lambda: [0] * 24)
+
+
+@dataclass
+class NodeEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"):
+    node_namespace: str = ""
+    node_name: str = ""
+    reader_gid_seq: sequence[Gid] = field(default_factory=list)
+    writer_gid_seq: sequence[Gid] = field(default_factory=list)
+
+
+@dataclass
+class ParticipantEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_"):
+    gid: Gid = field(default_factory=Gid)
+    node_entities_info_seq: sequence[NodeEntitiesInfo] = field(default_factory=list)
+
+
+def graph(dp: DomainParticipant) -> DataReader:
+    """A reader of ``ros_discovery_info`` as ROS 2's tools (Humble) open it: reliable, transient local."""
+    qos = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.History.KeepLast(1),
+        Policy.Durability.TransientLocal,
+    )
+    return DataReader(dp, Topic(dp, "ros_discovery_info", ParticipantEntitiesInfo), qos=qos)
+
+
 def camera_info(sec: int, nanosec: int = 0) -> CameraInfo:
     """An L515-like 640x480 calibration with a stamp (d2sr's own camera_info comes back with the image's)."""
     k = [461.2, 0.0, 329.2, 0.0, 461.6, 243.1, 0.0, 0.0, 1.0]

@@ -373,3 +373,36 @@ def test_node_takes_and_gives_compressed_depth():
         assert img.dtype == np.uint16 and np.array_equal(img, ros2_peer.pixels(r))
         untouched = ros2_peer.pixels(m) == 0
         assert np.array_equal(img[untouched], frames[c.header.stamp.sec - 1000][untouched])
+
+
+@pytest.mark.slow
+def test_the_node_is_in_the_ros_graph_with_its_readers_and_writers():
+    """A participant reading ros_discovery_info as ROS 2's tools do finds the node by name and namespace,
+    and among its entities the writer of TOPIC/repaired and the reader of TOPIC that it matched."""
+    domain = random.randint(100, 200)
+    node = _node(domain, "--depth-scale", "4000", "--node-name", "d2sr_test")
+    peer = ros2_peer.Peer(domain)
+    reader = ros2_peer.graph(peer.dp)
+    try:
+        end = time.monotonic() + 30
+        while not peer.matched():
+            assert time.monotonic() < end, "the node never matched the peer's topics"
+            time.sleep(0.05)
+        nodes = []
+        while time.monotonic() < end and not nodes:
+            for s in reader.take(N=16):
+                nodes += [n for n in s.node_entities_info_seq if n.node_name == "d2sr_test"]
+            time.sleep(0.05)
+        (found,) = nodes[:1]
+        assert found.node_namespace == "/"
+        rep = peer.readers["repaired"]
+        writer = rep.get_matched_publication_data(rep.get_matched_publications()[0]).key.bytes
+        image_reader = peer.writer.get_matched_subscription_data(
+            peer.writer.get_matched_subscriptions()[0]
+        ).key.bytes
+        assert writer + bytes(8) in [bytes(g.data) for g in found.writer_gid_seq]
+        assert image_reader + bytes(8) in [bytes(g.data) for g in found.reader_gid_seq]
+    finally:
+        node.send_signal(signal.SIGINT)
+        node.communicate(timeout=30)
+    assert node.returncode == 0

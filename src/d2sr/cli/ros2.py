@@ -48,6 +48,9 @@ def ros2(
             "as image_transport names them."
         ),
     ] = "raw",
+    node_name: Annotated[
+        str, typer.Option(help="The node's name, as ros2 node list shows it (namespace /).")
+    ] = "d2sr",
     trigger: TriggerOpt = None,
     colour_topic: Annotated[
         str | None,
@@ -88,6 +91,7 @@ def ros2(
     node = Ros2Node(
         topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, transport=transport,
         controller=controller, active_frames=active_frames, trigger=trigger, settings=settings,
+        node_name=node_name,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())

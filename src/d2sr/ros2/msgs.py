@@ -12,13 +12,17 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 
 __all__ = [
+    "GID_BYTES",
     "CameraInfo",
     "CompressedImage",
     "DiagnosticArray",
     "DiagnosticStatus",
+    "Gid",
     "Header",
     "Image",
     "KeyValue",
+    "NodeEntitiesInfo",
+    "ParticipantEntitiesInfo",
     "RegionOfInterest",
     "Time",
 ]
@@ -167,3 +171,30 @@ class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedIma
         m = _store().deserialize_cdr(data, COMPRESSED)
         stamp = Time(m.header.stamp.sec, m.header.stamp.nanosec)
         return cls(Header(stamp, m.header.frame_id), m.format, m.data)
+
+
+#: A graph id's size on the wire: the 16-byte DDS GUID, padded with zeros to 24 bytes (ROS 2 Humble's
+#: rmw_dds_common; Jazzy shrank it to 16: a Jazzy graph does not read Humble's, and the other way round).
+GID_BYTES = 24
+
+
+@dataclass
+class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
+    data: array[uint8, GID_BYTES] = field(default_factory=lambda: [0] * GID_BYTES)
+
+
+@dataclass
+class NodeEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"):
+    node_namespace: str = ""
+    node_name: str = ""
+    reader_gid_seq: sequence[Gid] = field(default_factory=list)
+    writer_gid_seq: sequence[Gid] = field(default_factory=list)
+
+
+@dataclass
+class ParticipantEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_"):
+    """``ros_discovery_info``: the nodes of a DDS participant and their readers and writers, which is how
+    ``ros2 node list`` and ``ros2 node info`` learn of nodes."""
+
+    gid: Gid = field(default_factory=Gid)
+    node_entities_info_seq: sequence[NodeEntitiesInfo] = field(default_factory=list)

@@ -96,10 +96,13 @@ class Ros2Node:
         say: Callable[[str], None] | None = None,
         colour_topic: str | None = None,
         transport: str = "raw",
+        node_name: str = "d2sr",
         **pipeline: Any,
     ) -> None:
         if qos not in QOS:
             raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
+        if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", node_name):
+            raise ConfigError(f"--node-name: {node_name!r} is not a ROS 2 node name (letters, digits and _)")
         if transport not in TRANSPORTS:
             raise ConfigError(f"--transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
         self.compressed = transport == "compressedDepth"
@@ -204,6 +207,32 @@ class Ros2Node:
         self._gaps = ColourGaps()  # which colour frames have no depth frame (extra: the message header)
         self._stop = threading.Event()
         self._duration = duration
+        self._announce(node_name)
+
+    def _announce(self, node_name: str) -> None:
+        """Say on ``ros_discovery_info`` (transient local, as ROS 2's rmw does) that this participant holds
+        the node ``/<node_name>`` with its readers and writers, so ``ros2 node list`` and ``ros2 node info``
+        show it."""
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic
+
+        from d2sr.ros2.msgs import NodeEntitiesInfo, ParticipantEntitiesInfo
+
+        readers = [self.reader, self.info_reader, *([self.colour_reader] if self.colour_reader else [])]
+        writers = [self.repaired, self.mask, self.status, self.info, self.diagnostics]
+        writers += [
+            w for w in (getattr(self, "repaired_compressed", None), getattr(self, "confidence", None)) if w
+        ]
+        node = NodeEntitiesInfo(
+            "/", node_name, [_gid(r.guid) for r in readers], [_gid(w.guid) for w in writers]
+        )
+        qos = Qos(Policy.Reliability.Reliable(self._duration(milliseconds=100)), Policy.History.KeepLast(1),
+                  Policy.Durability.TransientLocal)  # fmt: skip
+        topic = Topic(self.participant, "ros_discovery_info", ParticipantEntitiesInfo)
+        self.graph = DataWriter(self.participant, topic, qos=qos)
+        self.graph.write(ParticipantEntitiesInfo(_gid(self.participant.guid), [node]))
+        self.node_name = node_name
 
     def stop(self) -> None:
         """Ask ``spin`` to return (safe from a signal handler or another thread)."""
@@ -524,6 +553,14 @@ def _compress(msg: Any, depth: np.ndarray, mask: np.ndarray) -> Any:
         img[mask] = depth[mask]
     data = np.frombuffer(head + encode_png(img, "compressedDepth"), np.uint8)
     return CompressedImage(msg.header, str(msg.format), data)
+
+
+def _gid(guid: Any) -> Any:
+    """A DDS entity's GUID (a uuid.UUID) as ROS 2's graph id."""
+    from d2sr.ros2.msgs import GID_BYTES, Gid
+
+    raw = guid.bytes
+    return Gid(list(raw) + [0] * (GID_BYTES - len(raw)))
 
 
 def _stamp(msg: Any) -> int:
