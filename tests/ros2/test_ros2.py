@@ -406,3 +406,17 @@ def test_the_node_is_in_the_ros_graph_with_its_readers_and_writers():
         node.send_signal(signal.SIGINT)
         node.communicate(timeout=30)
     assert node.returncode == 0
+
+
+def test_graph_bytes_are_rosbags_bytes():
+    from d2sr.ros2.msgs import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    t = ts.types
+    g = list(range(24))
+    ours = ParticipantEntitiesInfo(Gid(g), [NodeEntitiesInfo("/", "d2sr", [Gid(g)], [Gid(g), Gid(g)])])
+    gid = t["rmw_dds_common/msg/Gid"](np.array(g, np.uint8))
+    theirs = t["rmw_dds_common/msg/ParticipantEntitiesInfo"](
+        gid, [t["rmw_dds_common/msg/NodeEntitiesInfo"]("/", "d2sr", [gid], [gid, gid])]
+    )
+    assert ours.serialize() == bytes(ts.serialize_cdr(theirs, "rmw_dds_common/msg/ParticipantEntitiesInfo"))
