@@ -46,9 +46,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--messages", type=int, default=100_000)
     args = ap.parse_args()
-    from d2sr.ros2 import Ros2Node
+    from d2sr.ros2 import Ros2Node, Wire
 
-    node = Ros2Node("/memory/depth", 1000.0, domain=179)
+    node = Ros2Node("/memory/depth", 1000.0, Wire(domain=179))
     lines: list[str] = []
     node.say = lines.append
     samples = []

@@ -46,9 +46,9 @@ def _real(i: int) -> Msg:
 @pytest.fixture(scope="module")
 def node(weights):
     pytest.importorskip("cyclonedds")
-    from d2sr.ros2 import Ros2Node
+    from d2sr.ros2 import Ros2Node, Wire
 
-    n = Ros2Node("/hostile/depth", 1000.0, domain=177, models=weights, model="unet8", scene=False)
+    n = Ros2Node("/hostile/depth", 1000.0, Wire(domain=177), models=weights, model="unet8", scene=False)
     lines: list[str] = []
     n.say = lines.append
     n.lines = lines
@@ -112,8 +112,8 @@ def test_random_messages_never_stop_the_node(node, msg):
 
 def test_settings_are_checked_at_start(weights):
     pytest.importorskip("cyclonedds")
-    from d2sr.ros2 import Ros2Node
+    from d2sr.ros2 import Ros2Node, Wire
 
     for scale in (-1, 0, float("nan"), "abc"):
         with pytest.raises(ConfigError, match="depth-scale"):
-            Ros2Node("/hostile/depth", scale, domain=178, models=weights, model="unet8")
+            Ros2Node("/hostile/depth", scale, Wire(domain=178), models=weights, model="unet8")

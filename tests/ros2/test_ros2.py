@@ -227,9 +227,9 @@ def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
 
 def test_node_takes_the_scene_option():
     """``d2sr ros2 --scene``: the node's loop judges frames against the still sensor's scene."""
-    from d2sr.ros2 import Ros2Node
+    from d2sr.ros2 import Ros2Node, Wire
 
-    node = Ros2Node("/cam/depth", 4000.0, "reliable", domain=random.randint(100, 200), scene=True)
+    node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), scene=True)
     try:
         assert node.pipeline.loop.settings.scene
     finally:
@@ -239,10 +239,10 @@ def test_node_takes_the_scene_option():
 def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
     """Frames come faster than the repair: at most ``WAITING`` frames wait; older ones are dropped, counted
     and said once, never queued without bound; every frame is either published or counted as dropped."""
-    from d2sr.ros2.node import WAITING, Ros2Node
+    from d2sr.ros2.node import WAITING, Ros2Node, Wire
 
     said: list[str] = []
-    node = Ros2Node("/cam/depth", 4000.0, domain=random.randint(100, 200), say=said.append)
+    node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), say=said.append)
     slow = node.pipeline.finish
 
     def finish(decided):  # a repair far slower than the frames come
@@ -357,7 +357,7 @@ def test_node_takes_and_gives_compressed_depth():
             peer.writer.write(ros2_peer.compressed_depth(f, 1000 + k))
             time.sleep(0.1)
         end = time.monotonic() + 10
-        while time.monotonic() < end and len(got["compressed"]) < 3:
+        while time.monotonic() < end and min(len(v) for v in got.values()) < 3:
             for key, new in peer.take().items():
                 if key in got:
                     got[key] += new

@@ -80,7 +80,7 @@ def ros2(
     Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
     """
     from d2sr.errors import ConfigError
-    from d2sr.ros2 import Ros2Node
+    from d2sr.ros2 import Ros2Node, Wire
 
     if seconds is not None and not (0 < seconds < float("inf")):
         raise ConfigError(f"--seconds must be a positive number, got {seconds}")
@@ -88,10 +88,10 @@ def ros2(
         repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
         passes=passes, scene=scene, scene_from=scene_from,
     )  # fmt: skip
+    wire = Wire(qos=qos, transport=transport, node_name=node_name)
     node = Ros2Node(
-        topic, depth_scale, qos, say=print_line, colour_topic=colour_topic, transport=transport,
-        controller=controller, active_frames=active_frames, trigger=trigger, settings=settings,
-        node_name=node_name,
+        topic, depth_scale, wire, say=print_line, colour_topic=colour_topic, controller=controller,
+        active_frames=active_frames, trigger=trigger, settings=settings,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())

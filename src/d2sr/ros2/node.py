@@ -23,7 +23,7 @@ from d2sr.runtime.stats import median_p99_ms
 from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.synth.recording import confidence_image
 
-__all__ = ["ENCODINGS", "QOS", "TRANSPORTS", "Ros2Node", "Stats", "dds_topic", "domain_id"]
+__all__ = ["ENCODINGS", "QOS", "TRANSPORTS", "Ros2Node", "Stats", "Wire", "dds_topic", "domain_id"]
 
 #: Depth encodings the node takes (REP 118: 16-bit in millimetres unless told, float in metres).
 ENCODINGS: dict[str, np.dtype[Any]] = {
@@ -81,9 +81,21 @@ class Stats:
         return {"median": median, "p99": p99}
 
 
+@dataclass(frozen=True)
+class Wire:
+    """How a node meets the DDS world: ``qos``, its publishers' reliability (the subscriber takes both
+    kinds); ``domain`` (default ``ROS_DOMAIN_ID``); ``transport``, how images travel (``TRANSPORTS``);
+    ``node_name``, as ROS 2's tools list it (namespace ``/``)."""
+
+    qos: str = "reliable"
+    domain: int | None = None
+    transport: str = "raw"
+    node_name: str = "d2sr"
+
+
 class Ros2Node:
     """``topic``: the depth image topic; ``depth_scale``: units per metre of 16-bit images (default 1000,
-    REP 118's millimetres); ``qos``: the publishers' reliability (the subscriber takes both kinds);
+    REP 118's millimetres); ``wire``: QoS, domain, transport and node name (``Wire``);
     ``pipeline``: keyword arguments of ``d2sr.Pipeline`` (controller, active_frames, trigger, model, ...);
     ``say``: where warnings go (one line each)."""
 
@@ -91,14 +103,13 @@ class Ros2Node:
         self,
         topic: str,
         depth_scale: float | None = None,
-        qos: str = "reliable",
-        domain: int | None = None,
+        wire: Wire | None = None,
         say: Callable[[str], None] | None = None,
         colour_topic: str | None = None,
-        transport: str = "raw",
-        node_name: str = "d2sr",
         **pipeline: Any,
     ) -> None:
+        w = wire if wire is not None else Wire()
+        qos, domain, transport, node_name = w.qos, w.domain, w.transport, w.node_name
         if qos not in QOS:
             raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", node_name):
