@@ -30,7 +30,10 @@ __all__ = ["ros2"]
 
 
 def ros2(
-    topic: Annotated[str, typer.Option(help="Depth image topic to repair (sensor_msgs/Image).")],
+    ctx: typer.Context,
+    topic: Annotated[
+        str | None, typer.Option(help="Depth image topic to repair (sensor_msgs/Image); or in --params-file.")
+    ] = None,
     depth_scale: Annotated[
         float | None,
         typer.Option(
@@ -72,6 +75,13 @@ def ros2(
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
     scene: SceneOpt = True,
     scene_from: SceneFromOpt = None,
+    params_file: Annotated[
+        Path | None,
+        typer.Option(
+            help="A ROS 2 parameters file (NODE_NAME: ros__parameters: ..., or /**): any option above, "
+            "named with _; a flag given here wins."
+        ),
+    ] = None,
 ) -> None:
     """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
     255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours
@@ -82,6 +92,26 @@ def ros2(
     from d2sr.errors import ConfigError
     from d2sr.ros2 import Ros2Node, Wire
 
+    if params_file is not None:
+        from d2sr.ros2.params import read_params
+
+        o = dict(ctx.params)
+        for key, value in read_params(params_file, node_name).items():
+            source = ctx.get_parameter_source(key)
+            if source is None or source.name == "DEFAULT":  # a flag on the command line wins
+                o[key] = value
+        topic, depth_scale, qos, transport, node_name = (
+            o[k] for k in ("topic", "depth_scale", "qos", "transport", "node_name")
+        )
+        trigger, colour_topic, controller, active_frames = (
+            o[k] for k in ("trigger", "colour_topic", "controller", "active_frames")
+        )
+        repair, model, models, threshold, mask_logit = (
+            o[k] for k in ("repair", "model", "models", "threshold", "mask_logit")
+        )
+        passes, seconds, scene, scene_from = (o[k] for k in ("passes", "seconds", "scene", "scene_from"))
+    if topic is None:
+        raise ConfigError("--topic is required (or topic in --params-file)")
     if seconds is not None and not (0 < seconds < float("inf")):
         raise ConfigError(f"--seconds must be a positive number, got {seconds}")
     settings = RunSettings(

@@ -1,0 +1,88 @@
+"""A ROS 2 parameters file for ``d2sr ros2`` (``--params-file``), in ROS 2's own layout::
+
+    d2sr:                      # the node's name (``--node-name``), or /** for every node
+      ros__parameters:
+        topic: /camera/depth/image_rect_raw
+        depth_scale: 1000.0
+        active_frames: 6
+
+Keys are the command's options with ``_`` for ``-``; a flag given on the command line wins over the file.
+The file is data: read with a safe YAML loader, every key and value checked, anything else refused in one
+line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from d2sr.errors import ConfigError, InputError
+
+__all__ = ["NodeParams", "read_params"]
+
+MAX_BYTES = 1 << 20  # a parameters file is a few lines; a larger one is not one
+
+
+class NodeParams(BaseModel):
+    """The parameters ``d2sr ros2`` takes from a file (each as its flag)."""
+
+    model_config = ConfigDict(extra="forbid", strict=False)
+
+    topic: str | None = None
+    depth_scale: float | None = None
+    qos: str | None = None
+    transport: str | None = None
+    node_name: str | None = None
+    trigger: str | None = None
+    colour_topic: str | None = None
+    controller: str | None = None
+    active_frames: int | None = None
+    repair: str | None = None
+    model: str | None = None
+    models: Path | None = None
+    threshold: float | None = None
+    mask_logit: float | None = None
+    passes: int | None = None
+    seconds: float | None = None
+    scene: bool | None = None
+    scene_from: Path | None = None
+
+
+def read_params(path: Path, node_name: str) -> dict[str, Any]:
+    """The parameters for node ``node_name`` in ``path`` (its own section, then ``/**``'s beneath it), as
+    ``{option: value}`` of the options the file sets."""
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        if path.stat().st_size > MAX_BYTES:
+            raise InputError(
+                f"--params-file {path}: larger than {MAX_BYTES // 1024} KiB; not a parameters file"
+            )
+        data = YAML(typ="safe", pure=True).load(path.read_text(errors="strict"))
+    except (OSError, UnicodeError) as exc:
+        raise InputError(
+            f"--params-file {path}: cannot read it ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
+    except YAMLError as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"--params-file {path}: not YAML ({first})") from None
+    if not isinstance(data, dict):
+        raise InputError(f"--params-file {path}: not a ROS 2 parameters file (node: ros__parameters: ...)")
+    merged: dict[str, Any] = {}
+    for key in ("/**", node_name, "/" + node_name):
+        section = data.get(key)
+        if section is None:
+            continue
+        params = section.get("ros__parameters") if isinstance(section, dict) else None
+        if not isinstance(params, dict):
+            raise InputError(f"--params-file {path}: {key}: has no ros__parameters mapping")
+        merged |= params
+    try:
+        checked = NodeParams.model_validate(merged)
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        where = ".".join(str(p) for p in e["loc"]) or "?"
+        raise ConfigError(f"--params-file {path}: {where}: {e['msg']}") from None
+    return checked.model_dump(exclude_unset=True)
