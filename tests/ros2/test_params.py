@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import random
+import signal
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -83,3 +86,57 @@ def test_the_command_takes_the_file_and_a_flag_wins(tmp_path):
     assert "d2sr ros2: /from/flag ->" in out
     code, _, err = d2sr_inprocess("ros2", "--seconds", "0.3")
     assert code == 2 and "--topic is required" in err
+
+
+def test_each_stream_takes_sensor_data_in_and_the_system_default_out_unless_told():
+    from d2sr.ros2 import Wire
+
+    w = Wire()
+    assert w.profile("depth") == (False, 5) and w.profile("info") == (False, 5)  # REP 2003: sensor data in
+    assert w.profile("repaired") == (True, 10) and w.profile("diagnostics") == (
+        True,
+        10,
+    )  # system default out
+    assert Wire(qos="best-effort").profile("mask") == (False, 5)
+    told = Wire(streams=(("mask", "SENSOR_DATA"), ("depth", "SYSTEM_DEFAULT")))
+    assert told.profile("mask") == (False, 5) and told.profile("depth") == (True, 10)
+
+
+def test_a_stream_s_qos_in_the_file_reaches_the_wire(tmp_path):
+    f = tmp_path / "p.yaml"
+    f.write_text("d2sr:\n  ros__parameters:\n    mask_qos: SENSOR_DATA\n    depth_qos: SYSTEM_DEFAULT\n")
+    assert read_params(f, "d2sr") == {"mask_qos": "SENSOR_DATA", "depth_qos": "SYSTEM_DEFAULT"}
+    f.write_text("d2sr:\n  ros__parameters:\n    mask_qos: FAST\n")
+    with pytest.raises(ConfigError, match="mask_qos"):
+        read_params(f, "d2sr")
+
+
+@pytest.mark.slow
+def test_a_best_effort_mask_does_not_match_a_reliable_reader_while_the_rest_do(tmp_path):
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from tools import ros2_peer
+
+    f = tmp_path / "p.yaml"
+    f.write_text(
+        "d2sr:\n  ros__parameters:\n    topic: /camera/depth/image_rect_raw\n    mask_qos: SENSOR_DATA\n"
+    )
+    domain = random.randint(100, 200)
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    node = subprocess.Popen([sys.executable, "-m", "d2sr", "ros2", "--params-file", str(f)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    peer = ros2_peer.Peer(domain)  # reliable readers: they match reliable writers only
+    try:
+        end = time.monotonic() + 30
+        while not peer.readers["repaired"].get_matched_publications():
+            assert time.monotonic() < end, "the node's /repaired never matched"
+            time.sleep(0.05)
+        time.sleep(1.0)
+        assert peer.readers["status"].get_matched_publications()
+        assert not peer.readers["mask"].get_matched_publications()
+    finally:
+        node.send_signal(signal.SIGINT)
+        node.communicate(timeout=30)

@@ -110,6 +110,9 @@ def ros2(
             o[k] for k in ("repair", "model", "models", "threshold", "mask_logit")
         )
         passes, seconds, scene, scene_from = (o[k] for k in ("passes", "seconds", "scene", "scene_from"))
+    streams: tuple[tuple[str, str], ...] = ()
+    if params_file is not None:
+        streams = tuple((k[: -len("_qos")], v) for k, v in sorted(o.items()) if k.endswith("_qos") and v)
     if topic is None:
         raise ConfigError("--topic is required (or topic in --params-file)")
     if seconds is not None and not (0 < seconds < float("inf")):
@@ -118,7 +121,7 @@ def ros2(
         repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
         passes=passes, scene=scene, scene_from=scene_from,
     )  # fmt: skip
-    wire = Wire(qos=qos, transport=transport, node_name=node_name)
+    wire = Wire(qos=qos, transport=transport, node_name=node_name, streams=streams)
     node = Ros2Node(
         topic, depth_scale, wire, say=print_line, colour_topic=colour_topic, controller=controller,
         active_frames=active_frames, trigger=trigger, settings=settings,

@@ -35,6 +35,13 @@ QOS = ("reliable", "best-effort")
 #: How images travel (image_transport's names): raw ``sensor_msgs/Image``, or ``compressedDepth`` (a PNG in
 #: a ``CompressedImage`` on ``<topic>/compressedDepth``, as orbbec_camera and realsense-ros publish it).
 TRANSPORTS = ("raw", "compressedDepth")
+#: QoS profiles by rclcpp's names (reliability, history depth). REP 2003: a driver publishes with the system
+#: default, a subscriber takes sensor data (best effort, which matches reliable publishers too); Cyclone's
+#: system default history is unbounded, so a depth is set.
+PROFILES = {"SENSOR_DATA": (False, 5), "SYSTEM_DEFAULT": (True, 10), "DEFAULT": (True, 10)}
+#: The node's streams, each overridable (``Wire.streams``): what it reads, then what it writes.
+STREAMS_IN = ("depth", "info", "colour")
+STREAMS_OUT = ("repaired", "mask", "status", "camera_info", "diagnostics", "confidence")
 _NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -91,6 +98,17 @@ class Wire:
     domain: int | None = None
     transport: str = "raw"
     node_name: str = "d2sr"
+    streams: tuple[tuple[str, str], ...] = ()  # (stream, profile): a stream's own QoS (``PROFILES``)
+
+    def profile(self, stream: str) -> tuple[bool, int]:
+        """(reliable, history depth) of ``stream``: its own profile, else sensor data for what the node
+        reads and ``qos`` for what it writes."""
+        own = dict(self.streams).get(stream)
+        if own is not None:
+            return PROFILES[own]
+        if stream in STREAMS_IN:
+            return PROFILES["SENSOR_DATA"]
+        return PROFILES["SYSTEM_DEFAULT" if self.qos == "reliable" else "SENSOR_DATA"]
 
 
 class Ros2Node:
@@ -114,6 +132,9 @@ class Ros2Node:
             raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {qos!r}")
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", node_name):
             raise ConfigError(f"--node-name: {node_name!r} is not a ROS 2 node name (letters, digits and _)")
+        for stream, profile in w.streams:
+            if stream not in STREAMS_IN + STREAMS_OUT or profile not in PROFILES:
+                raise ConfigError(f"{stream}_qos: {profile!r} is not one of {', '.join(PROFILES)}")
         if transport not in TRANSPORTS:
             raise ConfigError(f"--transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
         self.compressed = transport == "compressedDepth"
@@ -162,41 +183,54 @@ class Ros2Node:
         self._warned: set[str] = set()
         self.domain = domain_id() if domain is None else domain
         self.participant = _participant(DomainParticipant, self.domain)
+
         # A best-effort reader matches reliable and best-effort publishers alike.
-        listen = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(8))
-        if qos == "reliable":
-            speak = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(8))
-        else:
-            speak = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(8))
+        def qos_of(stream: str) -> Any:
+            reliable, depth = w.profile(stream)
+            how = (
+                Policy.Reliability.Reliable(duration(milliseconds=100))
+                if reliable
+                else Policy.Reliability.BestEffort
+            )
+            return Qos(how, Policy.History.KeepLast(depth))
+
         if self.compressed:
             image_in = Topic(self.participant, f"{name}/compressedDepth", CompressedImage)
             self.repaired_compressed = DataWriter(
                 self.participant,
                 Topic(self.participant, f"{name}/repaired/compressedDepth", CompressedImage),
-                qos=speak,
+                qos=qos_of("repaired"),
             )
         else:
             image_in = Topic(self.participant, name, Image)
-        self.reader = DataReader(self.participant, image_in, qos=listen)
+        self.reader = DataReader(self.participant, image_in, qos=qos_of("depth"))
         self.repaired = DataWriter(
-            self.participant, Topic(self.participant, f"{name}/repaired", Image), qos=speak
+            self.participant, Topic(self.participant, f"{name}/repaired", Image), qos=qos_of("repaired")
         )
-        self.mask = DataWriter(self.participant, Topic(self.participant, f"{name}/mask", Image), qos=speak)
+        self.mask = DataWriter(
+            self.participant, Topic(self.participant, f"{name}/mask", Image), qos=qos_of("mask")
+        )
         self.status = DataWriter(
-            self.participant, Topic(self.participant, f"{name}/status", DiagnosticStatus), qos=speak
+            self.participant,
+            Topic(self.participant, f"{name}/status", DiagnosticStatus),
+            qos=qos_of("status"),
         )
         # The camera's calibration, as image_transport pairs it: taken from beside the input image
         # (<namespace>/camera_info) and written beside the repaired one (T/camera_info) with its stamp.
         parent = self.topic.rsplit("/", 1)[0]
         info_in = Topic(self.participant, dds_topic(f"{parent}/camera_info"), CameraInfo)
-        self.info_reader = DataReader(self.participant, info_in, qos=listen)
+        self.info_reader = DataReader(self.participant, info_in, qos=qos_of("info"))
         self.info = DataWriter(
-            self.participant, Topic(self.participant, f"{name}/camera_info", CameraInfo), qos=speak
+            self.participant,
+            Topic(self.participant, f"{name}/camera_info", CameraInfo),
+            qos=qos_of("camera_info"),
         )
         self._info: Any = None  # the latest camera_info taken
         # Per camera, once a second: frames in and out, dropped, the interfered share, latency, the window.
         self.diagnostics = DataWriter(
-            self.participant, Topic(self.participant, "rt/diagnostics", DiagnosticArray), qos=speak
+            self.participant,
+            Topic(self.participant, "rt/diagnostics", DiagnosticArray),
+            qos=qos_of("diagnostics"),
         )
         self._next_diagnostics = time.monotonic() + DIAGNOSTICS_S
         self._waitset = WaitSet(self.participant)
@@ -208,10 +242,12 @@ class Ros2Node:
         self.colour_reader = None
         if colour_topic is not None:
             colour_in = Topic(self.participant, dds_topic(colour_topic), Image)
-            self.colour_reader = DataReader(self.participant, colour_in, qos=listen)
+            self.colour_reader = DataReader(self.participant, colour_in, qos=qos_of("colour"))
             self._ready.append(ReadCondition(self.colour_reader, any_state))
             self.confidence = DataWriter(
-                self.participant, Topic(self.participant, f"{name}/confidence", Image), qos=speak
+                self.participant,
+                Topic(self.participant, f"{name}/confidence", Image),
+                qos=qos_of("confidence"),
             )
         for cond in self._ready:
             self._waitset.attach(cond)

@@ -6,14 +6,15 @@
         depth_scale: 1000.0
         active_frames: 6
 
-Keys are the command's options with ``_`` for ``-``; a flag given on the command line wins over the file.
+Keys are the command's options with ``_`` for ``-``, and ``<stream>_qos`` for a stream's own QoS profile;
+a flag given on the command line wins over the file.
 The file is data: read with a safe YAML loader, every key and value checked, anything else refused in one
 line."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
@@ -22,6 +23,7 @@ from d2sr.errors import ConfigError, InputError
 __all__ = ["NodeParams", "read_params"]
 
 MAX_BYTES = 1 << 20  # a parameters file is a few lines; a larger one is not one
+Profile = Literal["SENSOR_DATA", "SYSTEM_DEFAULT", "DEFAULT"]  # d2sr.ros2.node.PROFILES
 
 
 class NodeParams(BaseModel):
@@ -47,6 +49,17 @@ class NodeParams(BaseModel):
     seconds: float | None = None
     scene: bool | None = None
     scene_from: Path | None = None
+    # Each stream's QoS (rclcpp's profile names; realsense-ros names its own depth_qos and info_qos alike):
+    # what the node reads takes SENSOR_DATA, what it writes --qos's, unless set here.
+    depth_qos: Profile | None = None
+    info_qos: Profile | None = None
+    colour_qos: Profile | None = None
+    repaired_qos: Profile | None = None
+    mask_qos: Profile | None = None
+    status_qos: Profile | None = None
+    camera_info_qos: Profile | None = None
+    diagnostics_qos: Profile | None = None
+    confidence_qos: Profile | None = None
 
 
 def read_params(path: Path, node_name: str) -> dict[str, Any]:
