@@ -380,7 +380,7 @@ def test_the_node_is_in_the_ros_graph_with_its_readers_and_writers():
     """A participant reading ros_discovery_info as ROS 2's tools do finds the node by name and namespace,
     and among its entities the writer of TOPIC/repaired and the reader of TOPIC that it matched."""
     domain = random.randint(100, 200)
-    node = _node(domain, "--depth-scale", "4000", "--node-name", "d2sr_test")
+    node = _node(domain, "--depth-scale", "4000", "--node-name", "d2sr_test", "--namespace", "/robot1")
     peer = ros2_peer.Peer(domain)
     reader = ros2_peer.graph(peer.dp)
     try:
@@ -394,7 +394,7 @@ def test_the_node_is_in_the_ros_graph_with_its_readers_and_writers():
                 nodes += [n for n in s.node_entities_info_seq if n.node_name == "d2sr_test"]
             time.sleep(0.05)
         (found,) = nodes[:1]
-        assert found.node_namespace == "/"
+        assert found.node_namespace == "/robot1"
         rep = peer.readers["repaired"]
         writer = rep.get_matched_publication_data(rep.get_matched_publications()[0]).key.bytes
         image_reader = peer.writer.get_matched_subscription_data(
@@ -420,3 +420,16 @@ def test_graph_bytes_are_rosbags_bytes():
         gid, [t["rmw_dds_common/msg/NodeEntitiesInfo"]("/", "d2sr", [gid], [gid, gid])]
     )
     assert ours.serialize() == bytes(ts.serialize_cdr(theirs, "rmw_dds_common/msg/ParticipantEntitiesInfo"))
+
+
+def test_a_relative_topic_resolves_under_the_node_s_namespace():
+    from d2sr.ros2 import Ros2Node, Wire
+
+    node = Ros2Node("camera/depth", 4000.0, Wire(domain=random.randint(100, 200), namespace="/robot1"))
+    try:
+        assert node.topic == "/robot1/camera/depth"
+    finally:
+        node.close()
+    for bad in ("robot1", "/robot 1", "/robot1/"):
+        with pytest.raises(ConfigError, match="namespace"):
+            Ros2Node("camera/depth", 4000.0, Wire(domain=150, namespace=bad))

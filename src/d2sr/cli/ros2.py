@@ -54,6 +54,9 @@ def ros2(
     node_name: Annotated[
         str, typer.Option(help="The node's name, as ros2 node list shows it (namespace /).")
     ] = "d2sr",
+    namespace: Annotated[
+        str, typer.Option(help="The node's namespace; a relative --topic resolves under it (default /).")
+    ] = "/",
     trigger: TriggerOpt = None,
     colour_topic: Annotated[
         str | None,
@@ -110,6 +113,7 @@ def ros2(
             o[k] for k in ("repair", "model", "models", "threshold", "mask_logit")
         )
         passes, seconds, scene, scene_from = (o[k] for k in ("passes", "seconds", "scene", "scene_from"))
+        namespace = o["namespace"]
     streams: tuple[tuple[str, str], ...] = ()
     if params_file is not None:
         streams = tuple((k[: -len("_qos")], v) for k, v in sorted(o.items()) if k.endswith("_qos") and v)
@@ -121,7 +125,7 @@ def ros2(
         repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
         passes=passes, scene=scene, scene_from=scene_from,
     )  # fmt: skip
-    wire = Wire(qos=qos, transport=transport, node_name=node_name, streams=streams)
+    wire = Wire(qos=qos, transport=transport, node_name=node_name, namespace=namespace, streams=streams)
     node = Ros2Node(
         topic, depth_scale, wire, say=print_line, colour_topic=colour_topic, controller=controller,
         active_frames=active_frames, trigger=trigger, settings=settings,

@@ -92,12 +92,13 @@ class Stats:
 class Wire:
     """How a node meets the DDS world: ``qos``, its publishers' reliability (the subscriber takes both
     kinds); ``domain`` (default ``ROS_DOMAIN_ID``); ``transport``, how images travel (``TRANSPORTS``);
-    ``node_name``, as ROS 2's tools list it (namespace ``/``)."""
+    ``node_name`` and ``namespace``, as ROS 2's tools list the node; ``streams``, a stream's own QoS."""
 
     qos: str = "reliable"
     domain: int | None = None
     transport: str = "raw"
     node_name: str = "d2sr"
+    namespace: str = "/"  # the node's; a relative topic name resolves under it, as in ROS 2
     streams: tuple[tuple[str, str], ...] = ()  # (stream, profile): a stream's own QoS (``PROFILES``)
 
     def profile(self, stream: str) -> tuple[bool, int]:
@@ -144,8 +145,13 @@ class Ros2Node:
             raise ConfigError(
                 f"--depth-scale must be a positive number of units per metre, got {depth_scale}"
             )
-        self.topic = "/" + topic.lstrip("/")
+        if not w.namespace.startswith("/") or (w.namespace != "/" and not _NAME.match(w.namespace)):
+            raise ConfigError(f"--namespace: {w.namespace!r} is not a ROS 2 namespace (/ or /a/b)")
+        if not topic.startswith("/"):  # relative: under the node's namespace, as ROS 2 resolves it
+            topic = w.namespace.rstrip("/") + "/" + topic
+        self.topic = topic
         name = dds_topic(topic)
+        self.namespace = w.namespace
         try:
             from cyclonedds.core import (
                 InstanceState,
@@ -272,7 +278,7 @@ class Ros2Node:
             w for w in (getattr(self, "repaired_compressed", None), getattr(self, "confidence", None)) if w
         ]
         node = NodeEntitiesInfo(
-            "/", node_name, [_gid(r.guid) for r in readers], [_gid(w.guid) for w in writers]
+            self.namespace, node_name, [_gid(r.guid) for r in readers], [_gid(w.guid) for w in writers]
         )
         qos = Qos(Policy.Reliability.Reliable(self._duration(milliseconds=100)), Policy.History.KeepLast(1),
                   Policy.Durability.TransientLocal)  # fmt: skip

@@ -36,6 +36,7 @@ class NodeParams(BaseModel):
     qos: str | None = None
     transport: str | None = None
     node_name: str | None = None
+    namespace: str | None = None
     trigger: str | None = None
     colour_topic: str | None = None
     controller: str | None = None
