@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -108,6 +109,18 @@ def _exchange(peer: ros2_peer.Peer, frames: list[np.ndarray], hz: float) -> dict
             got[key] += new
         time.sleep(0.05)
     return got
+
+
+def _collect(
+    peer: ros2_peer.Peer, got: dict[str, list], done: Callable[[], bool], seconds: float = 10
+) -> None:
+    """Take what the node sends into ``got`` (its keys only) until ``done()`` or ``seconds`` have passed."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and not done():
+        for key, new in peer.take().items():
+            if key in got:
+                got[key] += new
+        time.sleep(0.05)
 
 
 @pytest.mark.slow
@@ -300,12 +313,7 @@ def test_node_republishes_camera_info_beside_repaired_with_each_frame_s_stamp():
             time.sleep(0.02)
             peer.writer.write(ros2_peer.image(room(k), 1000 + k, 500))
             time.sleep(0.1)
-        end = time.monotonic() + 10
-        while time.monotonic() < end and (len(got["camera_info"]) < 5 or len(got["diagnostics"]) < 2):
-            for key, new in peer.take().items():
-                if key in got:
-                    got[key] += new
-            time.sleep(0.05)
+        _collect(peer, got, lambda: len(got["camera_info"]) >= 5 and len(got["diagnostics"]) >= 2)
     finally:
         node.send_signal(signal.SIGINT)
         node.communicate(timeout=30)
@@ -356,12 +364,7 @@ def test_node_takes_and_gives_compressed_depth():
         for k, f in enumerate(frames):
             peer.writer.write(ros2_peer.compressed_depth(f, 1000 + k))
             time.sleep(0.1)
-        end = time.monotonic() + 10
-        while time.monotonic() < end and min(len(v) for v in got.values()) < 3:
-            for key, new in peer.take().items():
-                if key in got:
-                    got[key] += new
-            time.sleep(0.05)
+        _collect(peer, got, lambda: min(len(v) for v in got.values()) >= 3)
     finally:
         node.send_signal(signal.SIGINT)
         node.communicate(timeout=30)

@@ -179,7 +179,7 @@ def repair_frame(
     if scene is not None:
         mask = mask & ~scene.keep
     p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
-    if not (m & (frames > 0)).any():
+    if not (frames[m] > 0).any():
         # Holes alone are no sign of interference: an L515 loses ~18,000 returns a frame to its own
         # flicker, so a repair that would move no return fills no hole either (lab/notes/decisions.md).
         m = np.zeros_like(m)

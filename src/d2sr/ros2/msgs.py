@@ -37,6 +37,12 @@ def _store() -> Any:
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
+def _rosbags_header(t: Any, header: "Header") -> Any:
+    """``header`` as rosbags' std_msgs/Header (the messages whose bytes go through rosbags' codec)."""
+    stamp = t["builtin_interfaces/msg/Time"](sec=header.stamp.sec, nanosec=header.stamp.nanosec)
+    return t["std_msgs/msg/Header"](stamp=stamp, frame_id=header.frame_id)
+
+
 @dataclass
 class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
     sec: int32 = 0
@@ -63,12 +69,7 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
         ts = _store()
         t = ts.types
         msg = t[IMAGE](
-            header=t["std_msgs/msg/Header"](
-                stamp=t["builtin_interfaces/msg/Time"](
-                    sec=self.header.stamp.sec, nanosec=self.header.stamp.nanosec
-                ),
-                frame_id=self.header.frame_id,
-            ),
+            header=_rosbags_header(t, self.header),
             height=self.height,
             width=self.width,
             encoding=self.encoding,
@@ -153,12 +154,7 @@ class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedIma
         ts = _store()
         t = ts.types
         msg = t[COMPRESSED](
-            header=t["std_msgs/msg/Header"](
-                stamp=t["builtin_interfaces/msg/Time"](
-                    sec=self.header.stamp.sec, nanosec=self.header.stamp.nanosec
-                ),
-                frame_id=self.header.frame_id,
-            ),
+            header=_rosbags_header(t, self.header),
             format=self.format,
             data=np.ascontiguousarray(self.data, dtype=np.uint8).reshape(-1),
         )

@@ -597,13 +597,14 @@ def _compress(msg: Any, depth: np.ndarray, mask: np.ndarray) -> Any:
     from d2sr.ros2.msgs import CompressedImage
 
     raw = bytes(msg.data)
-    head, img = raw[: _HEADER.size], decode_png(raw[_HEADER.size :], "compressedDepth")
+    head = raw[: _HEADER.size]
     if str(msg.format).startswith("32FC1"):  # inverse depth, quantized: img = a / depth + b
+        img = decode_png(raw[_HEADER.size :], "compressedDepth")
         _, a, b = _HEADER.unpack(head)
         d = np.maximum(depth[mask].astype(np.float64), 1e-6)
         img[mask] = np.where(depth[mask] > 0, np.clip(np.rint(a / d + b), 1, 65535), 0).astype(np.uint16)
-    else:
-        img[mask] = depth[mask]
+    else:  # millimetres: the repaired frame is the input's pixels bit for bit outside the mask
+        img = depth
     data = np.frombuffer(head + encode_png(img, "compressedDepth"), np.uint8)
     return CompressedImage(msg.header, str(msg.format), data)
 
