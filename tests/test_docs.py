@@ -33,6 +33,7 @@ def test_api_examples_run(tmp_path, monkeypatch):
     before, after = re.search(r"(\d+) mm -> (\d+) mm", printed).groups()
     assert int(after) < int(before) / 2
     assert (tmp_path / "repaired" / "masks").is_dir() and (tmp_path / "flags.csv").is_file()
+    assert "[('recording', 'done', 3)]" in printed and (tmp_path / "fleet" / "fleet.json").is_file()
 
 
 FIGURE = re.compile(
