@@ -48,18 +48,19 @@ def main() -> None:
     args = ap.parse_args()
     from d2sr.ros2 import Ros2Node, Wire
 
-    node = Ros2Node("/memory/depth", 1000.0, Wire(domain=179))
+    ros = Ros2Node("/memory/depth", 1000.0, Wire(domain=179))
     lines: list[str] = []
-    node.say = lines.append
+    ros.say = lines.append
+    node = ros.cameras[0]
     samples = []
     for i in range(args.messages):
         node.handle(_msg(i), time.monotonic())
-        node._publish_done()
+        node.publish_done()
         if (i + 1) % 10_000 == 0:
-            while node._running:
-                node._publish_done(wait=True)
+            while node.running:
+                node.publish_done(wait=True)
             samples.append(round(_rss_mb(), 1))
-    node.close()
+    ros.close()
     s = node.stats
     print(f"{s.received} in, {s.published} out, {s.refused} refused; {len(lines)} warning lines")
     print(f"resident MB after each 10,000: {samples}")

@@ -51,8 +51,9 @@ def node(weights):
     n = Ros2Node("/hostile/depth", 1000.0, Wire(domain=177), models=weights, model="unet8", scene=False)
     lines: list[str] = []
     n.say = lines.append
-    n.lines = lines
-    yield n
+    cam = n.cameras[0]
+    cam.lines = lines
+    yield cam
     n.close()
 
 
@@ -76,8 +77,8 @@ def test_malformed_messages_are_dropped_and_real_frames_still_answered(node):
         node.handle(m, time.monotonic())
     for i in range(3):
         node.handle(_real(i), time.monotonic())
-    while node._running:
-        node._publish_done(wait=True)
+    while node.running:
+        node.publish_done(wait=True)
     assert node.stats.published - before == 3
     assert node.stats.refused >= 8
     assert len(node.lines) <= len(MALFORMED)  # one warning per kind, not per message
@@ -106,8 +107,8 @@ _FIELDS = st.builds(
 @given(_FIELDS)
 def test_random_messages_never_stop_the_node(node, msg):
     node.handle(msg, time.monotonic())
-    while node._running:
-        node._publish_done(wait=True)
+    while node.running:
+        node.publish_done(wait=True)
 
 
 def test_settings_are_checked_at_start(weights):

@@ -19,7 +19,7 @@ from tools import ros2_peer
 from d2sr.errors import ConfigError
 from d2sr.ros2 import dds_topic
 from d2sr.ros2.msgs import DiagnosticStatus, Header, Image, KeyValue, Time
-from d2sr.ros2.node import domain_id
+from d2sr.ros2.wire import domain_id
 from helpers import d2sr_inprocess, room
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
@@ -244,7 +244,7 @@ def test_node_takes_the_scene_option():
 
     node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), scene=True)
     try:
-        assert node.pipeline.loop.settings.scene
+        assert node.cameras[0].pipeline.loop.settings.scene
     finally:
         node.close()
 
@@ -252,17 +252,19 @@ def test_node_takes_the_scene_option():
 def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
     """Frames come faster than the repair: at most ``WAITING`` frames wait; older ones are dropped, counted
     and said once, never queued without bound; every frame is either published or counted as dropped."""
-    from d2sr.ros2.node import WAITING, Ros2Node, Wire
+    from d2sr.ros2.camera import WAITING
+    from d2sr.ros2.node import Ros2Node, Wire
 
     said: list[str] = []
     node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), say=said.append)
-    slow = node.pipeline.finish
+    cam = node.cameras[0]
+    slow = cam.pipeline.finish
 
     def finish(decided):  # a repair far slower than the frames come
         time.sleep(0.15)
         return slow(decided)
 
-    node.pipeline.finish = finish  # type: ignore[method-assign]
+    cam.pipeline.finish = finish  # type: ignore[method-assign]
     try:
         depth = room(0)
         h, w = depth.shape
@@ -271,9 +273,10 @@ def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
             msg = Image(
                 Header(Time(1000 + k, 0), "depth"), h, w, "16UC1", 0, 2 * w, depth.view(np.uint8).ravel()
             )
-            node.receive(msg, time.monotonic())
-            assert len(node._waiting) <= WAITING and len(node._running) <= 2 * node._workers
-        stats = node.spin(seconds=0.2)
+            cam.receive(msg, time.monotonic())
+            node.start_waiting()
+            assert len(cam.waiting) <= WAITING and len(cam.running) <= 2 * node._workers
+        stats = node.spin(seconds=0.2)["/cam/depth"]
     finally:
         node.close()
     assert stats.received == n and stats.published + stats.dropped == n
@@ -430,9 +433,110 @@ def test_a_relative_topic_resolves_under_the_node_s_namespace():
 
     node = Ros2Node("camera/depth", 4000.0, Wire(domain=random.randint(100, 200), namespace="/robot1"))
     try:
-        assert node.topic == "/robot1/camera/depth"
+        assert node.topics == ["/robot1/camera/depth"]
     finally:
         node.close()
     for bad in ("robot1", "/robot 1", "/robot1/"):
         with pytest.raises(ConfigError, match="namespace"):
             Ros2Node("camera/depth", 4000.0, Wire(domain=150, namespace=bad))
+
+
+@pytest.mark.slow
+def test_three_cameras_in_one_process_each_get_every_frame_back_and_their_own_diagnostics():
+    """``--topic`` three times: one loop per camera, the models shared; at 15 Hz each with every other frame
+    interfered, every frame of every camera comes back with its stamp, and ``/diagnostics`` holds a status
+    per camera."""
+    from d2sr.sim.interference import corrupt
+
+    domain = random.randint(100, 200)
+    topics = [f"/cam{i}/depth/image_rect_raw" for i in range(3)]
+    args = [a for t in topics for a in ("--topic", t)]
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    node = subprocess.Popen([sys.executable, "-m", "d2sr", "ros2", *args, "--depth-scale", "4000"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    peers = [ros2_peer.Peer(domain, t, diagnostics=i == 0) for i, t in enumerate(topics)]
+    n = 20
+    frames = []
+    for k in range(n):
+        f = room(k, (240, 320))
+        if k % 2:
+            where = np.zeros(f.shape, bool)
+            where[80:130, :] = True
+            f = corrupt(f, 4000.0, where, np.random.default_rng(k))[0]
+        frames.append(f)
+    got: list[dict[str, list]] = [{"repaired": [], "diagnostics": []} for _ in peers]
+    try:
+        end = time.monotonic() + 60
+        while not all(p.matched() for p in peers):
+            assert time.monotonic() < end, "the node never matched the peers' topics"
+            time.sleep(0.05)
+        for k, f in enumerate(frames):
+            for p in peers:
+                p.writer.write(ros2_peer.image(f, 1000 + k, 500))
+            time.sleep(1 / 15)
+        end = time.monotonic() + 20
+        while time.monotonic() < end and min(len(g["repaired"]) for g in got) < n:
+            for p, g in zip(peers, got, strict=True):
+                for key, new in p.take().items():
+                    if key in g:
+                        g[key] += new
+            time.sleep(0.05)
+        _collect(peers[0], got[0], lambda: len(got[0]["diagnostics"]) >= 2, seconds=5)
+    finally:
+        node.send_signal(signal.SIGINT)
+        out, err = node.communicate(timeout=30)
+    assert node.returncode == 0, err
+    for g in got:
+        assert sorted(m.header.stamp.sec for m in g["repaired"]) == list(range(1000, 1000 + n))
+    last = got[0]["diagnostics"][-1]
+    assert sorted(s.hardware_id for s in last.status) == topics
+    for s in last.status:
+        values = {kv.key: kv.value for kv in s.values}
+        assert values["frames_out"] == str(n) and values["dropped"] == "0"
+    assert sum(f"{t}: {n} frames in, {n} out" in out for t in topics) == 3, out
+
+
+def test_remapping_renames_topics_node_and_namespace_as_ros_args_do():
+    from d2sr.ros2 import Wire
+
+    w = Wire(namespace="/robot1", remaps=("camera/depth/repaired:=/clean/depth", "__node:=fixer"))
+    assert w.resolve("camera/depth") == "/robot1/camera/depth"
+    assert w.resolve("/robot1/camera/depth/repaired") == "/clean/depth"
+    assert w.resolve("camera/depth/repaired") == "/clean/depth"
+    assert w.name == "fixer" and w.space == "/robot1"
+    assert Wire(remaps=("__ns:=/r2",)).resolve("depth") == "/r2/depth"
+    for bad in ("depth", "a:=", ":=b", "a b:=c", "__node:=9x", "__ns:=r2"):
+        with pytest.raises(ConfigError, match=r"remap|node-name|namespace"):
+            Wire(remaps=(bad,))
+
+
+def test_a_remapped_output_is_written_where_the_rule_says():
+    from d2sr.ros2 import Ros2Node, Wire
+
+    w = Wire(domain=random.randint(100, 200), remaps=("/a/depth/repaired:=/clean",))
+    node = Ros2Node("/a/depth", 4000.0, w, model="unet8")
+    try:
+        cam = node.cameras[0]
+        assert (cam.reader.topic.name, cam.repaired.topic.name) == ("rt/a/depth", "rt/clean")
+        assert cam.mask.topic.name == "rt/a/depth/mask"
+    finally:
+        node.close()
+
+
+def test_several_cameras_are_checked_before_dds_starts():
+    from d2sr.ros2 import Camera, Ros2Node, Wire
+
+    w = Wire(domain=random.randint(100, 200))
+    with pytest.raises(ConfigError, match="named twice"):
+        Ros2Node(["/a/depth", Camera("/a/depth")], 4000.0, w)
+    with pytest.raises(ConfigError, match="one per --topic"):
+        Ros2Node(["/a/depth", "/b/depth"], 4000.0, w, colour_topic="/a/colour")
+    with pytest.raises(ConfigError, match="1 to 16"):
+        Ros2Node([], 4000.0, w)
+
+
+def test_the_cli_pairs_repeated_options_with_topics_in_order():
+    code, _, err = d2sr_inprocess(
+        "ros2", "--topic", "/a/depth", "--topic", "/b/depth", "--scene-from", "x.npz", "--seconds", "0.1"
+    )
+    assert code == 2 and "--scene-from: give one per --topic (2)" in err

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import signal
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -15,14 +15,13 @@ from d2sr.cli.common import (
     ModelName,
     Passes,
     RepairOpt,
-    SceneFromOpt,
     SceneOpt,
     Threshold,
-    TriggerOpt,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
+from d2sr.errors import ConfigError
 from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
 from d2sr.ui import print_line
 
@@ -32,7 +31,11 @@ __all__ = ["ros2"]
 def ros2(
     ctx: typer.Context,
     topic: Annotated[
-        str | None, typer.Option(help="Depth image topic to repair (sensor_msgs/Image); or in --params-file.")
+        list[str] | None,
+        typer.Option(
+            help="Depth image topic to repair (sensor_msgs/Image); repeat it for several cameras in one "
+            "process (they share the models); or in --params-file."
+        ),
     ] = None,
     depth_scale: Annotated[
         float | None,
@@ -57,12 +60,29 @@ def ros2(
     namespace: Annotated[
         str, typer.Option(help="The node's namespace; a relative --topic resolves under it (default /).")
     ] = "/",
-    trigger: TriggerOpt = None,
+    remap: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="FROM:=TO",
+            help="A ROS 2 remapping rule (as ros2 run takes one after -r): a topic the node reads or "
+            "writes, __node or __ns; repeat it for several.",
+        ),
+    ] = None,
+    trigger: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="KIND[:ARG]",
+            help="What moves the sensor's window (closes the loop): serial:PORT, gpio:CHIP:LINE, "
+            "realsense-emitter or orbbec; serial and gpio take @l515 (default), @d400 or @orbbec. With "
+            "several --topic, one per topic, in order.",
+        ),
+    ] = None,
     colour_topic: Annotated[
-        str | None,
+        list[str] | None,
         typer.Option(
             help="Colour topic (bgr8/rgb8/mono8, depth aligned to it): each colour frame with no depth frame "
-            "of its stamp gets a synthesized one on TOPIC/repaired (TOPIC/confidence, status synthesized)."
+            "of its stamp gets a synthesized one on TOPIC/repaired (TOPIC/confidence, status synthesized). "
+            "With several --topic, one per topic, in order."
         ),
     ] = None,
     controller: Annotated[
@@ -77,72 +97,93 @@ def ros2(
     passes: Passes = REPAIR_PASSES,
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
     scene: SceneOpt = True,
-    scene_from: SceneFromOpt = None,
+    scene_from: Annotated[
+        list[Path] | None,
+        typer.Option(
+            help="A stored scene (d2sr scene learn): the scene starts from it, not from the frames. With "
+            "several --topic, one per topic, in order."
+        ),
+    ] = None,
     params_file: Annotated[
         Path | None,
         typer.Option(
             help="A ROS 2 parameters file (NODE_NAME: ros__parameters: ..., or /**): any option above, "
-            "named with _; a flag given here wins."
+            "named with _ (a list for a repeated one); a flag given here wins."
         ),
     ] = None,
 ) -> None:
     """Subscribe to a depth topic and publish TOPIC/repaired (same encoding and header), TOPIC/mask (mono8,
-    255 = repaired) and TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window). Honours
-    ROS_DOMAIN_ID; takes reliable and best-effort publishers. Ctrl-C stops it (exit 0).
+    255 = repaired), TOPIC/status (diagnostic_msgs/DiagnosticStatus: score, flag, window) and
+    TOPIC/camera_info; /diagnostics once a second for every camera. Honours ROS_DOMAIN_ID; takes reliable and
+    best-effort publishers. Ctrl-C stops it (exit 0).
 
     Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
     """
-    from d2sr.errors import ConfigError
-    from d2sr.ros2 import Ros2Node, Wire
+    from d2sr.ros2 import Camera, Ros2Node, Wire
 
+    o = dict(ctx.params)
     if params_file is not None:
         from d2sr.ros2.params import read_params
 
-        o = dict(ctx.params)
         for key, value in read_params(params_file, node_name).items():
             source = ctx.get_parameter_source(key)
             if source is None or source.name == "DEFAULT":  # a flag on the command line wins
                 o[key] = value
-        topic, depth_scale, qos, transport, node_name = (
-            o[k] for k in ("topic", "depth_scale", "qos", "transport", "node_name")
-        )
-        trigger, colour_topic, controller, active_frames = (
-            o[k] for k in ("trigger", "colour_topic", "controller", "active_frames")
-        )
-        repair, model, models, threshold, mask_logit = (
-            o[k] for k in ("repair", "model", "models", "threshold", "mask_logit")
-        )
-        passes, seconds, scene, scene_from = (o[k] for k in ("passes", "seconds", "scene", "scene_from"))
-        namespace = o["namespace"]
-    streams: tuple[tuple[str, str], ...] = ()
-    if params_file is not None:
-        streams = tuple((k[: -len("_qos")], v) for k, v in sorted(o.items()) if k.endswith("_qos") and v)
-    if topic is None:
+    streams = tuple((k[: -len("_qos")], v) for k, v in sorted(o.items()) if k.endswith("_qos") and v)
+    topics = _listed(o["topic"])
+    if not topics:
         raise ConfigError("--topic is required (or topic in --params-file)")
-    if seconds is not None and not (0 < seconds < float("inf")):
-        raise ConfigError(f"--seconds must be a positive number, got {seconds}")
+    if o["seconds"] is not None and not (0 < o["seconds"] < float("inf")):
+        raise ConfigError(f"--seconds must be a positive number, got {o['seconds']}")
+    per = {k: _per_topic(_listed(o[k]), len(topics), k) for k in ("colour_topic", "trigger", "scene_from")}
+    cams = [
+        Camera(
+            t, per["colour_topic"][i], per["trigger"][i], per["scene_from"][i] and Path(per["scene_from"][i])
+        )
+        for i, t in enumerate(topics)
+    ]
     settings = RunSettings(
-        repair=repair, model=model, models=Path(models), threshold=threshold, mask_logit=mask_logit,
-        passes=passes, scene=scene, scene_from=scene_from,
+        repair=o["repair"], model=o["model"], models=Path(o["models"]), threshold=o["threshold"],
+        mask_logit=o["mask_logit"], passes=o["passes"], scene=o["scene"],
     )  # fmt: skip
-    wire = Wire(qos=qos, transport=transport, node_name=node_name, namespace=namespace, streams=streams)
+    wire = Wire(qos=o["qos"], transport=o["transport"], node_name=o["node_name"], namespace=o["namespace"],
+                streams=streams, remaps=tuple(_listed(o["remap"])))  # fmt: skip
     node = Ros2Node(
-        topic, depth_scale, wire, say=print_line, colour_topic=colour_topic, controller=controller,
-        active_frames=active_frames, trigger=trigger, settings=settings,
+        cams, o["depth_scale"], wire, say=print_line, controller=o["controller"],
+        active_frames=o["active_frames"], settings=settings,
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
-    t = node.topic
-    print_line(f"d2sr ros2: {t} -> {t}/repaired, {t}/mask, {t}/status (ROS_DOMAIN_ID {node.domain})")
+    for t in node.topics:
+        print_line(f"d2sr ros2: {t} -> {t}/repaired, {t}/mask, {t}/status (ROS_DOMAIN_ID {node.domain})")
     try:
-        stats = node.spin(seconds)
+        figures = node.spin(o["seconds"])
     finally:
         node.close()
-    lat = stats.latency_ms()
-    timing = (
-        f"; in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99" if stats.published else ""
-    )
-    print_line(
-        f"{stats.received} frames in, {stats.published} out ({stats.flagged} flagged, {stats.refused} "
-        f"skipped, {stats.dropped} dropped while behind, {stats.synthesized} synthesized){timing}"
-    )
+    for t, stats in figures.items():
+        lat = stats.latency_ms()
+        timing = (
+            f"; in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99" if stats.published else ""
+        )
+        print_line(
+            f"{t if len(figures) > 1 else ''}{': ' if len(figures) > 1 else ''}{stats.received} frames in, "
+            f"{stats.published} out ({stats.flagged} flagged, {stats.refused} skipped, {stats.dropped} "
+            f"dropped while behind, {stats.synthesized} synthesized){timing}"
+        )
+
+
+def _listed(value: object) -> list[Any]:
+    """An option given once or repeated (or a parameter given as one value or a list), as a list."""
+    if value is None:
+        return []
+    return list(value) if isinstance(value, list | tuple) else [value]
+
+
+def _per_topic(values: list[Any], topics: int, key: str) -> list[Any]:
+    """One value per topic (None for each when none is given)."""
+    if not values:
+        return [None] * topics
+    if len(values) != topics:
+        flag = "--" + key.replace("_", "-")
+        raise ConfigError(f"{flag}: give one per --topic ({topics}), in order; got {len(values)}")
+    return values

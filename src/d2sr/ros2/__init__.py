@@ -3,6 +3,8 @@
 as any other node: topic ``/a/b`` is DDS topic ``rt/a/b``, ``sensor_msgs/msg/Image`` is
 ``sensor_msgs::msg::dds_::Image_``. Torch-free."""
 
-from d2sr.ros2.node import Ros2Node, Stats, Wire, dds_topic
+from d2sr.ros2.camera import Camera, Stats
+from d2sr.ros2.node import Ros2Node
+from d2sr.ros2.wire import Wire, dds_topic
 
-__all__ = ["Ros2Node", "Stats", "Wire", "dds_topic"]
+__all__ = ["Camera", "Ros2Node", "Stats", "Wire", "dds_topic"]

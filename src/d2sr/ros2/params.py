@@ -2,7 +2,7 @@
 
     d2sr:                      # the node's name (``--node-name``), or /** for every node
       ros__parameters:
-        topic: /camera/depth/image_rect_raw
+        topic: /camera/depth/image_rect_raw   # or a list: [/cam1/depth/image_rect_raw, ...]
         depth_scale: 1000.0
         active_frames: 6
 
@@ -31,14 +31,15 @@ class NodeParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=False)
 
-    topic: str | None = None
+    topic: str | list[str] | None = None  # a list: several cameras in one process
     depth_scale: float | None = None
     qos: str | None = None
     transport: str | None = None
     node_name: str | None = None
     namespace: str | None = None
-    trigger: str | None = None
-    colour_topic: str | None = None
+    remap: list[str] | None = None  # ROS 2's FROM:=TO rules
+    trigger: str | list[str] | None = None  # with several topics, one per topic
+    colour_topic: str | list[str] | None = None
     controller: str | None = None
     active_frames: int | None = None
     repair: str | None = None
@@ -49,7 +50,7 @@ class NodeParams(BaseModel):
     passes: int | None = None
     seconds: float | None = None
     scene: bool | None = None
-    scene_from: Path | None = None
+    scene_from: Path | list[Path] | None = None
     # Each stream's QoS (rclcpp's profile names; realsense-ros names its own depth_qos and info_qos alike):
     # what the node reads takes SENSOR_DATA, what it writes --qos's, unless set here.
     depth_qos: Profile | None = None
