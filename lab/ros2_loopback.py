@@ -92,6 +92,14 @@ def ms(values: list[float]) -> dict[str, float]:
     return {"median_ms": round(median, 2), "p99_ms": round(p99, 2)}
 
 
+def node_counts(stdout: str) -> dict[str, int]:
+    """What the node's exit line says it took, published and dropped while behind."""
+    text = " ".join(stdout.split())
+    m = re.search(r"(\d+) frames in, (\d+) out \((\d+) flagged, (\d+) skipped, (\d+) dropped", text)
+    keys = ("taken", "published", "flagged", "skipped", "dropped_while_behind")
+    return dict(zip(keys, map(int, m.groups()), strict=True)) if m else {}
+
+
 def node_latency(stdout: str) -> dict[str, float]:
     m = re.search(r"in the node ([\d.]+) ms median, ([\d.]+) ms\s+p99", stdout)
     return {"median_ms": float(m.group(1)), "p99_ms": float(m.group(2))} if m else {}
@@ -158,6 +166,7 @@ def main() -> None:
         "mask_received": len(got["mask"]),
         "exit_code_on_sigint": code,
         "node_latency": node_latency(out),
+        "node_counts": node_counts(out),
         "write_to_repaired": ms(list(lag.values())) if lag else {},
     }
     print(write_result(result, args.json))

@@ -140,3 +140,22 @@ def test_a_best_effort_mask_does_not_match_a_reliable_reader_while_the_rest_do(t
     finally:
         node.send_signal(signal.SIGINT)
         node.communicate(timeout=30)
+
+
+def test_the_documented_parameters_file_is_read_as_it_says(tmp_path):
+    """docs/examples/ros2_params.yaml: two cameras, a namespace, QoS per stream and a remapping rule."""
+    from pathlib import Path
+
+    from d2sr.ros2 import Wire
+
+    p = read_params(Path(__file__).parents[2] / "docs" / "examples" / "ros2_params.yaml", "d2sr")
+    assert p["topic"] == ["front/depth/image_rect_raw", "rear/depth/image_rect_raw"]
+    w = Wire(namespace=p["namespace"], remaps=tuple(p["remap"]))
+    assert w.resolve(p["topic"][0]) == "/robot1/front/depth/image_rect_raw"
+    assert w.resolve(p["topic"][0] + "/repaired") == "/robot1/front/depth/repaired"
+    f = tmp_path / "p.yaml"
+    f.write_text("d2sr:\n  ros__parameters:\n    color_qos: SYSTEM_DEFAULT\n    topic: [/a, 3]\n")
+    with pytest.raises(ConfigError, match="topic"):
+        read_params(f, "d2sr")
+    f.write_text("d2sr:\n  ros__parameters:\n    color_qos: SYSTEM_DEFAULT\n")
+    assert read_params(f, "d2sr") == {"colour_qos": "SYSTEM_DEFAULT"}  # realsense-ros's spelling

@@ -154,8 +154,8 @@ def ros2(
     )  # fmt: skip
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
-    for t in node.topics:
-        print_line(f"d2sr ros2: {t} -> {t}/repaired, {t}/mask, {t}/status (ROS_DOMAIN_ID {node.domain})")
+    for cam in node.cameras:
+        print_line(f"d2sr ros2: {cam.topic} -> {', '.join(cam.outputs)} (ROS_DOMAIN_ID {node.domain})")
     try:
         figures = node.spin(o["seconds"])
     finally:

@@ -113,6 +113,11 @@ class CameraLoop:
         self._last_trouble = (0, 0)  # dropped and refused at the last /diagnostics
 
     @property
+    def outputs(self) -> list[str]:
+        """The ROS 2 names of ``/repaired``, ``/mask`` and ``/status`` (after remapping)."""
+        return [w.topic.name.removeprefix("rt") for w in (self.repaired, self.mask, self.status)]
+
+    @property
     def readers(self) -> list[Any]:
         return [self.reader, self.info_reader, *([self.colour_reader] if self.colour_reader else [])]
 

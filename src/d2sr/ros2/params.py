@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field, ValidationError
 
 from d2sr.errors import ConfigError, InputError
 
@@ -55,7 +55,8 @@ class NodeParams(BaseModel):
     # what the node reads takes SENSOR_DATA, what it writes --qos's, unless set here.
     depth_qos: Profile | None = None
     info_qos: Profile | None = None
-    colour_qos: Profile | None = None
+    # realsense-ros and orbbec_camera spell it color_qos: the file takes theirs too.
+    colour_qos: Profile | None = Field(None, validation_alias=AliasChoices("colour_qos", "color_qos"))
     repaired_qos: Profile | None = None
     mask_qos: Profile | None = None
     status_qos: Profile | None = None
