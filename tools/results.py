@@ -244,12 +244,13 @@ README_ROWS = (
         "`python -m lab.speed`",
     ),
     Row(
-        "ROS 2 node, 640x480 at 30 Hz, half interfered: frames back, time in the node (median)",
+        "ROS 2 node, 640x480 at 30 Hz, half interfered: back, dropped, median in node",
         "—",
         "docs/results/ros2_loopback.json",
         lambda d: (
             f"{d['rate_30hz']['repaired_received']} of {d['rate_30hz']['published']}, "
-            f"{d['rate_30hz']['node_latency']['median_ms']:.1f} ms"
+            f"{d['rate_30hz']['node_counts']['dropped_while_behind']}, "
+            f"{d['rate_30hz']['node_latency']['median_ms']:.1f} ms ({d['cpu'].replace(' Processor', '')})"
         ),
         "`python -m lab.ros2_loopback`",
     ),
