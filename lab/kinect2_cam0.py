@@ -3,7 +3,9 @@ shipped and with ``--repair all``, each without and with a scene learned from th
 (``d2sr scene learn``, ``--scene-from``). Truth: the per-pixel median of the frames alone. Per setting: of the
 pixels the interference moved by more than 2 cm (valid in both), the share put back within 2 cm; interfered
 frames whose RMSE against the truth got worse; frames flagged; and the frames alone run through the same
-setting: pixels changed.
+setting: pixels changed. Detection (``d2sr detect``, without and with the stored scene): of the interfered
+frames with more than 100 valid pixels moved by more than 2 cm, the share flagged (recall), and the frames
+alone flagged.
 
 Run:  python -m lab.kinect2_cam0 --data ../shared/data [--json out.json]
 """
@@ -39,6 +41,36 @@ def _recover(src: Path, out: Path, *args: str) -> None:
         *args,
     ]
     subprocess.run([*cmd, "--no-report"], check=True, capture_output=True)
+
+
+def _flags(src: Path, csv: Path, *args: str) -> dict[str, bool]:
+    """``d2sr detect``'s verdict per frame file name."""
+    import csv as csvlib
+
+    cmd = [sys.executable, "-m", "d2sr", "detect", str(src), "--depth-scale", "1000", "--out", str(csv), *args]
+    subprocess.run([*cmd, "--overwrite"], check=True, capture_output=True)
+    with csv.open() as f:
+        return {Path(r["frame"]).stem: r["interfered"] in ("1", "True", "true") for r in csvlib.DictReader(f)}
+
+
+def detection(cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Path, scene: Path) -> dict:
+    """Recall on the frames with more than 100 valid pixels moved by more than 2 cm; frames alone flagged."""
+    hit = []
+    for f, x in bad.items():
+        x32 = x.astype(np.float32)
+        moved = (truth > 0) & (x32 > 0) & (np.abs(x32 - truth) > 20)
+        if int(moved.sum()) > 100:
+            hit.append(Path(f).stem)
+    out = {"frames_over_100_moved": len(hit)}
+    for name, args in {"detect": [], "detect, stored scene": ["--scene-from", str(scene)]}.items():
+        flags = _flags(cam / "interf", root / "i.csv", *args)
+        alone = _flags(cam / "ref", root / "r.csv", *args)
+        out[name] = {
+            "recall": round(sum(flags[h] for h in hit) / max(len(hit), 1), 4),
+            "flagged_of_50": sum(flags.values()),
+            "alone_flagged": sum(alone.values()),
+        }
+    return out
 
 
 def measure(data: Path) -> dict:
@@ -85,6 +117,7 @@ def measure(data: Path) -> dict:
             }
             for p in (root / "i", root / "r"):
                 subprocess.run(["rm", "-rf", str(p)], check=True)
+        out["detection"] = detection(cam, truth, bad, root, scene)
     return out
 
 

@@ -110,3 +110,56 @@ def test_learn_then_recover_from_it_and_a_scene_that_does_not_fit_is_refused(tmp
     code, _, err = d2sr_inprocess("scene", "learn", str(clean), "--depth-scale", "4000", "--out",
                                   str(tmp_path / "room.npz"))  # fmt: skip
     assert code == 2 and "--overwrite" in err  # d2sr's own file: replaced only when asked
+
+
+def _reference_after_a_clean_frame(stored: StoredScene, rng: np.random.Generator) -> SceneReference:
+    ref = SceneReference.from_stored(stored)
+    ref.evidence(f := _wall(rng))
+    ref.add(f)
+    return ref
+
+
+def test_a_surface_read_a_few_centimetres_off_frame_after_frame_stays_fresh_against_a_stored_scene():
+    """A CW-ToF neighbour reads the same surface 2-5 cm off in frame after frame, varying in sign: nothing
+    that moved explains it against a stored scene, so every such frame is evident and the scene's own
+    depth goes back. Something far off the scene (a person 1 m nearer) that stays is still explained by
+    motion after its first frame, as it is against a scene learned on the fly."""
+    rng = np.random.default_rng(2)
+    stored = _learned()
+    ref = _reference_after_a_clean_frame(stored, rng)
+    for k in range(4):
+        hit = _wall(rng)
+        if k % 2:
+            hit[40:60, 30:70] += int(0.03 * SCALE)
+        else:
+            hit[40:60, 30:70] -= int(0.04 * SCALE)
+        ev = ref.evidence(hit)
+        assert ev.evident and ev.fresh[40:60, 30:70].mean() > 0.8, k
+        fill = ref.repair(ev)
+        back = fill.depth[40:60, 30:70][fill.fill[40:60, 30:70]]
+        truth = stored.stats.nz_median[40:60, 30:70][fill.fill[40:60, 30:70]]
+        # the scene's depth, or the reading less the surface's offset (a surface shifted as a whole)
+        assert fill.fill[40:60, 30:70].mean() > 0.8 and np.median(np.abs(back - truth)) < 0.005
+    ref = _reference_after_a_clean_frame(stored, rng)
+    fresh = []
+    for _ in range(3):
+        person = _wall(rng)
+        person[40:60, 30:70] -= int(1.0 * SCALE)
+        fresh.append(ref.evidence(person).fresh[40:60, 30:70].mean())
+    assert fresh[0] > 0.8 and max(fresh[1:]) < 0.05  # explained by motion once it was there a frame before
+
+
+def test_a_scene_learned_on_the_fly_still_lets_the_frame_before_explain_a_small_offset():
+    """Without a stored scene the scene may have absorbed what it judges, so a persistent small offset is
+    left to the frame before's deviations to explain, as before."""
+    rng = np.random.default_rng(3)
+    ref = SceneReference(SCALE)
+    for _ in range(6):
+        ref.evidence(f := _wall(rng))
+        ref.add(f)
+    fresh = []
+    for _ in range(3):
+        hit = _wall(rng)
+        hit[40:70, 30:80] -= int(0.04 * SCALE)
+        fresh.append(ref.evidence(hit).fresh[40:70, 30:80].mean())
+    assert fresh[0] > 0.8 and max(fresh[1:]) < 0.05

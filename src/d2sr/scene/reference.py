@@ -226,6 +226,8 @@ class SceneReference:
             fresh = unexplained(metres, mask, before, cfg)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense_share
+            if self._stored:
+                fresh = fresh | (mask & self._on_surface(metres))
             return fresh, dense(fresh & deviates, known)
 
         self._before = _explains(metres, mask, neighbours(mask) if shift.any() else near)
@@ -245,6 +247,18 @@ class SceneReference:
             known=known,
             parts=parts,
         )
+
+    def _on_surface(self, metres: np.ndarray) -> np.ndarray:
+        """Returns within ``offset_cap`` of a stored scene's depth where it nearly always returns: the same
+        surface read a few centimetres off, which nothing that moved explains. A stored scene was learned
+        clean and is not re-summarized from the frames it judges, so a persistent offset from it is the
+        CW-ToF kind of interference (a real Kinect v2 beside two others reads its target's face 2-5 cm off,
+        frame after frame, varying in sign and size), not the scene's own drift."""
+        s = self._stats
+        assert s is not None
+        off = np.abs(np.subtract(metres, s.nz_median, dtype=np.float32))
+        out: np.ndarray = (metres > 0) & (off <= np.float32(self.settings.offset_cap)) & self._steady
+        return out
 
     def _view_changed(self, share: float) -> bool:
         """Count a frame deviating like another view (beyond ``moved``, or ``elsewhere``); after
