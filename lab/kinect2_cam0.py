@@ -47,7 +47,18 @@ def _flags(src: Path, csv: Path, *args: str) -> dict[str, bool]:
     """``d2sr detect``'s verdict per frame file name."""
     import csv as csvlib
 
-    cmd = [sys.executable, "-m", "d2sr", "detect", str(src), "--depth-scale", "1000", "--out", str(csv), *args]
+    cmd = [
+        sys.executable,
+        "-m",
+        "d2sr",
+        "detect",
+        str(src),
+        "--depth-scale",
+        "1000",
+        "--out",
+        str(csv),
+        *args,
+    ]
     subprocess.run([*cmd, "--overwrite"], check=True, capture_output=True)
     with csv.open() as f:
         return {Path(r["frame"]).stem: r["interfered"] in ("1", "True", "true") for r in csvlib.DictReader(f)}
