@@ -5,9 +5,11 @@ do not include: dev0 from its frames 120 on (the person has left), dev1 from its
 
 * clean: dev0 frames 0-119 (a person walks through its first frames) and dev1 frames 0-59: frames flagged;
 * the outside sets A-I (``held_out.every_other`` on dev0 60-119 and dev1 0-59): precision and recall, mean
-  and worst, beside the primed scene's in the same run.
+  and worst, beside the primed scene's in the same run; with ``--repair``, also the repair as ``d2sr
+  recover`` ships it (flagged frames): the corrupted frames' RMSE change against the clean frame over its
+  returns, frames made worse, and the share of uncorrupted pixels changed.
 
-Run:  python -m lab.stored_scene_l515 --data ../shared/data [--json out.json]
+Run:  python -m lab.stored_scene_l515 --data ../shared/data [--repair] [--json out.json]
 """
 
 from __future__ import annotations
@@ -39,20 +41,42 @@ def _frames(data: Path, view: str) -> list[np.ndarray]:
     return [cv2.imread(str(f), cv2.IMREAD_UNCHANGED) for f in files]
 
 
-def flags(net: Backend, frames: list[np.ndarray], scene: Path | None) -> np.ndarray:
-    """Each frame's verdict, in order: with the stored scene ``scene``, or primed on the frames (None)."""
+def results(net: Backend, frames: list[np.ndarray], scene: Path | None, repair: str) -> list:
+    """Each frame's result, in order: with the stored scene ``scene``, or primed on the frames (None)."""
     loop = SensorLoop(
-        net, make_controller("static", 30, 30), settings=RunSettings(repair="none", scene_from=scene)
+        net, make_controller("static", 30, 30), settings=RunSettings(repair=repair, scene_from=scene)
     )
     caps = (Capture(Frame(f"{i}", f), SCALE) for i, f in enumerate(frames))
     if scene is None:
         caps = loop.primed(caps)
-    return np.array([loop.process(c).flagged for c in caps])
+    return [loop.process(c) for c in caps]
+
+
+def flags(net: Backend, frames: list[np.ndarray], scene: Path | None) -> np.ndarray:
+    return np.array([r.flagged for r in results(net, frames, scene, "none")])
+
+
+def repair_figures(outs: list, bad: list[np.ndarray], clean: list[np.ndarray]) -> dict[str, float]:
+    """Summed over a set's views: (squared error before, after, pixels, frames worse, uncorrupted pixels
+    changed, uncorrupted pixels)."""
+    se0 = se1 = n = worse = changed = kept = 0.0
+    for r, b, c in zip(outs, bad, clean, strict=True):
+        ok = c > 0
+        untouched = b == c
+        changed += float((untouched & (r.depth != b)).sum())
+        kept += float(untouched.sum())
+        if untouched.all():
+            continue
+        e0 = float((((b.astype(np.float64) - c) / SCALE)[ok] ** 2).sum())
+        e1 = float((((r.depth.astype(np.float64) - c) / SCALE)[ok] ** 2).sum())
+        se0, se1, n, worse = se0 + e0, se1 + e1, n + float(ok.sum()), worse + (e1 > e0 + 1e-9)
+    return {"se0": se0, "se1": se1, "n": n, "worse": worse, "changed": changed, "kept": kept}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--repair", action="store_true", help="also the repair as recover ships it")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -73,16 +97,31 @@ def main() -> None:
             }
         # The outside sets' views: dev0 60-119 (after the person), dev1 0-59.
         parts = {"dev0": views["dev0"][60:120], "dev1": views["dev1"][0:60]}
+        rec = open_backend(RunSettings(backend="onnx")) if args.repair else None
         for which in open_sets():
             out = {}
             for how in ("stored", "primed"):
                 tp = fp = pos = 0
+                sums: dict[str, float] = {}
                 for v, clean in parts.items():
                     bad = every_other(clean, SCALE, which)
                     hit = np.array([bool((b != c).any()) for b, c in zip(bad, clean, strict=True)])
-                    f = flags(net, bad, scenes[v] if how == "stored" else None)
+                    scene = scenes[v] if how == "stored" else None
+                    if rec is not None:
+                        outs = results(rec, bad, scene, "flagged")
+                        f = np.array([r.flagged for r in outs])
+                        for k, x in repair_figures(outs, bad, clean).items():
+                            sums[k] = sums.get(k, 0.0) + x
+                    else:
+                        f = flags(net, bad, scene)
                     tp, fp, pos = tp + int((f & hit).sum()), fp + int((f & ~hit).sum()), pos + int(hit.sum())
                 out[how] = {"precision": round(tp / max(tp + fp, 1), 3), "recall": round(tp / max(pos, 1), 3)}
+                if sums:
+                    out[how] |= {
+                        "rmse_change": round(float(np.sqrt(sums["se1"] / sums["se0"]) - 1), 4),
+                        "frames_worse": int(sums["worse"]),
+                        "uncorrupted_changed": round(sums["changed"] / max(sums["kept"], 1), 5),
+                    }
             result["outside"][which] = out
     sets = result["outside"].values()
     result["mean_worst"] = {
@@ -91,7 +130,8 @@ def main() -> None:
                 "mean": round(float(np.mean([s[how][m] for s in sets])), 3),
                 "worst": min(s[how][m] for s in sets),
             }
-            for m in ("precision", "recall")
+            for m in ("precision", "recall", "rmse_change")
+            if m in next(iter(sets))[how]
         }
         for how in ("stored", "primed")
     }
