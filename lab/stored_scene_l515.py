@@ -127,8 +127,9 @@ def main() -> None:
     result["mean_worst"] = {
         how: {
             m: {
-                "mean": round(float(np.mean([s[how][m] for s in sets])), 3),
-                "worst": min(s[how][m] for s in sets),
+                "mean": round(float(np.mean([s[how][m] for s in sets])), 4),
+                # the worst: the lowest precision or recall, the least RMSE change
+                "worst": (max if m == "rmse_change" else min)(s[how][m] for s in sets),
             }
             for m in ("precision", "recall", "rmse_change")
             if m in next(iter(sets))[how]

@@ -212,6 +212,32 @@ README_ROWS = (
         "`python -m lab.scene_reference`",
     ),
     Row(
+        "real Kinect v2 interference, scene stored from 6 clean frames: put back (> 2 cm), `recover` / "
+        "`--repair all`; frames worse; `detect` recall; without the stored scene",
+        "—",
+        "docs/results/kinect2_cam0.json",
+        lambda d: (
+            f"{_pct(d['settings']['as shipped, stored scene']['put_back'])} / "
+            f"{_pct(d['settings']['--repair all, stored scene']['put_back'])}; "
+            f"{d['settings']['as shipped, stored scene']['frames_worse']} of 50; "
+            f"{d['settings']['detection']['detect, stored scene']['recall']:.2f} "
+            f"({d['settings']['detection']['frames_over_100_moved']} frames); "
+            f"{_pct(d['settings']['as shipped']['put_back'])}, {d['settings']['as shipped']['frames_worse']} worse"
+        ),
+        "`python -m lab.kinect2_cam0`",
+    ),
+    Row(
+        "stored scene, L515 outside sets: RMSE, recall, mean / worst",
+        "—",
+        "docs/results/stored_scene_l515.json",
+        lambda d: (
+            f"{_pct(d['mean_worst']['stored']['rmse_change']['mean'])} / "
+            f"{_pct(d['mean_worst']['stored']['rmse_change']['worst'])}; "
+            f"{d['mean_worst']['stored']['recall']['mean']:.3f} / {d['mean_worst']['stored']['recall']['worst']:.3f}"
+        ),
+        "`python -m lab.stored_scene_l515 --repair`",
+    ),
+    Row(
         "latency per 640x480 frame, detector / UNet8",
         "2.6 / 6.1 ms (AGX Orin GPU)",
         "docs/results/paper/results.json",
@@ -222,24 +248,12 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "`recover --repair all --no-report`, 60 frames 640x480: whole process (from the shell); marginal "
-        "rate (60 less 10 frames); x the PNG I/O floor",
+        "`recover --repair all`, 60 frames 640x480: whole process; marginal rate; x the PNG I/O floor",
         "—",
         "docs/results/bench_speed.json",
         lambda d: (
             f"{statistics.median(d['worst']['seconds']['recover 60']):.2f} s; "
             f"{d['worst']['recover_fps']:.1f} fps; {d['worst']['ratio_to_floor']:.2f}x ({d['cpu']})"
-        ),
-        "`python -m lab.speed`",
-    ),
-    Row(
-        "CPU per clean real L515 frame, in process, 2 views; with `scene=False`",
-        "—",
-        "docs/results/bench_speed.json",
-        lambda d: "; ".join(
-            " / ".join(f"{d[part][v]['as shipped']['cpu_ms_per_frame']:.2f}" for v in ("dev0", "dev1"))
-            + " ms"
-            for part in ("typical", "typical_without_scene")
         ),
         "`python -m lab.speed`",
     ),
