@@ -222,7 +222,8 @@ README_ROWS = (
             f"{d['settings']['as shipped, stored scene']['frames_worse']} of 50; "
             f"{d['settings']['detection']['detect, stored scene']['recall']:.2f} "
             f"({d['settings']['detection']['frames_over_100_moved']} frames); "
-            f"{_pct(d['settings']['as shipped']['put_back'])}, {d['settings']['as shipped']['frames_worse']} worse"
+            f"{_pct(d['settings']['as shipped']['put_back'])}, "
+            f"{d['settings']['as shipped']['frames_worse']} worse"
         ),
         "`python -m lab.kinect2_cam0`",
     ),
@@ -233,7 +234,8 @@ README_ROWS = (
         lambda d: (
             f"{_pct(d['mean_worst']['stored']['rmse_change']['mean'])} / "
             f"{_pct(d['mean_worst']['stored']['rmse_change']['worst'])}; "
-            f"{d['mean_worst']['stored']['recall']['mean']:.3f} / {d['mean_worst']['stored']['recall']['worst']:.3f}"
+            f"{d['mean_worst']['stored']['recall']['mean']:.3f} / "
+            f"{d['mean_worst']['stored']['recall']['worst']:.3f}"
         ),
         "`python -m lab.stored_scene_l515 --repair`",
     ),
