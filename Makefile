@@ -51,6 +51,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/pass_profile.py --json docs/results/pass_profile.json --overwrite
 	$(BIN)/python bench/rerun_overhead.py --json docs/results/bench_rerun.json --overwrite
 	$(BIN)/python bench/fleet.py --json docs/results/bench_fleet.json --overwrite
+	$(BIN)/python bench/stored_scene.py --json docs/results/bench_stored_scene.json --overwrite
 
 # 100,000 closed-loop frames, resident memory sampled (about 5 min).
 soak: $(STAMP)

@@ -13,6 +13,8 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rosbags.typesys import Stores, get_typestore
 from tools import ros2_peer
 
@@ -540,3 +542,22 @@ def test_the_cli_pairs_repeated_options_with_topics_in_order():
         "ros2", "--topic", "/a/depth", "--topic", "/b/depth", "--scene-from", "x.npz", "--seconds", "0.1"
     )
     assert code == 2 and "--scene-from: give one per --topic (2)" in err
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.text(max_size=30), max_size=4),
+    st.text(max_size=20),
+    st.text(max_size=30),
+)
+def test_any_names_and_rules_give_a_wire_or_one_config_error(remaps, namespace, topic):
+    """Whatever names and remapping rules come (a parameters file is data), a Wire is made or refused with
+    d2sr's own error; a topic it resolves is a ROS 2 name."""
+    from d2sr.ros2 import Wire
+
+    try:
+        w = Wire(namespace=namespace or "/", remaps=tuple(remaps))
+        name = w.resolve(topic)
+    except ConfigError:
+        return
+    assert name.startswith("/") and dds_topic(name).startswith("rt/")
