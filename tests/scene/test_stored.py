@@ -41,12 +41,22 @@ def test_a_stored_scene_round_trips_and_starts_a_reference_warm(tmp_path):
     ref = SceneReference.from_stored(back)
     rng = np.random.default_rng(1)
     first = ref.evidence(f := _wall(rng))
-    assert first.ready and not first.usable  # warm; the first frame that matches it shows the sensor still
+    assert first.ready and first.usable  # warm, and the first frame that matches it shows the sensor still
     ref.add(f)
     hit = _wall(rng)
     hit[40:70, 30:80] -= int(0.04 * SCALE)  # a patch 4 cm near
     ev = ref.evidence(hit)
     assert ev.usable and ev.evident and ev.mask[40:70, 30:80].mean() > 0.8
+
+
+def test_a_stored_scene_s_gate_stays_shut_on_a_first_frame_that_does_not_match_it():
+    """The gate opens on a stored scene's first frame only when that frame matches it (the sensor where it
+    was learned); a first frame from elsewhere leaves the detector to decide alone."""
+    rng = np.random.default_rng(4)
+    ref = SceneReference.from_stored(_learned())
+    moved = _wall(rng)
+    moved[20:80, 10:120] -= int(0.5 * SCALE)  # most of the view half a metre nearer: not where it was learned
+    assert ref.evidence(moved).ready and not ref.evidence(moved).usable
 
 
 def test_a_stored_scene_takes_lasting_change_in_and_is_not_re_summarized(tmp_path):

@@ -6,6 +6,8 @@ metres with ``depth_scale == 1``) so that every format round-trips bit-exactly; 
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 import re
 from abc import ABC, abstractmethod
@@ -236,8 +238,17 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
 
 
 def check_scale(depth_scale: float | None, where: str) -> float | None:
-    if depth_scale is not None and not (np.isfinite(depth_scale) and depth_scale > 0):
-        raise InputError(f"{where}: depth scale must be a positive number, got {depth_scale}")
+    """A depth scale read from a recording: None, or a positive finite number (an integer too large for a
+    float, a bool or a string is refused in one line, not a numpy error)."""
+    if depth_scale is None:
+        return None
+    ok = isinstance(depth_scale, numbers.Real) and not isinstance(depth_scale, bool)
+    try:
+        ok = ok and math.isfinite(float(depth_scale)) and depth_scale > 0
+    except OverflowError:  # an int beyond a float's range
+        ok = False
+    if not ok:
+        raise InputError(f"{where}: depth scale must be a positive number, got {str(depth_scale)[:40]}")
     return depth_scale
 
 

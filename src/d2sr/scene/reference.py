@@ -212,6 +212,10 @@ class SceneReference:
             return none(frame.shape)
         if share > cfg.elsewhere:  # another view: no evidence
             return none(frame.shape)
+        if self._stored and not self._clean and cfg.still_share is not None and share <= cfg.still_share:
+            # A stored scene's first frame that matches it shows the sensor where it was learned, held
+            # still: the gate opens on it, not on the first frame the detector passes (which may be late).
+            self._clean.append(share)
         still = self.still  # as the frames before this one showed
         if still:
             self._naps = 0
