@@ -483,7 +483,14 @@ def test_three_cameras_in_one_process_each_get_every_frame_back_and_their_own_di
                     if key in g:
                         g[key] += new
             time.sleep(0.05)
-        _collect(peers[0], got[0], lambda: len(got[0]["diagnostics"]) >= 2, seconds=5)
+
+        def all_out() -> bool:  # a /diagnostics written after every camera's last frame
+            return any(
+                all({kv.key: kv.value for kv in st.values}["frames_out"] == str(n) for st in d.status)
+                for d in got[0]["diagnostics"]
+            )
+
+        _collect(peers[0], got[0], all_out, seconds=5)
     finally:
         node.send_signal(signal.SIGINT)
         out, err = node.communicate(timeout=30)
@@ -492,9 +499,10 @@ def test_three_cameras_in_one_process_each_get_every_frame_back_and_their_own_di
         assert sorted(m.header.stamp.sec for m in g["repaired"]) == list(range(1000, 1000 + n))
     last = got[0]["diagnostics"][-1]
     assert sorted(s.hardware_id for s in last.status) == topics
+    assert all_out()
     for s in last.status:
         values = {kv.key: kv.value for kv in s.values}
-        assert values["frames_out"] == str(n) and values["dropped"] == "0"
+        assert values["dropped"] == "0" and values["frames_in"] == str(n)
     assert sum(f"{t}: {n} frames in, {n} out" in out for t in topics) == 3, out
 
 
