@@ -4,6 +4,7 @@ at once and still takes lasting change in."""
 
 from __future__ import annotations
 
+import json
 import pickle
 
 import cv2
@@ -92,9 +93,21 @@ def test_what_is_not_a_stored_scene_is_one_line_and_runs_nothing(tmp_path):
     }
     np.savez(tmp_path / "nometa.npz", **arrays)
     np.savez(tmp_path / "objects.npz", meta=np.array([{"format": "d2sr scene 1"}], dtype=object), **arrays)
-    for name in ("garbage.npz", "pickle.npz", "nometa.npz", "objects.npz", "missing.npz"):
+
+    def meta(**over: object) -> np.ndarray:
+        m = {"format": "d2sr scene 1", "depth_scale": 4000.0, "frames": 6, "shape": [4, 4], "source": "x"}
+        return np.frombuffer(json.dumps(m | over).encode(), np.uint8)
+
+    np.savez(tmp_path / "hugeint.npz", meta=meta(depth_scale=-(2**63) - 1), **arrays)
+    np.savez(tmp_path / "huge.npz", meta=meta(shape=[8192, 8192]), **arrays)
+    # an array far larger than the shape it claims (packed small: a zip of zeros)
+    np.savez_compressed(
+        tmp_path / "bomb.npz", meta=meta(), **(arrays | {"lo": np.zeros((4000, 4000), np.float32)})
+    )
+    names = ("garbage", "pickle", "nometa", "objects", "missing", "hugeint", "huge", "bomb")
+    for name in names:
         with pytest.raises(InputError) as err:
-            StoredScene.load(tmp_path / name)
+            StoredScene.load(tmp_path / f"{name}.npz")
         assert len(str(err.value).splitlines()) == 1 and err.value.setting == "scene_from"
     assert not ran.exists()
 
