@@ -10,6 +10,9 @@ IDL (tools/ros2_peer.py), on one ROS_DOMAIN_ID picked at random.
   every one, each its own draw, issue 66's worst case): frames back, the
   time each spent in the node (from taken off its reader to its last message written) and the time from
   the peer's write to the repaired frame reaching the peer, median and p99.
+* ``--cameras N``: instead of the rate, N cameras in one node (``--topic`` N times) at 15 Hz each, the same
+  frames every other one corrupted, ``--seconds`` long: per camera, frames back, dropped by the node, the
+  time in it.
 
 Run:  python -m lab.ros2_loopback --data ../shared/data --json docs/results/ros2_loopback.json
 """
@@ -55,36 +58,49 @@ def frames(data: Path, n: int) -> list[tuple[np.ndarray, np.ndarray, bool]]:
 def exchange(domain: int, sent: list[np.ndarray], hz: float) -> tuple[dict, dict[int, float], str, int]:
     """Start the node, publish ``sent`` at ``hz``, SIGINT it: (replies by kind, write time by stamp,
     the node's stdout, its exit code)."""
+    got, lags, out, code = exchange_many(domain, sent, hz, [TOPIC])
+    return got[0], lags[0], out, code
+
+
+def exchange_many(
+    domain: int, sent: list[np.ndarray], hz: float, topics: list[str]
+) -> tuple[list[dict], list[dict[int, float]], str, int]:
+    """One node for ``topics``; a peer per topic publishes ``sent`` at ``hz``: (replies by kind and write to
+    arrival by stamp, per topic; the node's stdout, its exit code)."""
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
-    cmd = [sys.executable, "-m", "d2sr", "ros2", "--topic", TOPIC, "--depth-scale", "4000"]
+    cmd = [sys.executable, "-m", "d2sr", "ros2", *(a for t in topics for a in ("--topic", t))]
+    cmd += ["--depth-scale", "4000"]
     node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    peer = ros2_peer.Peer(domain, TOPIC)
+    peers = [ros2_peer.Peer(domain, t) for t in topics]
     msgs = [ros2_peer.image(f, 1000 + k) for k, f in enumerate(sent)]  # serialized ahead of time
     written: dict[int, float] = {}
     try:
         end = time.monotonic() + 60
-        while not peer.matched():
+        while not all(p.matched() for p in peers):
             if time.monotonic() > end:
-                raise SystemExit("the node never matched the peer")
+                raise SystemExit("the node never matched the peers")
             time.sleep(0.05)
         time.sleep(0.5)
-        peer.listen()
+        for p in peers:
+            p.listen()
         t0 = time.monotonic()
         for k, m in enumerate(msgs):
             time.sleep(max(0.0, t0 + k / hz - time.monotonic()))
             written[1000 + k] = time.monotonic()
-            peer.writer.write(m)
+            for p in peers:
+                p.writer.write(m)
         end = time.monotonic() + 10
-        while time.monotonic() < end and len(peer.got["repaired"]) < len(msgs):
+        while time.monotonic() < end and min(len(p.got["repaired"]) for p in peers) < len(msgs):
             time.sleep(0.05)
-        peer.stop()
+        for p in peers:
+            p.stop()
     finally:
         node.send_signal(signal.SIGINT)
         out, err = node.communicate(timeout=60)
     if node.returncode:
         print(err, file=sys.stderr)
-    lag = {s: peer.arrived[s] - written[s] for s in peer.arrived if s in written}
-    return peer.got, lag, out, node.returncode
+    lags = [{s: p.arrived[s] - written[s] for s in p.arrived if s in written} for p in peers]
+    return [p.got for p in peers], lags, out, node.returncode
 
 
 def ms(values: list[float]) -> dict[str, float]:
@@ -92,16 +108,19 @@ def ms(values: list[float]) -> dict[str, float]:
     return {"median_ms": round(median, 2), "p99_ms": round(p99, 2)}
 
 
-def node_counts(stdout: str) -> dict[str, int]:
-    """What the node's exit line says it took, published and dropped while behind."""
+def node_counts(stdout: str, topic: str = "") -> dict[str, int]:
+    """What the node's exit line (for ``topic``, with several cameras) says it took, published and dropped
+    while behind."""
     text = " ".join(stdout.split())
-    m = re.search(r"(\d+) frames in, (\d+) out \((\d+) flagged, (\d+) skipped, (\d+) dropped", text)
+    head = re.escape(f"{topic}: ") if topic else ""
+    m = re.search(head + r"(\d+) frames in, (\d+) out \((\d+) flagged, (\d+) skipped, (\d+) dropped", text)
     keys = ("taken", "published", "flagged", "skipped", "dropped_while_behind")
     return dict(zip(keys, map(int, m.groups()), strict=True)) if m else {}
 
 
-def node_latency(stdout: str) -> dict[str, float]:
-    m = re.search(r"in the node ([\d.]+) ms median, ([\d.]+) ms\s+p99", stdout)
+def node_latency(stdout: str, topic: str = "") -> dict[str, float]:
+    head = re.escape(f"{topic}: ") + r"[^;]*; " if topic else ""
+    m = re.search(head + r"in the node ([\d.]+) ms median, ([\d.]+) ms\s+p99", " ".join(stdout.split()))
     return {"median_ms": float(m.group(1)), "p99_ms": float(m.group(2))} if m else {}
 
 
@@ -111,6 +130,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--seconds", type=float, default=10.0, help="length of the 30 Hz run")
     ap.add_argument("--every", action="store_true", help="the 30 Hz run: every frame interfered (worst case)")
+    ap.add_argument("--cameras", type=int, default=0, help="N cameras at 15 Hz each instead of the rate run")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -148,6 +168,28 @@ def main() -> None:
         "node_latency": node_latency(out),
         "write_to_repaired": ms(list(lag.values())) if lag else {},
     }
+    if args.cameras:  # several cameras in one node, 15 Hz each, every other frame corrupted
+        sent = [s for s, _, _ in items]
+        sent = [sent[k % len(sent)] for k in range(round(15 * args.seconds))]
+        topics = [f"/cam{i}/depth/image_rect_raw" for i in range(args.cameras)]
+        domain = rng.randint(100, 232)
+        gots, lags, out, code = exchange_many(domain, sent, 15.0, topics)
+        result["cameras_15hz"] = {
+            "domain": domain,
+            "published_per_camera": len(sent),
+            "exit_code_on_sigint": code,
+            "cameras": {
+                t: {
+                    "repaired_received": len(g["repaired"]),
+                    "node_counts": node_counts(out, t),
+                    "node_latency": node_latency(out, t),
+                    "write_to_repaired": ms(list(lag.values())) if lag else {},
+                }
+                for t, g, lag in zip(topics, gots, lags, strict=True)
+            },
+        }
+        print(write_result(result, args.json))
+        return
     # The rate: 640x480 at 30 Hz.
     if args.every:  # issue 66's worst case: every frame with interference, each its own draw
         clean = [c for _, c, _ in items]

@@ -552,7 +552,7 @@ def test_the_cli_pairs_repeated_options_with_topics_in_order():
     assert code == 2 and "--scene-from: give one per --topic (2)" in err
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(
     st.lists(st.text(max_size=30), max_size=4),
     st.text(max_size=20),
