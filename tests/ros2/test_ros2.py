@@ -569,3 +569,29 @@ def test_any_names_and_rules_give_a_wire_or_one_config_error(remaps, namespace, 
     except ConfigError:
         return
     assert name.startswith("/") and dds_topic(name).startswith("rt/")
+
+
+def test_cameras_take_turns_for_free_workers():
+    """When frames wait on every camera, the free workers go to the cameras in turn, not to the camera
+    whose frames were taken first in each pass (which starved the others when behind)."""
+    from d2sr.ros2 import Ros2Node, Wire
+
+    node = Ros2Node(["/a/depth", "/b/depth", "/c/depth"], 4000.0, Wire(domain=random.randint(100, 200)))
+    started: list[int] = []
+    try:
+        for i, cam in enumerate(node.cameras):
+            cam.waiting.extend((None, i + 0.0001 * k) for k in range(2))  # camera 0 taken first
+
+            def start(cam=cam, i=i) -> None:
+                cam.waiting.popleft()
+                cam.running.append((None, 0.0, None))  # type: ignore[arg-type]
+                started.append(i)
+
+            cam.start_oldest = start  # type: ignore[method-assign]
+        node.start_waiting()
+        for cam in node.cameras:
+            cam.running.clear()
+    finally:
+        node.close()
+    assert len(started) == min(2 * node._workers, 6)
+    assert started == [0, 1, 2, 0, 1, 2][: len(started)]

@@ -103,6 +103,7 @@ class Ros2Node:
         for cond in self._ready:
             self._waitset.attach(cond)
         self._stop = threading.Event()
+        self._turn = 0  # the camera whose waiting frame starts next (``start_waiting``)
         self.node_name, self.namespace = w.name, w.space
         self._announce()
 
@@ -156,13 +157,18 @@ class Ros2Node:
         return {c.topic: c.stats for c in self.cameras}
 
     def start_waiting(self) -> None:
-        """Start waiting frames while a worker is free (at most two frames in flight a worker), the oldest
-        first whichever camera it came from, so no camera waits behind another."""
-        while True:
-            cams = [c for c in self.cameras if c.waiting]
-            if not cams or sum(len(c.running) for c in self.cameras) >= 2 * self._workers:
+        """Start waiting frames while a worker is free (at most two frames in flight a worker), the cameras
+        taking turns, so none waits behind another when the repair cannot keep up with all of them (oldest
+        first starved the cameras whose frames come a moment later in each period)."""
+        n = len(self.cameras)
+        while sum(len(c.running) for c in self.cameras) < 2 * self._workers:
+            turn = next(
+                (k % n for k in range(self._turn, self._turn + n) if self.cameras[k % n].waiting), None
+            )
+            if turn is None:
                 return
-            min(cams, key=lambda c: c.waiting[0][1]).start_oldest()
+            self.cameras[turn].start_oldest()
+            self._turn = turn + 1
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)
