@@ -107,6 +107,7 @@ def measure(data: Path) -> dict:
             _recover(cam / "ref", root / "r", *args)
             fixed, alone = _read(root / "i"), _read(root / "r")
             moved = back = worse = flagged = 0
+            se_in = se_out = n_px = 0.0
             for f, x in bad.items():
                 y = fixed[f].astype(np.float32)
                 x32 = x.astype(np.float32)
@@ -118,12 +119,19 @@ def measure(data: Path) -> dict:
                 both = (truth > 0) & (x32 > 0) & (y > 0)
                 rmse = lambda a: float(np.sqrt(np.mean((a[both] - truth[both]) ** 2))) if both.any() else 0.0
                 worse += rmse(y) > rmse(x32) + 1e-6
+                se_in += float(((x32 - truth)[both] ** 2).sum())
+                se_out += float(((y - truth)[both] ** 2).sum())
+                n_px += float(both.sum())
             changed = sum(int((alone[f] != x).sum()) for f, x in ref.items())
             out[name] = {
                 "moved_2cm": moved,
                 "put_back": round(back / max(moved, 1), 4),
                 "frames_changed": flagged,
                 "frames_worse": worse,
+                "camera_rmse_mm": {  # all interfered frames pooled, against the frames alone's median
+                    "before": round(float(np.sqrt(se_in / max(n_px, 1))), 3),
+                    "after": round(float(np.sqrt(se_out / max(n_px, 1))), 3),
+                },
                 "alone_pixels_changed": changed,
             }
             for p in (root / "i", root / "r"):
