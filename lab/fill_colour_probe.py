@@ -1,0 +1,115 @@
+"""Probe (issue 68): depth carried into what the camera newly sees along the colour frame. After the warp of
+the last real frame and the background fill (``d2sr.synth``), each remaining hole takes the colour-weighted
+mean of its filled 8-neighbours at a quarter of the resolution (weights exp(-|Lab difference|^2 / 2 sigma^2)),
+``--iters`` times, so depth spreads into regions of the colour it came from and stops at colour edges; filled
+pixels get confidence 0.25. Not in ``src``: measured on the hand-held D435 sequence as ``lab.fill_d435``
+measures it (n = 15 and 6 of 30 kept, RMSE and coverage against hold-last's), and on the same sequence with
+every second frame dropped (``--step 2``: the camera turns twice as far between frames, as in the held-out
+Kinect v1 sequence whose coverage fell short). Monkeypatches ``Filler.synthesize``; slow (Python loops).
+
+Run:  python -m lab.fill_colour_probe --data ../shared/data --step 2 --sigma 4 --iters 60 [--off]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from d2sr.synth import FillSettings, fill_recording
+from d2sr.synth import fill as F
+from lab.fill_eval import Pool
+
+LEVEL = 4  # the propagation runs at 1/LEVEL of the resolution
+
+
+def colour_fill(depth: np.ndarray, colour: np.ndarray, sigma: float, iters: int) -> np.ndarray:
+    """``depth`` (metres, 0 = hole) with its holes filled along ``colour`` (BGR or grey)."""
+    hole = depth == 0
+    if not hole.any():
+        return depth
+    h, w = depth.shape
+    sh, sw = h // LEVEL, w // LEVEL
+    if colour.ndim == 3:
+        lab = cv2.cvtColor(colour, cv2.COLOR_BGR2LAB).astype(np.float32)
+    else:
+        lab = np.repeat(colour[..., None].astype(np.float32), 3, 2)
+    c = cv2.resize(lab, (sw, sh), interpolation=cv2.INTER_AREA)
+    valid = (depth > 0).astype(np.float32)
+    dsum = cv2.resize(depth * valid, (sw, sh), interpolation=cv2.INTER_AREA)
+    vsum = cv2.resize(valid, (sw, sh), interpolation=cv2.INTER_AREA)
+    d = np.where(vsum > 0.5, dsum / np.maximum(vsum, 1e-6), 0).astype(np.float32)
+    inv = 1.0 / (2 * sigma * sigma)
+    steps = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    weights = [np.exp(-((c - np.roll(c, s, (0, 1))) ** 2).sum(2) * inv) for s in steps]
+    for _ in range(iters):
+        num, den = np.zeros_like(d), np.zeros_like(d)
+        for s, wgt in zip(steps, weights, strict=True):
+            dn = np.roll(d, s, (0, 1))
+            wn = wgt * (dn > 0)
+            num += wn * dn
+            den += wn
+        new = (d == 0) & (den > 0.5)
+        if not new.any():
+            break
+        d[new] = num[new] / den[new]
+    up = cv2.resize(d, (w, h), interpolation=cv2.INTER_NEAREST)
+    out = depth.copy()
+    out[hole] = up[hole]
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--step", type=int, default=1, help="keep every step-th frame (2: a faster turn)")
+    ap.add_argument("--sigma", type=float, default=4.0)
+    ap.add_argument("--iters", type=int, default=60)
+    ap.add_argument("--off", action="store_true", help="the shipped fill alone, for the same frames")
+    args = ap.parse_args()
+    shipped = F.Filler.synthesize
+
+    def synthesize(self: F.Filler, colour: np.ndarray | None = None, pose: object = None) -> F.Synthesized:
+        s = shipped(self, colour, pose)  # type: ignore[arg-type]
+        if args.off or colour is None:
+            return s
+        d = colour_fill(s.depth, colour, args.sigma, args.iters)
+        conf = np.where((s.depth == 0) & (d > 0), np.float32(0.25), s.confidence)
+        return F.Synthesized(d, conf, s.method, s.since_real)
+
+    F.Filler.synthesize = synthesize  # type: ignore[method-assign]
+    src = args.data / "d435"
+    with tempfile.TemporaryDirectory() as tmp:
+        seq = Path(tmp) / "seq"
+        (seq / "rgb").mkdir(parents=True)
+        for i, f in enumerate(sorted(src.glob("depth*.png"))[:: args.step]):
+            os.symlink(f.resolve(), seq / f"depth{i:05d}.png")
+            rgb = src / "rgb" / f.name.replace("depth", "rgb").replace(".png", ".jpg")
+            os.symlink(rgb.resolve(), seq / "rgb" / f"rgb{i:05d}.jpg")
+        files = sorted(seq.glob("depth*.png"))
+        real = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64) for f in files]
+        for n in (15, 6):
+            out = Path(tmp) / f"out{n}"
+            t = time.perf_counter()
+            fill_recording(seq, out, FillSettings(active_frames=n, colour=seq / "rgb"))
+            seconds = time.perf_counter() - t
+            ours, hold = Pool(1000, 8000), Pool(1000, 8000)
+            for i, f in enumerate(files):
+                if i % 30 < n:
+                    continue
+                ours.add(cv2.imread(str(out / f.name), cv2.IMREAD_UNCHANGED).astype(np.float64), real[i])
+                hold.add(real[(i // 30) * 30 + n - 1], real[i])
+            print(
+                f"step {args.step} n {n}: RMSE vs hold-last {ours.rmse_cm() / hold.rmse_cm():.3f}, coverage vs "
+                f"hold-last {ours.coverage() / hold.coverage():.3f}, {len(files) / seconds:.1f} frames/s",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
