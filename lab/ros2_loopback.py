@@ -38,6 +38,7 @@ from d2sr.runtime.stats import median_p99_ms
 from lab.held_out import outside_interference
 
 TOPIC = "/camera/depth/image_rect_raw"
+EXTRA: list[str] = []  # the node's own options (--passes)
 
 
 def frames(data: Path, n: int) -> list[tuple[np.ndarray, np.ndarray, bool]]:
@@ -69,7 +70,7 @@ def exchange_many(
     arrival by stamp, per topic; the node's stdout, its exit code)."""
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
     cmd = [sys.executable, "-m", "d2sr", "ros2", *(a for t in topics for a in ("--topic", t))]
-    cmd += ["--depth-scale", "4000"]
+    cmd += ["--depth-scale", "4000", *EXTRA]
     node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     peers = [ros2_peer.Peer(domain, t) for t in topics]
     msgs = [ros2_peer.image(f, 1000 + k) for k, f in enumerate(sent)]  # serialized ahead of time
@@ -131,9 +132,12 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=10.0, help="length of the 30 Hz run")
     ap.add_argument("--every", action="store_true", help="the 30 Hz run: every frame interfered (worst case)")
     ap.add_argument("--cameras", type=int, default=0, help="N cameras at 15 Hz each instead of the rate run")
+    ap.add_argument("--passes", type=int, default=None, help="the node's --passes (default: its own)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
+    if args.passes is not None:
+        EXTRA.extend(["--passes", str(args.passes)])
     result: dict = {
         "data": "L515 dev1 (real captures), every other frame with outside interference (lab/held_out.py)",
     }
