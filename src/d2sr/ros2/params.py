@@ -99,6 +99,10 @@ def read_params(path: Path, node_name: str) -> dict[str, Any]:
         checked = NodeParams.model_validate(merged)
     except ValidationError as exc:
         e = exc.errors()[0]
+        key = str(e["loc"][0]) if e["loc"] else "?"
+        if len(exc.errors()) > 1 and all(x["loc"][:1] == e["loc"][:1] for x in exc.errors()):
+            # a key that takes one value or a list of them (topic, trigger, ...) fitted neither
+            raise ConfigError(f"--params-file {path}: {key}: expected one value or a list of them") from None
         where = ".".join(str(p) for p in e["loc"]) or "?"
         raise ConfigError(f"--params-file {path}: {where}: {e['msg']}") from None
     return checked.model_dump(exclude_unset=True)
