@@ -119,7 +119,7 @@ def ros2(
 
     Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
     """
-    from d2sr.ros2 import Camera, Ros2Node, Wire
+    from d2sr.ros2 import Ros2Node, Wire, cameras_from
 
     o = dict(ctx.params)
     if params_file is not None:
@@ -135,13 +135,7 @@ def ros2(
         raise ConfigError("--topic is required (or topic in --params-file)")
     if o["seconds"] is not None and not (0 < o["seconds"] < float("inf")):
         raise ConfigError(f"--seconds must be a positive number, got {o['seconds']}")
-    per = {k: _per_topic(_listed(o[k]), len(topics), k) for k in ("colour_topic", "trigger", "scene_from")}
-    cams = [
-        Camera(
-            t, per["colour_topic"][i], per["trigger"][i], per["scene_from"][i] and Path(per["scene_from"][i])
-        )
-        for i, t in enumerate(topics)
-    ]
+    cams = cameras_from(topics, _listed(o["colour_topic"]), _listed(o["trigger"]), _listed(o["scene_from"]))
     settings = RunSettings(
         repair=o["repair"], model=o["model"], models=Path(o["models"]), threshold=o["threshold"],
         mask_logit=o["mask_logit"], passes=o["passes"], scene=o["scene"],
@@ -177,13 +171,3 @@ def _listed(value: object) -> list[Any]:
     if value is None:
         return []
     return list(value) if isinstance(value, list | tuple) else [value]
-
-
-def _per_topic(values: list[Any], topics: int, key: str) -> list[Any]:
-    """One value per topic (None for each when none is given)."""
-    if not values:
-        return [None] * topics
-    if len(values) != topics:
-        flag = "--" + key.replace("_", "-")
-        raise ConfigError(f"{flag}: give one per --topic ({topics}), in order; got {len(values)}")
-    return values

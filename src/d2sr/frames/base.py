@@ -237,17 +237,21 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
     return warnings
 
 
-def check_scale(depth_scale: float | None, where: str) -> float | None:
-    """A depth scale read from a recording: None, or a positive finite number (an integer too large for a
-    float, a bool or a string is refused in one line, not a numpy error)."""
-    if depth_scale is None:
-        return None
-    ok = isinstance(depth_scale, numbers.Real) and not isinstance(depth_scale, bool)
+def positive_finite(x: object) -> bool:
+    """``x`` is a real number, finite and positive (not a bool, a string, or an integer too large for a
+    float): what a scale read from a file must be before any arithmetic on it."""
+    if not isinstance(x, numbers.Real) or isinstance(x, bool):
+        return False
     try:
-        ok = ok and math.isfinite(float(depth_scale)) and depth_scale > 0
+        return math.isfinite(float(x)) and float(x) > 0
     except OverflowError:  # an int beyond a float's range
-        ok = False
-    if not ok:
+        return False
+
+
+def check_scale(depth_scale: float | None, where: str) -> float | None:
+    """A depth scale read from a recording: None, or a positive finite number (anything else is refused
+    in one line, not a numpy error)."""
+    if depth_scale is not None and not positive_finite(depth_scale):
         raise InputError(f"{where}: depth scale must be a positive number, got {str(depth_scale)[:40]}")
     return depth_scale
 

@@ -4,7 +4,7 @@ as any other node: topic ``/a/b`` is DDS topic ``rt/a/b``, ``sensor_msgs/msg/Ima
 ``sensor_msgs::msg::dds_::Image_``. Torch-free."""
 
 from d2sr.ros2.camera import Camera, Stats
-from d2sr.ros2.node import Ros2Node
+from d2sr.ros2.node import Ros2Node, cameras_from
 from d2sr.ros2.wire import Wire, dds_topic
 
-__all__ = ["Camera", "Ros2Node", "Stats", "Wire", "dds_topic"]
+__all__ = ["Camera", "Ros2Node", "Stats", "Wire", "cameras_from", "dds_topic"]

@@ -119,7 +119,12 @@ class CameraLoop:
 
     @property
     def readers(self) -> list[Any]:
-        return [self.reader, self.info_reader, *([self.colour_reader] if self.colour_reader else [])]
+        return [*self.waking, self.info_reader]
+
+    @property
+    def waking(self) -> list[Any]:
+        """The readers whose data wakes the node (camera_info is only kept, taken with the next frame)."""
+        return [self.reader, *([self.colour_reader] if self.colour_reader else [])]
 
     @property
     def writers(self) -> list[Any]:

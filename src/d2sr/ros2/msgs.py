@@ -37,10 +37,21 @@ def _store() -> Any:
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
-def _rosbags_header(t: Any, header: "Header") -> Any:
-    """``header`` as rosbags' std_msgs/Header (the messages whose bytes go through rosbags' codec)."""
+def _encode(kind: str, header: "Header", data: Any, **fields: Any) -> bytes:
+    """A message of ``kind`` (``IMAGE``, ``COMPRESSED``) with ``header`` and pixel ``data`` as CDR bytes,
+    through rosbags' codec."""
+    ts = _store()
+    t = ts.types
     stamp = t["builtin_interfaces/msg/Time"](sec=header.stamp.sec, nanosec=header.stamp.nanosec)
-    return t["std_msgs/msg/Header"](stamp=stamp, frame_id=header.frame_id)
+    head = t["std_msgs/msg/Header"](stamp=stamp, frame_id=header.frame_id)
+    pixels = np.ascontiguousarray(data, dtype=np.uint8).reshape(-1)
+    return bytes(ts.serialize_cdr(t[kind](header=head, data=pixels, **fields), kind))
+
+
+def _decode(data: bytes, kind: str) -> tuple[Any, "Header"]:
+    """(rosbags' message of ``kind`` from CDR ``data``, its header as ours)."""
+    m = _store().deserialize_cdr(data, kind)
+    return m, Header(Time(m.header.stamp.sec, m.header.stamp.nanosec), m.header.frame_id)
 
 
 @dataclass
@@ -66,26 +77,15 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
     data: sequence[uint8] = field(default_factory=list)  # a numpy uint8 array on d2sr's side
 
     def serialize(self, buffer: Any = None, endianness: Any = None, use_version_2: Any = None) -> bytes:
-        ts = _store()
-        t = ts.types
-        msg = t[IMAGE](
-            header=_rosbags_header(t, self.header),
-            height=self.height,
-            width=self.width,
-            encoding=self.encoding,
-            is_bigendian=self.is_bigendian,
-            step=self.step,
-            data=np.ascontiguousarray(self.data, dtype=np.uint8).reshape(-1),
-        )
-        return bytes(ts.serialize_cdr(msg, IMAGE))
+        return _encode(
+            IMAGE, self.header, self.data, height=self.height, width=self.width, encoding=self.encoding,
+            is_bigendian=self.is_bigendian, step=self.step,
+        )  # fmt: skip
 
     @classmethod
     def deserialize(cls, data: bytes, has_header: bool = True, use_version_2: Any = None) -> "Image":
-        m = _store().deserialize_cdr(data, IMAGE)
-        stamp = Time(m.header.stamp.sec, m.header.stamp.nanosec)
-        return cls(
-            Header(stamp, m.header.frame_id), m.height, m.width, m.encoding, m.is_bigendian, m.step, m.data
-        )
+        m, header = _decode(data, IMAGE)
+        return cls(header, m.height, m.width, m.encoding, m.is_bigendian, m.step, m.data)
 
 
 @dataclass
@@ -151,22 +151,14 @@ class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedIma
     data: sequence[uint8] = field(default_factory=list)
 
     def serialize(self, buffer: Any = None, endianness: Any = None, use_version_2: Any = None) -> bytes:
-        ts = _store()
-        t = ts.types
-        msg = t[COMPRESSED](
-            header=_rosbags_header(t, self.header),
-            format=self.format,
-            data=np.ascontiguousarray(self.data, dtype=np.uint8).reshape(-1),
-        )
-        return bytes(ts.serialize_cdr(msg, COMPRESSED))
+        return _encode(COMPRESSED, self.header, self.data, format=self.format)
 
     @classmethod
     def deserialize(
         cls, data: bytes, has_header: bool = True, use_version_2: Any = None
     ) -> "CompressedImage":
-        m = _store().deserialize_cdr(data, COMPRESSED)
-        stamp = Time(m.header.stamp.sec, m.header.stamp.nanosec)
-        return cls(Header(stamp, m.header.frame_id), m.format, m.data)
+        m, header = _decode(data, COMPRESSED)
+        return cls(header, m.format, m.data)
 
 
 #: A graph id's size on the wire: the 16-byte DDS GUID, padded with zeros to 24 bytes (ROS 2 Humble's

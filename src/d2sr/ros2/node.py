@@ -9,6 +9,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,18 @@ from d2sr.ros2.camera import ENCODINGS, Camera, CameraLoop, Stats
 from d2sr.ros2.dds import Dds
 from d2sr.ros2.wire import QOS, TRANSPORTS, Wire, dds_topic, domain_id
 
-__all__ = ["ENCODINGS", "QOS", "TRANSPORTS", "Camera", "Ros2Node", "Stats", "Wire", "dds_topic", "domain_id"]
+__all__ = [
+    "ENCODINGS",
+    "QOS",
+    "TRANSPORTS",
+    "Camera",
+    "Ros2Node",
+    "Stats",
+    "Wire",
+    "cameras_from",
+    "dds_topic",
+    "domain_id",
+]
 
 DIAGNOSTICS_S = 1.0  # how often /diagnostics is written (ROS 2's diagnostic aggregator expects about 1 Hz)
 MAX_CAMERAS = 16  # cameras one node takes (each holds a loop and its frames in memory)
@@ -36,6 +48,29 @@ def cameras_of(topic: str | Camera | Sequence[str | Camera], colour_topic: str |
             raise ConfigError("--colour-topic: with several cameras give one per --topic, in order")
         cams = [Camera(cams[0].topic, colour_topic, cams[0].trigger, cams[0].scene_from)]
     return cams
+
+
+def cameras_from(
+    topics: Sequence[str],
+    colour_topics: Sequence[str] = (),
+    triggers: Sequence[str] = (),
+    scene_froms: Sequence[str | Path] = (),
+) -> list[Camera]:
+    """Cameras from what a command line or a parameters file repeats: colour topics, triggers and stored
+    scenes are each given once per topic, in order, or not at all."""
+    given = {"colour-topic": colour_topics, "trigger": triggers, "scene-from": scene_froms}
+    for flag, values in given.items():
+        if values and len(values) != len(topics):
+            raise ConfigError(f"--{flag}: give one per --topic ({len(topics)}), in order; got {len(values)}")
+    return [
+        Camera(
+            topic,
+            colour_topics[i] if colour_topics else None,
+            triggers[i] if triggers else None,
+            Path(scene_froms[i]) if scene_froms else None,
+        )
+        for i, topic in enumerate(topics)
+    ]
 
 
 class Ros2Node:
@@ -97,9 +132,7 @@ class Ros2Node:
         self._waitset = WaitSet(self.dds.participant)
         # Wake on data (a reader attached alone wakes only on its status changes).
         any_state = SampleState.Any | ViewState.Any | InstanceState.Any
-        self._ready = [
-            ReadCondition(r, any_state) for c in self.cameras for r in c.readers if r is not c.info_reader
-        ]
+        self._ready = [ReadCondition(r, any_state) for c in self.cameras for r in c.waking]
         for cond in self._ready:
             self._waitset.attach(cond)
         self._stop = threading.Event()

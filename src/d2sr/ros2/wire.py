@@ -3,6 +3,7 @@ QoS per stream (REP 2003)."""
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from dataclasses import dataclass
@@ -65,8 +66,9 @@ class Wire:
         for stream, profile in self.streams:
             if stream not in STREAMS_IN + STREAMS_OUT or profile not in PROFILES:
                 raise ConfigError(f"{stream}_qos: {profile!r} is not one of {', '.join(PROFILES)}")
-        self._rules()  # checked here, once
+        self._rules  # noqa: B018  (checked here, when made)
 
+    @functools.cached_property
     def _rules(self) -> tuple[str, str, dict[str, str]]:
         """(node name, namespace, {resolved topic: resolved topic}) after the remapping rules."""
         node, ns, topics = self.node_name, self.namespace, {}
@@ -91,16 +93,16 @@ class Wire:
     @property
     def name(self) -> str:
         """The node's name, after ``__node:=``."""
-        return self._rules()[0]
+        return self._rules[0]
 
     @property
     def space(self) -> str:
         """The node's namespace, after ``__ns:=``."""
-        return self._rules()[1]
+        return self._rules[1]
 
     def resolve(self, topic: str) -> str:
         """A topic's full ROS 2 name: a relative one under the node's namespace, then remapped."""
-        _, ns, topics = self._rules()
+        _, ns, topics = self._rules
         full = _resolve(topic, ns, "--topic")
         return topics.get(full, full)
 

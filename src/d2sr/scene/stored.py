@@ -9,7 +9,6 @@ the depth scale, how many clean frames, how far the scene trusts its pixels, and
 from __future__ import annotations
 
 import json
-import math
 import zipfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -20,6 +19,7 @@ import numpy as np
 
 from d2sr.atomic import atomic_file
 from d2sr.errors import InputError
+from d2sr.frames.base import positive_finite
 from d2sr.frames.encoded import MAX_PIXELS
 from d2sr.scene.stats import CleanStats, clean_stats
 
@@ -110,16 +110,6 @@ def _member(z: Any, name: str, most: int) -> np.ndarray | None:
     return out
 
 
-def _finite_positive(x: object) -> bool:
-    """A JSON number that is finite and positive (an integer too large for a float is not)."""
-    if not isinstance(x, int | float) or isinstance(x, bool):
-        return False
-    try:
-        return math.isfinite(float(x)) and x > 0
-    except OverflowError:
-        return False
-
-
 def _meta(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
     bad = InputError(f"{path}: not a scene file d2sr wrote (no description of it)", "scene_from")
     if raw is None or raw.dtype != np.uint8 or raw.ndim != 1 or raw.size > 1 << 16:
@@ -136,7 +126,7 @@ def _meta(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
         and len(shape) == 2
         and all(isinstance(v, int) and 0 < v <= _MAX_SIDE for v in shape)
         and shape[0] * shape[1] <= MAX_PIXELS  # the frames d2sr takes: no larger scene is unpacked
-        and _finite_positive(scale)
+        and positive_finite(scale)
         and isinstance(frames, int)
         and frames >= 1
         and isinstance(meta.get("source"), str)
