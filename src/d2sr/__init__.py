@@ -38,6 +38,8 @@ _WHERE = {
     "Written": "d2sr.runtime.batch",
     "RunSettings": "d2sr.runtime.settings",
     "fill_recording": "d2sr.synth",
+    "learn_scene_recording": "d2sr.runtime.scenes",
+    "StoredScene": "d2sr.scene.stored",
     "open_frames": "d2sr.frames",
     "make_controller": "d2sr.desync",
     "D2SRError": "d2sr.errors",
@@ -55,12 +57,14 @@ __all__ = [
     "Pipeline",
     "Repaired",
     "RunSettings",
+    "StoredScene",
     "Summary",
     "Window",
     "Written",
     "__version__",
     "detect_recording",
     "fill_recording",
+    "learn_scene_recording",
     "make_controller",
     "open_frames",
     "recover_fleet",
@@ -75,7 +79,9 @@ if TYPE_CHECKING:
     from d2sr.frames import open_frames
     from d2sr.runtime.batch import Summary, Written, detect_recording, recover_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
+    from d2sr.runtime.scenes import learn_scene_recording
     from d2sr.runtime.settings import RunSettings
+    from d2sr.scene.stored import StoredScene
     from d2sr.synth import fill_recording
 
 

@@ -28,10 +28,10 @@ def learn(
 
     Example: d2sr scene learn clean_room/ --depth-scale 4000 --out room.npz
     """
-    from d2sr.runtime.scenes import learn_recording
+    from d2sr.runtime.scenes import learn_scene_recording
 
     settings = RunSettings(depth_scale=depth_scale, topic=topic, max_range=max_range)
-    s = learn_recording(clean, out, settings, overwrite=overwrite, say=print_line)
+    s = learn_scene_recording(clean, out, settings, overwrite=overwrite, say=print_line)
     h, w = s.shape
     print_line(
         f"scene of {s.frames} clean frames, {w}x{h} at {s.depth_scale:g} units per metre; "

@@ -12,10 +12,10 @@ from d2sr.frames.checks import checked_counts, open_input
 from d2sr.runtime.settings import RunSettings
 from d2sr.scene.stored import StoredScene, learn_scene
 
-__all__ = ["check_stored", "learn_recording", "open_recording"]
+__all__ = ["check_stored", "learn_scene_recording", "open_recording"]
 
 
-def learn_recording(
+def learn_scene_recording(
     clean: Path,
     out: Path,
     settings: RunSettings | None = None,
