@@ -27,9 +27,13 @@ Controllers = Annotated[str, typer.Option(help="Controllers, comma-separated (de
 def run(
     out: Annotated[Path, typer.Option(help="Folder for the plots.")],
     scenario: Annotated[
-        str, typer.Option(help="stationary (everyone overlaps) or moving (a robot).")
+        str,
+        typer.Option(
+            help="stationary (everyone overlaps), moving (a robot), ring or row (a robot passing fixed "
+            "sensors), crossing (two robots)."
+        ),
     ] = "stationary",
-    sensors: Annotated[int, typer.Option(help="Sensors (moving: the robot plus N-1 fixed ones).")] = 3,
+    sensors: Annotated[int, typer.Option(help="Sensors, robots included.")] = 3,
     active_frames: Annotated[int, typer.Option(help="Frames per 1 s period (30 = always on).")] = 6,
     fps: Annotated[int | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 60.0,
@@ -76,13 +80,13 @@ def run(
     check_out(out, is_dir=True, overwrite=overwrite)
     if json_out:
         check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
-    where = "a robot among fixed sensors" if scenario == "moving" else "one room"
+    where = "one room" if scenario == "stationary" else ev.TITLES[scenario].split(" (")[0]
     with out_dir(out, overwrite) as tmp, progress_bar() as bar:
         task = bar.add_task("simulating", total=len(names))
         grid = ev.Cell(scenario, fps, sensors, names[0], replicas=rooms, duration_s=seconds, seed=seed)
         rows = compare(tmp, grid, names, timing, lambda: bar.advance(task))
     table = Table(
-        title=f"{sensors} sensors in {where}, {fps} of {timing.total_frames} frames per second, "
+        title=f"{sensors} sensors, {where}, {fps} of {timing.total_frames} frames per second, "
         f"{seconds:g} s, {rooms} rooms"
     )
     for i, col in enumerate(
@@ -113,7 +117,9 @@ def sweep(
     fps: Annotated[str | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     sensors: Annotated[str, typer.Option(help="Sensor counts, comma-separated.")] = "1,2,3,4,5",
     controllers: Controllers = "",
-    scenarios: Annotated[str, typer.Option(help="stationary,moving")] = "stationary,moving",
+    scenarios: Annotated[
+        str, typer.Option(help="Any of stationary,moving,ring,row,crossing.")
+    ] = "stationary,moving",
     profiles: Annotated[str, typer.Option(help="Noise profiles: default,harsh.")] = "default,harsh",
     jobs: Annotated[int, typer.Option(help="Worker processes (0 = all cores).")] = 0,
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,

@@ -104,8 +104,9 @@ def paper(
     limit: Annotated[int, typer.Option(help="Interfered frames per recovery test set.")] = 60,
     overwrite: Overwrite = False,
 ) -> None:
-    """The paper's evaluation in one report: Fig. 3, Fig. 9, detector P/R/F1, Tables I-II, Fig. 10, Table
-    III (latency here), side by side with the paper's numbers.
+    """The paper's evaluation in one report: Fig. 3, Fig. 9 (and a robot passing a ring), Fig. 11
+    (synthesized frames: RMSE and coverage), detector P/R/F1, Tables I-II, Fig. 10, Table III (latency
+    here), side by side with the paper's numbers.
 
     Example: d2sr eval paper --real ../shared/data/l515 --out out/eval/paper
     """

@@ -10,7 +10,9 @@ Metrics, per replica, then averaged:
 - ``steady``: the same over the second half of the run;
 - ``converged``: first period from which the replica's interference ratio, averaged over a 5-period
   window, stays at or below 5% until the end (censored when it never does).
-In the moving-robot scenario only the robot's stream counts, as in the paper.
+In the moving-robot scenario only the robot's stream counts, as in the paper. In the passing worlds
+(``d2sr.sim.passing``: a robot passing a ring or a row of fixed sensors, two robots crossing) every sensor's
+frames count: what a robot costs the sensors it passes is part of the measure.
 """
 
 from __future__ import annotations
@@ -28,14 +30,18 @@ import numpy as np
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.errors import InputError
 from d2sr.sim.overlap import OverlapGraph
+from d2sr.sim.passing import WORLDS, passing_rooms
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
 from d2sr.version import __version__
 
 __all__ = [
     "COMPARED",
     "FPS",
+    "PAPER_SCENARIOS",
     "PROFILES",
+    "SCENARIOS",
     "SENSORS",
+    "TITLES",
     "Cell",
     "CellResult",
     "convergence_periods",
@@ -47,7 +53,17 @@ __all__ = [
 
 FPS = (6, 10, 15, 20, 25, 30)
 SENSORS = (1, 2, 3, 4, 5)
-SCENARIOS = ("stationary", "moving")
+SCENARIOS = ("stationary", "moving", *WORLDS)
+#: What a sweep runs unless told: the paper's two scenarios.
+PAPER_SCENARIOS = ("stationary", "moving")
+#: One line per scenario, for reports.
+TITLES = {
+    "stationary": "stationary",
+    "moving": "moving (the robot's frames only)",
+    "ring": "a robot passing a ring (every sensor's frames)",
+    "row": "a robot passing a row (every sensor's frames)",
+    "crossing": "two robots crossing (every sensor's frames)",
+}
 COMPARED = ("static", "d2sr", DEFAULT_CONTROLLER, "oracle")  # what the sweep and desync run compare
 #: Noise profiles: the issue's defaults and the robustness check.
 PROFILES: dict[str, dict[str, float]] = {
@@ -121,6 +137,8 @@ def _graph(cell: Cell) -> OverlapGraph:
             for r in range(cell.replicas)
         ]
         return OverlapGraph.disjoint(rooms)
+    if cell.scenario in WORLDS:
+        return passing_rooms(cell.scenario, cell.sensors, cell.duration_s, cell.replicas, cell.seed)
     raise ValueError(f"unknown scenario {cell.scenario!r}")
 
 
@@ -184,7 +202,7 @@ def summarize(
 
 
 def cells(
-    scenarios: Iterable[str] = SCENARIOS,
+    scenarios: Iterable[str] = PAPER_SCENARIOS,
     fps: Iterable[int] = FPS,
     sensors: Iterable[int] = SENSORS,
     controllers: Iterable[str] = COMPARED,
@@ -401,7 +419,7 @@ def markdown(
             continue
         lines += [
             "",
-            f"## {sc}" + (" (the robot's frames only)" if sc == "moving" else ""),
+            f"## {TITLES[sc]}",
             "",
             f"| fps | N | static | d2sr (paper) | {default} (ours) | oracle "
             f"| {default} steady | {default} harsh |",

@@ -1,6 +1,7 @@
 """``d2sr eval paper``: the paper's evaluation, reproduced here, side by side with its own numbers.
 
-Fig. 3 (interference against N), Fig. 9 (interference ratio against frame rate and N), the detector's
+Fig. 3 (interference against N), Fig. 9 (interference ratio against frame rate and N, with a robot passing
+a ring beside the paper's scenarios), Fig. 11 (synthesized frames: RMSE and coverage), the detector's
 precision / recall / F1, Tables I-II (identity and UNet8/16/32 on the stationary and moving-robot sets),
 Fig. 10 (per-pixel error CDF) and Table III (latency, on this machine). Every number is measured by this
 command; the paper's are quoted from its text for comparison only.
@@ -84,10 +85,19 @@ def _fig3_plot(res: dict) -> plt.Figure:
     return fig
 
 
+#: Fig. 9's scenarios: the paper's two, and a robot passing a ring of fixed sensors (beyond the paper).
+FIG9_SCENARIOS = ("stationary", "moving", "ring")
+
+
 def interference_vs_rate(rooms: int = 4, seconds: float = 30.0, jobs: int | None = None) -> list:
-    """Fig. 9's grid (stationary and moving robot; static, the paper's controller, ours)."""
+    """Fig. 9's grid (stationary, moving robot, a robot passing a ring; static, the paper's controller,
+    ours)."""
     grid = ev.cells(
-        controllers=("static", "d2sr", DEFAULT_CONTROLLER), replicas=rooms, duration_s=seconds, seed=0
+        FIG9_SCENARIOS,
+        controllers=("static", "d2sr", DEFAULT_CONTROLLER),
+        replicas=rooms,
+        duration_s=seconds,
+        seed=0,
     )
     return ev.sweep(grid, jobs)
 
@@ -101,14 +111,21 @@ class Steps(Protocol):
     def __call__(self, name: str, fn: Callable[[], T]) -> T: ...
 
 
-def run_all(out: Path, steps: Steps, rooms: int = 4) -> dict[str, Any]:
-    """Each part in turn (``steps(name, fn)`` runs one with progress); returns everything measured."""
+def run_all(out: Path, steps: Steps, rooms: int = 4, fill_seconds: float = 20.0) -> dict[str, Any]:
+    """Each part in turn (``steps(name, fn)`` runs one with progress); returns everything measured.
+    ``fill_seconds``: each of Fig. 11's 3 rooms."""
+    from d2sr.eval.fill import fig11, moving_robot_fill
+
     res: dict[str, Any] = {}
     res["fig3"] = steps("Fig. 3: interference against N", fig3)
     save(_fig3_plot(res["fig3"]), out / "fig3.png")
     cells = steps("Fig. 9: interference ratio against frame rate and N", lambda: interference_vs_rate(rooms))
     save(fig9(cells, DEFAULT_CONTROLLER), out / "fig9.png")
     res["fig9"] = {f"{c.scenario}/{c.fps}fps/{c.sensors}/{c.controller}": round(c.whole, 4) for c in cells}
+    res["fig11"] = steps(
+        "Fig. 11: synthesized frames on the moving robot", lambda: moving_robot_fill(3, fill_seconds)
+    )
+    save(fig11(res["fig11"]), out / "fig11.png")
     return res
 
 
@@ -149,6 +166,10 @@ def markdown(res: dict, detector: dict, recovery: dict, latency: dict, command: 
         "",
         "![Fig. 9](fig9.png)",
         "",
+        "The third row is beyond the paper: a robot passing a ring of fixed sensors (each overlapping its "
+        "two ring neighbours; the robot two at a time, moving on every 8 s), every sensor's frames counted.",
+        "",
+        *_fig11_lines(res.get("fig11")),
         "## Detector (Section V-A)",
         "",
         "| set | precision | recall | F1 | false alarms |",
@@ -204,6 +225,28 @@ def markdown(res: dict, detector: dict, recovery: dict, latency: dict, command: 
         )
     lines.append("")
     return "\n".join(lines)
+
+
+def _fig11_lines(fill: dict | None) -> list[str]:
+    """Fig. 11's section: each method's RMSE beside its coverage (a method is judged only where it gives a
+    value), and the figure."""
+    if not fill:
+        return []
+    from d2sr.eval.fill import METHODS
+
+    lines = [
+        "## Fig. 11: synthesized frames against the true ones (the simulator's moving robot)",
+        "",
+        f"{fill['data']}. RMSE over the pixels a method gives a value; coverage: the share of the true "
+        "frame's pixels it gives one.",
+        "",
+        "| real frames of 30 | " + " | ".join(f"{m} RMSE (cm) / coverage" for m in METHODS) + " |",
+        "|---|" + "---|" * len(METHODS),
+    ]
+    for run in fill["runs"]:
+        cells = [f"{run[f'{m}_rmse_cm']:.1f} / {run[f'{m}_coverage']:.1%}" for m in METHODS]
+        lines.append(f"| {run['active_frames']} | " + " | ".join(cells) + " |")
+    return [*lines, "", "![Fig. 11](fig11.png)", ""]
 
 
 def latency_ms(bench: dict) -> dict[str, dict[str, float]]:

@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from d2sr.atomic import atomic_file
-from d2sr.eval.desync import FPS, SENSORS, CellResult
+from d2sr.eval.desync import FPS, SCENARIOS, SENSORS, TITLES, CellResult
 from d2sr.sim.calibrate import BINS, SequenceStats
 from d2sr.version import __version__
 
@@ -52,7 +52,7 @@ def _label(name: str, default: str) -> str:
 def fig9(results: Sequence[CellResult], default: str, profile: str = "default") -> Figure:
     """Interference ratio against frame rate, one line per N, one panel per scenario and controller."""
     rows = [r for r in results if r.profile == profile]
-    scenarios = sorted({r.scenario for r in rows}, reverse=True)
+    scenarios = [sc for sc in SCENARIOS if any(r.scenario == sc for r in rows)]
     controllers = list(dict.fromkeys(r.controller for r in rows))
     fig, axes = plt.subplots(
         len(scenarios),
@@ -81,7 +81,7 @@ def fig9(results: Sequence[CellResult], default: str, profile: str = "default") 
                 for (psc, n, f), v in PAPER_POINTS.items():
                     if psc == sc:
                         ax.plot([f], [v], "r*", ms=11, label=f"paper, N={n}")
-            ax.set_title(f"{sc}: {_label(ctrl, default)}", fontsize=9)
+            ax.set_title(f"{TITLES[sc]}:\n{_label(ctrl, default)}", fontsize=8)
             ax.set_ylim(-0.02, 1.02)
             ax.set_xticks(FPS)
             ax.grid(alpha=0.3)
@@ -99,7 +99,7 @@ def paired(results: Sequence[CellResult], default: str, profile: str = "default"
     by = {(r.scenario, r.fps, r.sensors, r.controller): r for r in results if r.profile == profile}
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
     for ax, ref in zip(axes, ("d2sr", "oracle"), strict=True):
-        for sc, marker in (("stationary", "o"), ("moving", "s")):
+        for sc, marker in zip(SCENARIOS, "osv^D", strict=True):
             pts = [
                 (by[k].whole, by[(k[0], k[1], k[2], default)].whole, by[k].slack)
                 for k in by
