@@ -52,6 +52,9 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=60.0, help="each room's run")
     ap.add_argument("--controllers", default=f"{DEFAULT_CONTROLLER},d2sr", help="first one: the one judged")
     ap.add_argument("--fps", default="4,6,10", help="frames a second, comma separated")
+    ap.add_argument(
+        "--sensors", default="4,5,6", help="sensors a room, robots included (3 or fewer: nothing to pass)"
+    )
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     output_args(ap)
     args = ap.parse_args()
@@ -60,7 +63,7 @@ def main() -> None:
     jobs = [
         (w, n, f, k, c, args.rooms, args.seconds)
         for w in WORLDS
-        for n in (3, 5)
+        for n in (int(x) for x in args.sensors.split(","))
         for f in (int(x) for x in args.fps.split(","))
         for k in range(12)
         for c in controllers
