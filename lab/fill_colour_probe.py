@@ -79,6 +79,7 @@ def main() -> None:
     ap.add_argument("--iters", type=int, default=60)
     ap.add_argument("--level", type=int, default=8, help="the propagation at 1/level of the side")
     ap.add_argument("--off", action="store_true", help="the shipped fill alone, for the same frames")
+    ap.add_argument("--sigma2", type=float, default=0.0, help="a second pass over what is left (0: none)")
     args = ap.parse_args()
     shipped = F.Filler.synthesize
 
@@ -88,6 +89,10 @@ def main() -> None:
             return s
         d = colour_fill(s.depth, colour, args.sigma, args.iters, args.level)
         conf = np.where((s.depth == 0) & (d > 0), np.float32(0.25), s.confidence)
+        if args.sigma2:
+            d2 = colour_fill(d, colour, args.sigma2, args.iters, args.level)
+            conf = np.where((d == 0) & (d2 > 0), np.float32(0.1), conf)
+            d = d2
         return F.Synthesized(d, conf, s.method, s.since_real)
 
     F.Filler.synthesize = synthesize  # type: ignore[method-assign]

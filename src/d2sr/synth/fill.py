@@ -11,6 +11,7 @@ import numpy as np
 
 from d2sr.errors import InputError
 from d2sr.frames.base import Intrinsics
+from d2sr.synth.along import fill_along_colour
 from d2sr.synth.motion import ColourTrack
 from d2sr.synth.warp import (
     Cloud,
@@ -33,7 +34,8 @@ HOLD_CONFIDENCE = 0.5  # a held frame is right only where nothing moved: said, n
 @dataclass(frozen=True)
 class Synthesized:
     """A frame out of the filler: ``depth`` in metres (float32, 0 = no value), ``confidence`` per pixel in
-    [0, 1] (1: the sensor's own or warped from it; lower: filled from the background, or held), the
+    [0, 1] (1: the sensor's own or warped from it; lower: filled from the background, held, or carried
+    along the colour frame into what the camera newly sees: 0.25, then 0.1), the
     ``method`` that made it and the frames since the last real one."""
 
     depth: np.ndarray
@@ -64,7 +66,8 @@ class Filler:
     ) -> Synthesized:
         """A frame the sensor measured: it becomes the source of the next synthesized ones (and comes back
         as it went in, confidence 1 where it has a value)."""
-        metres = self._checked(metres, colour)
+        metres = self._checked(metres)
+        colour = _as_colour(colour, metres.shape)
         self._source, self._source_pose, self._cloud = metres, pose, None
         self._moved, self._since = Pose.identity(), 0
         track = self._track_for(metres.shape)
@@ -80,6 +83,7 @@ class Filler:
         if self._source is None:
             raise InputError("no real frame yet: the filler has nothing to synthesize from")
         source = self._source
+        colour = _as_colour(colour, source.shape)
         measured = True
         grey = None if colour is None else _grey(colour)
         if pose is not None and self._source_pose is not None:
@@ -101,6 +105,8 @@ class Filler:
             track.seed(grey, warped, moved)
         radius = self.radius if self.radius is not None else fill_radius(source.shape[1])
         depth, conf = fill_from_background(warped, radius)
+        if colour is not None:  # what the camera newly sees, along the colour frame, at a lower confidence
+            depth, conf = fill_along_colour(depth, conf, colour)
         if not measured:  # the camera's step was not seen: where it went is a guess, said as a held frame's
             conf = np.minimum(conf, np.float32(HOLD_CONFIDENCE))
         return Synthesized(depth, conf, method, self._since)
@@ -128,15 +134,38 @@ class Filler:
             self.intrinsics = self.intrinsics.scaled(w, h)
         return self.intrinsics
 
-    def _checked(self, metres: np.ndarray, colour: np.ndarray | None) -> np.ndarray:
-        if metres.ndim != 2:
-            raise InputError(f"depth must be a 2-D image, got shape {metres.shape}")
-        if colour is not None and colour.shape[:2] != metres.shape:
-            raise InputError(
-                f"colour {colour.shape[1]}x{colour.shape[0]} and depth {metres.shape[1]}x{metres.shape[0]} "
-                "differ in size: the depth must be aligned to the colour camera"
-            )
+    def _checked(self, metres: np.ndarray) -> np.ndarray:
+        if not isinstance(metres, np.ndarray) or metres.ndim != 2 or metres.dtype.kind not in "fiu":
+            shape = getattr(metres, "shape", None)
+            raise InputError(f"depth must be a 2-D image of numbers, got shape {shape}")
         return np.where(np.isfinite(metres), metres, 0).astype(np.float32)
+
+
+def _as_colour(colour: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray | None:
+    """``colour`` as 8-bit BGR or grey the size of the depth ``shape``; what cannot be read as one is an
+    InputError (16-bit images keep their top 8 bits, floats are read in [0, 1], an alpha channel is
+    dropped)."""
+    if colour is None:
+        return None
+    if not isinstance(colour, np.ndarray) or colour.ndim not in (2, 3) or colour.dtype.kind not in "fiu":
+        raise InputError(f"colour must be an image array, got {getattr(colour, 'shape', colour)!r}")
+    if colour.shape[:2] != shape:
+        raise InputError(
+            f"colour {colour.shape[1]}x{colour.shape[0]} and depth {shape[1]}x{shape[0]} "
+            "differ in size: the depth must be aligned to the colour camera"
+        )
+    if colour.ndim == 3:
+        channels = colour.shape[2]
+        if channels not in (1, 3, 4):
+            raise InputError(f"colour must have 1, 3 or 4 channels, got {channels}")
+        colour = colour[..., 0] if channels == 1 else colour[..., :3]
+    if colour.dtype == np.uint8:
+        return np.ascontiguousarray(colour)
+    if colour.dtype == np.uint16:
+        return np.ascontiguousarray((colour >> 8).astype(np.uint8))
+    if colour.dtype.kind == "f":
+        return (np.clip(np.nan_to_num(colour), 0.0, 1.0) * 255).round().astype(np.uint8)
+    raise InputError(f"colour must be 8- or 16-bit or floating point, got {colour.dtype}")
 
 
 def _grey(colour: np.ndarray) -> np.ndarray:
