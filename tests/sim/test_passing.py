@@ -1,3 +1,5 @@
+import itertools
+
 import numpy as np
 import pytest
 
@@ -32,7 +34,7 @@ def test_a_robot_passing_a_row_goes_along_and_back_and_two_robots_meet_when_they
     assert {(a, b) for a, b in g.union_pairs().tolist() if a > 0} == {(1, 2), (2, 3), (3, 4)}
     stops = [tuple(np.flatnonzero([_live(g, 0, j)[t] for j in range(1, 5)])) for t in range(0, 48, 4)]
     assert set(stops) == {(0, 1), (1, 2), (2, 3)}
-    assert all(abs(a[0] - b[0]) == 1 for a, b in zip(stops, stops[1:], strict=False))  # one stop at a time
+    assert all(abs(a[0] - b[0]) == 1 for a, b in itertools.pairwise(stops))  # one stop at a time
     two = passing(4, 48, "row", robots=2, seed=0, stay_s=4)
     r0 = np.stack([_live(two, 0, 2 + j) for j in range(4)])
     r1 = np.stack([_live(two, 1, 2 + j) for j in range(4)])
