@@ -16,6 +16,21 @@ from rosbags.typesys import Stores, get_typestore
 from d2sr.frames import Intrinsics
 from d2sr.frames.png import encode_png
 
+ROOT = Path(__file__).resolve().parents[1]  # the repository
+
+
+def markdown_table(text: str, first: str) -> list[list[str]]:
+    """The markdown table whose header row starts with ``| first |``: header and rows, cells stripped."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(f"| {first} |"))
+    rows = []
+    for line in lines[start:]:
+        if not line.startswith("|"):
+            break
+        if not set(line) <= set("|-: "):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+    return rows
+
 
 def d2sr(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """Run the real console entry point in a fresh interpreter, as a user would."""

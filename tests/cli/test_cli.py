@@ -5,7 +5,7 @@ import pytest
 
 from d2sr import __version__
 from d2sr.desync import DEFAULT_CONTROLLER
-from helpers import d2sr
+from helpers import ROOT, d2sr, d2sr_inprocess, markdown_table
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
@@ -82,17 +82,18 @@ def test_desync_run_with_config_moving(tmp_path):
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
-def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
+def test_demo_runs_the_closed_loop_writes_a_report_and_the_readme_quotes_its_table(tmp_path):
+    # the demo exactly as `make demo` runs it (20 simulated seconds, three controllers), in this process
     out = tmp_path / "demo"
-    res = d2sr("demo", "--out", str(out), "--seconds", "6", "--backend", "onnx")
-    assert res.returncode == 0, res.stderr
+    code, printed, err = d2sr_inprocess("demo", "--out", str(out))
+    assert code == 0, err
     for name in ("static", "d2sr", DEFAULT_CONTROLLER):
-        assert name in res.stdout
+        assert name in printed
         assert (out / f"timeline_{name}.png").stat().st_size > 1000
         assert (out / "runs" / name / "log.csv").is_file()
     report = json.loads((out / "results.json").read_text())
     rows = report["controllers"]
-    assert rows["static"]["frames"] == rows[DEFAULT_CONTROLLER]["frames"] == 3 * 6 * 6
+    assert rows["static"]["frames"] == rows[DEFAULT_CONTROLLER]["frames"] == 3 * 20 * 6
     assert rows[DEFAULT_CONTROLLER]["interfered_ratio"] < rows["static"]["interfered_ratio"]
     md = (out / "report.md").read_text()
     assert (
@@ -101,6 +102,11 @@ def test_demo_runs_the_closed_loop_and_writes_a_report(tmp_path):
     )
     assert (out / "examples.png").is_file() and (out / "ratio_over_time.png").is_file()
     assert not list(tmp_path.glob(".*"))  # no temporary or partial leftovers
+    # the README quotes the table: every column but the machine's frame rate
+    written = markdown_table(md, "controller")
+    quoted = markdown_table((ROOT / "README.md").read_text(), "controller")
+    fps = written[0].index("fps")
+    assert [r[:fps] + r[fps + 1 :] for r in quoted] == [r[:fps] + r[fps + 1 :] for r in written]
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
