@@ -167,7 +167,9 @@ def markdown(res: dict, detector: dict, recovery: dict, latency: dict, command: 
         "![Fig. 9](fig9.png)",
         "",
         "The third row is beyond the paper: a robot passing a ring of fixed sensors (each overlapping its "
-        "two ring neighbours; the robot two at a time, moving on every 8 s), every sensor's frames counted.",
+        "two ring neighbours; the robot two at a time, moving on every 8 s), every sensor's frames counted. "
+        "With 3 or fewer sensors there is nothing to pass (the robot overlaps every fixed sensor all the "
+        "time): those lines equal the stationary ones.",
         "",
         *_fig11_lines(res.get("fig11")),
         "## Detector (Section V-A)",
