@@ -35,10 +35,19 @@ def _lab(colour: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.pad(small, ((1, 1), (1, 1), (0, 0)), mode="edge")
 
 
-def _pass(metres: np.ndarray, lab: np.ndarray, sigma: float) -> np.ndarray:
-    """``metres`` with its holes filled along ``lab`` (the padded coarse colour) at one tolerance."""
-    h, w = metres.shape
+def _colour_steps(lab: np.ndarray) -> list[np.ndarray]:
+    """Squared Lab distance from each coarse pixel to each of its 8 neighbours (``lab`` padded)."""
     sh, sw = lab.shape[0] - 2, lab.shape[1] - 2
+    centre = lab[1:-1, 1:-1]
+    return [
+        ((centre - lab[1 + dy : 1 + dy + sh, 1 + dx : 1 + dx + sw]) ** 2).sum(2) for dy, dx in _NEIGHBOURS
+    ]
+
+
+def _pass(metres: np.ndarray, steps: list[np.ndarray], sigma: float) -> np.ndarray:
+    """``metres`` with its holes filled along the coarse colour (``_colour_steps``) at one tolerance."""
+    h, w = metres.shape
+    sh, sw = steps[0].shape
     hole = metres == 0
     valid = (~hole).astype(np.float32)
     dsum = cv2.resize(metres * valid, (sw, sh), interpolation=cv2.INTER_AREA)
@@ -46,11 +55,8 @@ def _pass(metres: np.ndarray, lab: np.ndarray, sigma: float) -> np.ndarray:
     padded = np.zeros((sh + 2, sw + 2), np.float32)  # a border of no depth
     core = padded[1:-1, 1:-1]
     core[...] = np.where(vsum > 0.5, dsum / np.maximum(vsum, 1e-6), 0)
-    centre, inv = lab[1:-1, 1:-1], np.float32(-1 / (2 * sigma * sigma))
-    weights = [
-        np.exp(((centre - lab[1 + dy : 1 + dy + sh, 1 + dx : 1 + dx + sw]) ** 2).sum(2) * inv)
-        for dy, dx in _NEIGHBOURS
-    ]
+    inv = np.float32(-1 / (2 * sigma * sigma))
+    weights = [np.exp(d * inv) for d in steps]
     for _ in range(REACH):
         num, den = np.zeros_like(core), np.zeros_like(core)
         for (dy, dx), wgt in zip(_NEIGHBOURS, weights, strict=True):
@@ -77,9 +83,9 @@ def fill_along_colour(
     if not (out == 0).any() or not (out > 0).any():
         return out, conf
     h, w = out.shape
-    lab = _lab(colour, (max(1, w // LEVEL), max(1, h // LEVEL)))
+    steps = _colour_steps(_lab(colour, (max(1, w // LEVEL), max(1, h // LEVEL))))
     for sigma, level in STEPS:
-        filled = _pass(out, lab, sigma)
+        filled = _pass(out, steps, sigma)
         conf[(out == 0) & (filled > 0)] = np.float32(level)
         out = filled
     return out, conf
