@@ -82,12 +82,14 @@ def passing(
         routes.append(_route(len(stops), layout, steps, len(stops) - 1 - first, False, stay))
     pairs: list[tuple[int, int]] = [(robots + a, robots + b) for a, b in _fixed_pairs(fixed, layout)]
     rows = [np.ones(steps, dtype=bool)] * len(pairs)
+    member = np.zeros((len(stops), fixed), dtype=bool)  # stop x fixed sensor: overlapped there
+    for s, near in enumerate(stops):
+        member[s, list(near)] = True
     for r, route in enumerate(routes):
-        for j in range(fixed):
-            seen = np.array([j in stops[s] for s in route], dtype=bool)
-            if seen.any():
-                pairs.append((r, robots + j))
-                rows.append(seen)
+        seen = member[route]  # schedule step x fixed sensor
+        for j in np.flatnonzero(seen.any(axis=0)):
+            pairs.append((r, robots + int(j)))
+            rows.append(seen[:, j])
     if robots == 2:
         meet = np.array([bool(stops[a] & stops[b]) for a, b in zip(*routes, strict=True)], dtype=bool)
         if meet.any():
