@@ -34,6 +34,8 @@ def test_api_examples_run(tmp_path, monkeypatch):
     assert int(after) < int(before) / 2
     assert (tmp_path / "repaired" / "masks").is_dir() and (tmp_path / "flags.csv").is_file()
     assert "[('recording', 'done', 3)]" in printed and (tmp_path / "fleet" / "fleet.json").is_file()
+    assert "2.0 0.25 0.0" in printed  # depth carried along the colour, not across its edge
+    assert re.search(r"d2sr \d+\.\d% of frames interfered\nrobust \d+\.\d% of frames interfered", printed)
 
 
 FIGURE = re.compile(
