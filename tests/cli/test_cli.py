@@ -199,7 +199,9 @@ def test_bench_typical_and_worst_on_a_recording(tmp_path):
     shipped, alone = typical["as shipped"], typical["no repair"]
     assert shipped["cpu_ms_per_frame"] > 0 and alone["cpu_ms_per_frame"] > 0
     assert alone["flagged"] == shipped["flagged"]  # the same detector decides; only the repair differs
-    assert worst["frames"] == 40 and len(worst["seconds"]["recover 40"]) == 1
+    # one run asked for; the benchmark adds runs (up to as many again) while a busy machine's noise leaves the
+    # long run no slower than the short one, and records how many it made
+    assert worst["frames"] == 40 and len(worst["seconds"]["recover 40"]) == worst["runs"] in (1, 2)
     ratio = worst["recover_ms_per_frame"] / worst["floor_ms_per_frame"]
     # the reported ratio is the two timings' (which is faster is the benchmark's to say, not a test's: with
     # one repeat on a loaded machine the floor's run was once the slower, 0.80)
