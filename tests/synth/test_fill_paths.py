@@ -77,6 +77,18 @@ def test_colour_gaps_wait_for_the_depth_frame_then_come_due():
     assert gaps.flush() == []
 
 
+def test_a_colour_frame_whose_depth_frame_arrived_but_waits_for_a_worker_never_comes_due():
+    """A busy node queues a depth frame before pairing it: its colour frame must not be synthesized meanwhile
+    (a loaded CI machine published a synthesized frame for a slot the laser lit)."""
+    gaps = ColourGaps(wait_s=0.1)
+    img = np.zeros((2, 2), np.uint8)
+    gaps.colour(ColourFrame(T0, img, 5.0))
+    gaps.colour(ColourFrame(T0 + STEP, img, 5.03))
+    gaps.coming(T0 + 1_000_000)
+    assert [c.stamp for c in gaps.due(5.5)] == [T0 + STEP]  # only the one no depth frame came for
+    assert gaps.depth(T0 + 1_000_000) == []
+
+
 def _bag(path: Path, colour: bool = True) -> None:
     """A ROS 2 bag of a duty-cycled camera: colour (bgr8) every slot, depth (16UC1, mm, aligned to colour)
     only in the window, the camera's intrinsics."""

@@ -4,6 +4,7 @@ frames it has taken and not yet published, and what it says about them (``/statu
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections import deque
 from collections.abc import Callable
@@ -147,6 +148,9 @@ class CameraLoop:
         """A message off the reader: it waits for a free worker; beyond ``WAITING`` such frames the oldest is
         dropped (counted in ``Stats.dropped`` and ``/status``, said once)."""
         self.waiting.append((msg, taken))
+        if self.colour_reader is not None:
+            with contextlib.suppress(InputError):  # a bad stamp is refused when handled
+                self._gaps.coming(_stamp(msg))  # its colour frame must not come due while this one waits
         while len(self.waiting) > WAITING:
             self.waiting.popleft()
             self.stats.received += 1

@@ -37,7 +37,8 @@ class ColourFrame:
 class ColourGaps:
     """Pairs a depth stream with its colour stream by stamp and says which colour frames have no depth frame.
 
-    Feed ``colour`` and ``depth`` as frames arrive (``depth`` returns the colour frames it leaves unjoined),
+    Feed ``colour`` and ``depth`` as frames arrive (``depth`` returns the colour frames it leaves unjoined;
+    ``coming`` says a depth frame arrived that ``depth`` will see later, so its colour frame waits for it),
     ``real`` when a depth frame becomes synthesis's source, and ask ``due(now)`` for the colour frames that
     waited long enough, oldest first; ``flush`` ends a stream. ``colour_at`` gives a depth frame its
     colour."""
@@ -47,6 +48,7 @@ class ColourGaps:
         self._colours: deque[ColourFrame] = deque(maxlen=keep)  # recent ones, for pairing
         self._pending: deque[ColourFrame] = deque(maxlen=keep)  # not yet paired nor synthesized
         self._depths: deque[int] = deque(maxlen=keep)
+        self._coming: deque[int] = deque(maxlen=keep)  # arrived, queued before ``depth`` sees them
         self._source = -1  # stamp of the newest depth frame synthesis starts from
 
     def colour(self, frame: ColourFrame) -> None:
@@ -62,6 +64,11 @@ class ColourGaps:
         while self._pending and self._pending[0].stamp < stamp - self.pair_ns:
             out.extend(self._take())
         return out
+
+    def coming(self, stamp: int) -> None:
+        """A depth frame of ``stamp`` arrived but waits its turn: its colour frame is joined, not due, however
+        long the wait."""
+        self._coming.append(stamp)
 
     def real(self, stamp: int) -> None:
         self._source = max(self._source, stamp)
@@ -98,7 +105,7 @@ class ColourGaps:
 
     def _take(self) -> list[ColourFrame]:
         c = self._pending.popleft()
-        paired = any(abs(s - c.stamp) <= self.pair_ns for s in self._depths)
+        paired = any(abs(s - c.stamp) <= self.pair_ns for s in (*self._depths, *self._coming))
         # a colour frame older than synthesis's source would be made from the future: skipped
         return [] if paired or c.stamp < self._source else [c]
 
