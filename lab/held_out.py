@@ -1759,6 +1759,7 @@ def main() -> None:
         "e (moire beat, row tearing), f (dot lattice, Gray-code stripes), g (CW-ToF surface shifts), "
         "h (CW-ToF multipath, phase crosstalk), i (blackout sparkle, scan ghost)",
     )
+    ap.add_argument("--passes", type=int, default=None, help="recover's --passes (default: its own)")
     ap.add_argument("--scene", action="store_true", help="detect and recover with --scene (a still sensor)")
     ap.add_argument("--scene-repair", action="store_true", help="recover also with --scene-repair")
     ap.add_argument("--adapt", action="store_true", help="also run the d2sr adapt bar on the D435 frames")
@@ -1776,6 +1777,7 @@ def main() -> None:
         ["--mask-logit", f"{args.mask_logit:g}"] if args.mask_logit is not None else []
     )
     recovery += ["--scene-repair"] if args.scene_repair else []
+    recovery += ["--passes", str(args.passes)] if args.passes is not None else []
     result: dict = {
         "model_folder": str(args.models or "shipped"),
         "model": args.model or "default",
@@ -1784,6 +1786,8 @@ def main() -> None:
     }
     if args.mask_logit is not None:
         result["mask_logit"] = args.mask_logit
+    if args.passes is not None:
+        result["passes"] = args.passes
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
         result["l515"] = _scored(
