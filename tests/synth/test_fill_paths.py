@@ -10,6 +10,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
@@ -87,6 +89,57 @@ def test_a_colour_frame_whose_depth_frame_arrived_but_waits_for_a_worker_never_c
     gaps.coming(T0 + 1_000_000)
     assert [c.stamp for c in gaps.due(5.5)] == [T0 + STEP]  # only the one no depth frame came for
     assert gaps.depth(T0 + 1_000_000) == []
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.booleans(), st.floats(0, 0.3), st.floats(0, 0.3), st.floats(0, 0.3)),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_colour_gaps_never_synthesize_a_slot_whose_depth_frame_arrived_and_miss_none_that_had_none(slots):
+    """Any timing a busy host gives: slot k's colour frame comes at k/30 s + a delay, its depth frame (when
+    the laser was on) reaches the host at k/30 s + another and is paired (``depth``) later still, each
+    stream in its own order; ``due`` is asked at every event. A colour frame comes out at most once, never
+    once its depth frame has arrived, and every slot with no depth frame comes out unless a later depth frame
+    was paired before its colour frame arrived."""
+    gaps = ColourGaps(wait_s=0.1)
+    img = np.zeros((2, 2), np.uint8)
+    events = []  # (time, order, kind, slot)
+    colour_at = arrived = paired_at = 0.0  # each stream arrives in its own order; depth is paired in order
+    for k, (lit, colour_delay, depth_delay, busy) in enumerate(slots):
+        colour_at = max(colour_at, k / 30 + colour_delay)
+        events.append((colour_at, 1, "colour", k))
+        if lit:
+            arrived = max(arrived, k / 30 + depth_delay)
+            paired_at = max(paired_at, arrived + busy)
+            events += [(arrived, 0, "coming", k), (paired_at, 2, "depth", k)]
+    events.sort()
+    out: list[tuple[int, int]] = []  # slot, the event after which it came out
+    for i, (t, _, kind, k) in enumerate(events):
+        stamp = T0 + k * STEP
+        if kind == "colour":
+            gaps.colour(ColourFrame(stamp, img, t))
+        elif kind == "coming":
+            gaps.coming(stamp)
+        else:
+            out += [((c.stamp - T0) // STEP, i) for c in gaps.depth(stamp)]
+            gaps.real(stamp)
+        out += [((c.stamp - T0) // STEP, i) for c in gaps.due(t)]
+    out += [((c.stamp - T0) // STEP, len(events)) for c in gaps.flush()]
+    came = [k for k, _ in out]
+    assert len(came) == len(set(came))  # at most once
+    arrival = {k: i for i, (_, _, kind, k) in enumerate(events) if kind == "coming"}
+    coloured = {k: t for t, _, kind, k in events if kind == "colour"}
+    for k, i in out:
+        assert k not in arrival or arrival[k] > i  # never once its depth frame arrived
+    paired = [(t, k) for t, _, kind, k in events if kind == "depth"]
+    for k in range(len(slots)):
+        later_first = any(j > k and t <= coloured[k] for t, j in paired)
+        if k not in arrival and not later_first:
+            assert k in came
 
 
 def _bag(path: Path, colour: bool = True) -> None:
