@@ -7,6 +7,7 @@ of the flagged frames (those the node repairs) over ``--frames`` after ``--warm`
 recovery model's runs alone (``OnnxBackend.raw``: one pass).
 
 Run:  python -m lab.frame_latency --data ../shared/data --json docs/results/frame_latency.json
+      python -m lab.frame_latency --data ../shared/data --passes 1 --json docs/results/frame_latency_passes1.json
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--warm", type=int, default=5)
+    ap.add_argument("--passes", type=int, default=None, help="the node's --passes (default: its own)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -47,7 +49,8 @@ def main() -> None:
     _, threads = repair_workers()
     decide, finish, total = [], [], []
     passes: list[float] = []
-    with Pipeline(4000.0, threads=threads) as pipe:
+    extra = {} if args.passes is None else {"passes": args.passes}
+    with Pipeline(4000.0, threads=threads, **extra) as pipe:
         raw = pipe.backend.temporal.raw if hasattr(pipe.backend, "temporal") else pipe.backend.raw
 
         def timed(metres: np.ndarray, previous: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -74,6 +77,7 @@ def main() -> None:
         "frames": args.frames,
         "flagged": len(total),
         "onnxruntime_threads": threads or 1,
+        "passes": args.passes or "the default",
         "median_ms": {
             "judged (decide)": _ms(decide),
             "repaired (finish)": _ms(finish),
