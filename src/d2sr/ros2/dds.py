@@ -10,7 +10,18 @@ from typing import Any
 from d2sr.errors import ConfigError, InputError
 from d2sr.ros2.wire import Wire, dds_topic
 
-__all__ = ["Dds"]
+__all__ = ["RECEIVE_BUFFER", "Dds"]
+
+# A 640x480 depth image is 600 kB in about 450 datagrams, and several cameras' frames of one moment arrive
+# together; Cyclone's default socket buffer is the host's default (about 200 kB on Linux), which overflowed
+# and lost the third camera's frames (lab.ros2_loopback --cameras 3: 115 of 150 taken, 150 with this). The
+# host's net.core.rmem_max caps it, never an error. A user's own CYCLONEDDS_URI is left as it is.
+RECEIVE_BUFFER = "8MB"
+_CONFIG = (
+    "<CycloneDDS><Domain><Internal>"
+    f'<SocketReceiveBufferSize max="{RECEIVE_BUFFER}"/>'
+    "</Internal></Domain></CycloneDDS>"
+)
 
 
 class Dds:
@@ -30,6 +41,7 @@ class Dds:
         self.wire, self.domain = wire, domain
         self._policy, self._qos, self._duration = Policy, Qos, duration
         self._reader, self._writer, self._topic = DataReader, DataWriter, Topic
+        self.configured = _configured(domain)  # kept: the domain lives as long as this object
         self.participant = _participant(DomainParticipant, domain)
         self._topics: dict[str, Any] = {}
 
@@ -64,6 +76,21 @@ class Dds:
 
     def duration(self, milliseconds: int) -> Any:
         return self._duration(milliseconds=milliseconds)
+
+
+def _configured(domain: int) -> Any:
+    """``domain`` with d2sr's receive buffer (``RECEIVE_BUFFER``), unless the user configured Cyclone
+    (``CYCLONEDDS_URI``) or the domain already runs in this process (another participant made it: it keeps
+    its own configuration); None then."""
+    if os.environ.get("CYCLONEDDS_URI"):
+        return None
+    from cyclonedds.core import DDSException
+    from cyclonedds.domain import Domain
+
+    try:
+        return Domain(domain, _CONFIG)
+    except DDSException:
+        return None
 
 
 def _participant(factory: Any, domain: int) -> Any:
