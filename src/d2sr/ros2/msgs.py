@@ -25,6 +25,7 @@ __all__ = [
     "ParticipantEntitiesInfo",
     "RegionOfInterest",
     "Time",
+    "warm_codecs",
 ]
 
 IMAGE = "sensor_msgs/msg/Image"
@@ -46,6 +47,15 @@ def _encode(kind: str, header: "Header", data: Any, **fields: Any) -> bytes:
     head = t["std_msgs/msg/Header"](stamp=stamp, frame_id=header.frame_id)
     pixels = np.ascontiguousarray(data, dtype=np.uint8).reshape(-1)
     return bytes(ts.serialize_cdr(t[kind](header=head, data=pixels, **fields), kind))
+
+
+def warm_codecs() -> None:
+    """Make rosbags' type store and the codecs it writes on first use, for every image type the node reads
+    and writes, before the first message: made on the first frame taken, they held the node's loop while a
+    30 Hz stream's frames were overwritten in its reader (a reader keeps 5)."""
+    pixels = np.zeros(2, np.uint8)
+    Image.deserialize(Image(Header(), 1, 1, "16UC1", 0, 2, pixels).serialize())
+    CompressedImage.deserialize(CompressedImage(Header(), "16UC1; compressedDepth png", pixels).serialize())
 
 
 def _decode(data: bytes, kind: str) -> tuple[Any, "Header"]:

@@ -211,8 +211,11 @@ class Ros2Node:
             self._waitset.detach(cond)
 
     def _warm_up(self) -> None:
-        """One frame through the models before the first message, so it pays no start-up cost (the cameras
-        share the models)."""
+        """One frame through the models and the message codecs before the first message, so it pays no
+        start-up cost (the cameras share the models)."""
+        from d2sr.ros2.msgs import warm_codecs
+
+        warm_codecs()
         net = self.cameras[0].pipeline.backend
         zeros = np.zeros((1, 480, 640), np.float32)
         net.scores(zeros, None)
