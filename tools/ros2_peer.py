@@ -185,7 +185,9 @@ def image(
             enc = "bgr8" if depth.ndim == 3 else "mono8"
         h, w = depth.shape[:2]
         step = w * depth.itemsize * (depth.shape[2] if depth.ndim == 3 else 1)
-        data = list(np.ascontiguousarray(depth).view(np.uint8).reshape(-1))
+        # bytes, not a list: a list of 600,000 ints per frame kept here made each of Python's full garbage
+        # collections walk every cached frame, seconds with 300 frames, holding the peer's threads.
+        data = np.ascontiguousarray(depth).view(np.uint8).reshape(-1).tobytes()
         _SERIALIZED[key] = (
             Ready(Header(Time(0, 0), frame_id), h, w, enc, 0, step, data),
             depth,
@@ -221,6 +223,9 @@ class Peer:
         diagnostics: bool = False,
         compressed: bool = False,
     ) -> None:
+        # rosbags' codec made now, not on the first image read: made there (about a second on a busy
+        # machine) it held every thread of the peer, its publisher's too, and delayed the first frames.
+        Image.deserialize(Image(Header(Time(0, 0), ""), 1, 1, "16UC1", 0, 2, [0, 0]).serialize())
         self.dp = DomainParticipant(domain)
         name = "rt" + topic
         rel = Policy.Reliability.Reliable(duration(seconds=1)) if reliable else Policy.Reliability.BestEffort
