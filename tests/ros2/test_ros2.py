@@ -287,6 +287,40 @@ def test_a_node_behind_drops_the_oldest_frames_not_started_and_counts_them():
     assert sum("dropped" in line for line in said) == 1
 
 
+def test_a_stream_nobody_reads_is_not_made():
+    """The mask of each frame is made and written only while a reader subscribes to it; /repaired always."""
+    from d2sr.ros2.node import Ros2Node, Wire
+
+    class Writer:
+        def __init__(self, readers: int) -> None:
+            self.readers, self.sent = readers, []
+
+        def get_matched_subscriptions(self) -> list[int]:
+            return [1] * self.readers
+
+        def write(self, m: Any) -> None:
+            self.sent.append(m)
+
+    node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)))
+    cam = node.cameras[0]
+    cam.repaired, cam.mask, cam.status = Writer(0), Writer(0), Writer(1)  # type: ignore[assignment]
+    depth = room(0)
+    h, w = depth.shape
+    try:
+        for k, readers in enumerate((0, 1)):
+            cam.mask.readers = readers  # type: ignore[attr-defined]
+            msg = Image(
+                Header(Time(1000 + k, 0), "depth"), h, w, "16UC1", 0, 2 * w, depth.view(np.uint8).ravel()
+            )
+            cam.receive(msg, time.monotonic())
+            node.start_waiting()
+            cam.publish_done(wait=True)
+    finally:
+        node.close()
+    assert len(cam.repaired.sent) == 2 and len(cam.status.sent) == 2  # type: ignore[attr-defined]
+    assert [m.header.stamp.sec for m in cam.mask.sent] == [1001]  # type: ignore[attr-defined]
+
+
 def test_camera_info_bytes_are_rosbags_bytes():
     from d2sr.ros2.msgs import CameraInfo, RegionOfInterest
 
