@@ -30,7 +30,7 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.speed import write_result
 from d2sr.synth import FillSettings, fill_recording
 from lab.fill_d435 import read
-from lab.fill_eval import Pool
+from lab.fill_eval import PooledError
 from lab.held_out import used_models
 
 FAR_MM = 8000
@@ -90,7 +90,7 @@ def main() -> None:
             fill_recording(seq, ref, FillSettings(active_frames=n, colour=seq / "rgb"))
             rows = list(csv.DictReader((out / "log.csv").open()))
             synth = [r for r in rows if r["synthesized"] == "1"]
-            ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)
+            ours, hold = PooledError(1000, FAR_MM), PooledError(1000, FAR_MM)
             diff, flagged = 0.0, sum(r["flagged"] == "1" for r in rows)
             for r in synth:
                 i = round((float(r["time_s"]) - 1.0) * 1e9 / STEP_NS)

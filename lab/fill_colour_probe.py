@@ -23,7 +23,7 @@ import numpy as np
 
 from d2sr.synth import FillSettings, along, fill_recording
 from lab.fill_d435 import FAR_MM, stepped
-from lab.fill_eval import Pool
+from lab.fill_eval import PooledError
 
 
 def main() -> None:
@@ -47,7 +47,7 @@ def main() -> None:
             t = time.perf_counter()
             fill_recording(seq, out, FillSettings(active_frames=n, colour=seq / "rgb"))
             seconds = time.perf_counter() - t
-            ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)
+            ours, hold = PooledError(1000, FAR_MM), PooledError(1000, FAR_MM)
             for i, f in enumerate(files):
                 if i % 30 < n:
                     continue

@@ -29,7 +29,7 @@ from bench.harness import check_output, output_args
 from d2sr.eval.speed import write_result
 from d2sr.provenance import command_line
 from d2sr.synth import FillSettings, fill_recording
-from lab.fill_eval import Pool, plot_curves
+from lab.fill_eval import PooledError, plot_curves
 
 FAR_MM = 8000
 #: Bands of the written confidence (uint8, 255 = 1): (name, lowest, highest).
@@ -75,10 +75,10 @@ def main() -> None:
             t = time.perf_counter()
             summary = fill_recording(seq, out, FillSettings(active_frames=n, colour=seq / "rgb"))
             seconds = time.perf_counter() - t
-            ours, hold = Pool(1000, FAR_MM), Pool(1000, FAR_MM)
-            by_gap: dict[int, Pool] = {}
-            hold_gap: dict[int, Pool] = {}
-            bands = {name: Pool(1000, FAR_MM) for name, _, _ in BANDS}
+            ours, hold = PooledError(1000, FAR_MM), PooledError(1000, FAR_MM)
+            by_gap: dict[int, PooledError] = {}
+            hold_gap: dict[int, PooledError] = {}
+            bands = {name: PooledError(1000, FAR_MM) for name, _, _ in BANDS}
             identical = True
             for i, f in enumerate(files):
                 got = read(out / f.name)
@@ -91,8 +91,8 @@ def main() -> None:
                     bands[name].add(np.where((conf >= lo) & (conf <= hi), got, 0), real[i])
                 ours.add(got, real[i])
                 hold.add(held, real[i])
-                by_gap.setdefault(i % 30 - n + 1, Pool(1000, FAR_MM)).add(got, real[i])
-                hold_gap.setdefault(i % 30 - n + 1, Pool(1000, FAR_MM)).add(held, real[i])
+                by_gap.setdefault(i % 30 - n + 1, PooledError(1000, FAR_MM)).add(got, real[i])
+                hold_gap.setdefault(i % 30 - n + 1, PooledError(1000, FAR_MM)).add(held, real[i])
         result["runs"].append({
             "active_frames": n,
             "synthesized": summary.synthesized,

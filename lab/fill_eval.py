@@ -1,13 +1,13 @@
 """What the synthesis benchmarks share (lab/fill_d435.py, lab/fill_sim.py): pooled RMSE and coverage of
-synthesized frames against the true ones (``d2sr.eval.fill.Pool``), and the RMSE-by-frames-since-real plot."""
+synthesized frames against the true ones (``d2sr.eval.fill.PooledError``), and the RMSE-by-frames-since-real plot."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from d2sr.eval.fill import Pool
+from d2sr.eval.fill import PooledError
 
-__all__ = ["Pool", "plot_curves"]
+__all__ = ["PooledError", "plot_curves"]
 
 
 def plot_curves(

@@ -24,16 +24,18 @@ from bench.harness import check_output, output_args
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.speed import write_result
 from d2sr.runtime.pipeline import Pipeline
-from lab.fill_eval import Pool
+from lab.fill_eval import PooledError
 from lab.held_out import used_models
 
 FAR_MM = 8000
 
 
-def once(depth: list[np.ndarray], colour: list[np.ndarray], active: int) -> tuple[float, float, Pool, int]:
+def once(
+    depth: list[np.ndarray], colour: list[np.ndarray], active: int
+) -> tuple[float, float, PooledError, int]:
     """One pass over the sequence: (wall s, CPU s, synthesized frames' errors, frames synthesized)."""
     pipe = Pipeline(1000.0, active_frames=active)
-    errors, made = Pool(1000, FAR_MM), 0
+    errors, made = PooledError(1000, FAR_MM), 0
     c, t = time.process_time(), time.perf_counter()
     for i, (d, rgb) in enumerate(zip(depth, colour, strict=True)):
         slot = i % TOTAL_FRAMES

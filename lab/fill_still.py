@@ -24,7 +24,7 @@ from bench.harness import check_output, output_args
 
 from d2sr.eval.speed import write_result
 from d2sr.synth import Filler, FillSettings, fill_recording
-from lab.fill_eval import Pool
+from lab.fill_eval import PooledError
 
 ACTIVE = 6
 FRAMES = 60
@@ -34,7 +34,7 @@ def l515(seq: Path) -> dict:
     """``d2sr fill`` (depth only) on a real still L515 sequence against hold-last."""
     files = sorted(seq.glob("*.png"))
     real = [cv2.imread(str(f), cv2.IMREAD_UNCHANGED).astype(np.float64) for f in files]
-    ours, hold = Pool(4000, 8 * 4000), Pool(4000, 8 * 4000)
+    ours, hold = PooledError(4000, 8 * 4000), PooledError(4000, 8 * 4000)
     with tempfile.TemporaryDirectory() as tmp:
         fill_recording(seq, Path(tmp) / "f", FillSettings(active_frames=ACTIVE, depth_scale=4000.0))
         for i, f in enumerate(files):
@@ -54,7 +54,7 @@ def d435_still(data: Path, k: int, seed: int) -> dict:
     d[d > 8] = 0
     c = cv2.imread(str(rgb), cv2.IMREAD_COLOR)
     rng = np.random.default_rng(seed)
-    f, pool, worst = Filler(), Pool(), 0.0
+    f, pool, worst = Filler(), PooledError(), 0.0
     for i in range(FRAMES):
         noisy = np.clip(c + rng.normal(0, 2.0, c.shape), 0, 255).astype(np.uint8)
         noisy = cv2.imdecode(cv2.imencode(".jpg", noisy, [cv2.IMWRITE_JPEG_QUALITY, 92])[1], cv2.IMREAD_COLOR)
@@ -63,7 +63,7 @@ def d435_still(data: Path, k: int, seed: int) -> dict:
             continue
         s = f.synthesize(noisy)
         pool.add(s.depth, d)
-        one = Pool()
+        one = PooledError()
         one.add(s.depth, d)
         worst = max(worst, one.rmse_cm())
     return {

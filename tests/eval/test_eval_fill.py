@@ -1,11 +1,11 @@
 import numpy as np
 
-from d2sr.eval.fill import METHODS, Pool, fig11, moving_robot_fill
+from d2sr.eval.fill import METHODS, PooledError, fig11, moving_robot_fill
 from d2sr.eval.paper import _fig11_lines
 
 
 def test_pool_pools_the_error_over_pixels_both_frames_have_and_counts_coverage_of_the_true_frame():
-    p = Pool()
+    p = PooledError()
     true = np.array([[1.0, 2.0], [0.0, 4.0]])
     p.add(np.array([[1.1, 0.0], [3.0, 4.0]]), true)  # one pixel missed, one invented where true has none
     assert p.coverage() == round(2 / 3, 4)

@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["METHODS", "Pool", "fig11", "moving_robot_fill"]
+__all__ = ["METHODS", "PooledError", "fig11", "moving_robot_fill"]
 
 METHODS = ("hold", "warp-pose", "warp-colour")
 
 
-class Pool:
+class PooledError:
     """Pooled squared error over pixels with depth in both frames (``units`` per metre; values at or beyond
     ``far`` units count as no depth), and the share of the true frame's pixels the prediction covers."""
 
@@ -59,9 +59,9 @@ def moving_robot_fill(
         f"{seconds:g} s each",
         "runs": [],
     }
-    pools = {n: {m: Pool() for m in METHODS} for n in kept}
-    gaps: dict[int, dict[str, dict[int, Pool]]] = {n: {m: {} for m in METHODS} for n in kept}
-    common = {n: {m: Pool() for m in METHODS} for n in kept}
+    pools = {n: {m: PooledError() for m in METHODS} for n in kept}
+    gaps: dict[int, dict[str, dict[int, PooledError]]] = {n: {m: {} for m in METHODS} for n in kept}
+    common = {n: {m: PooledError() for m in METHODS} for n in kept}
     for seed in range(first_seed, first_seed + rooms):
         rig = make_rig(seed, sensors=2, moving_robot=True)
         cam = Renderer(rig.room, rig.intr)
@@ -93,7 +93,7 @@ def moving_robot_fill(
                 for method, pred in made:
                     common[n][method].add(pred, np.where(both, true, 0))
                     pools[n][method].add(pred, true)
-                    gaps[n][method].setdefault(gap, Pool()).add(pred, true)
+                    gaps[n][method].setdefault(gap, PooledError()).add(pred, true)
     for n in kept:
         result["runs"].append({
             "active_frames": n,
@@ -115,10 +115,7 @@ def fig11(
 ) -> Figure:
     """RMSE (left) and coverage (right) by frames since the last real one: one line per method and number
     of real frames kept."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from d2sr.eval.plots import plt  # Agg, set there
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.6))
     colours = dict(zip(METHODS, ("tab:grey", "tab:blue", "tab:orange"), strict=True))

@@ -91,7 +91,7 @@ def passing(
             pairs.append((r, robots + int(j)))
             rows.append(seen[:, j])
     if robots == 2:
-        meet = np.array([bool(stops[a] & stops[b]) for a, b in zip(*routes, strict=True)], dtype=bool)
+        meet = (member[routes[0]] & member[routes[1]]).any(axis=1)  # beside a common fixed sensor
         if meet.any():
             pairs.append((0, 1))
             rows.append(meet)

@@ -47,8 +47,7 @@ class ColourGaps:
         self.pair_ns, self.wait_s = pair_ns, wait_s
         self._colours: deque[ColourFrame] = deque(maxlen=keep)  # recent ones, for pairing
         self._pending: deque[ColourFrame] = deque(maxlen=keep)  # not yet paired nor synthesized
-        self._depths: deque[int] = deque(maxlen=keep)
-        self._coming: deque[int] = deque(maxlen=keep)  # arrived, queued before ``depth`` sees them
+        self._depths: deque[int] = deque(maxlen=keep)  # arrived (``coming``) or paired (``depth``)
         self._source = -1  # stamp of the newest depth frame synthesis starts from
 
     def colour(self, frame: ColourFrame) -> None:
@@ -59,7 +58,8 @@ class ColourGaps:
         """A depth frame of ``stamp`` came (depth frames come in time order). Returns the colour frames
         older than it still waiting: no depth frame can join them now, so they are due, before this frame
         becomes synthesis's source."""
-        self._depths.append(stamp)
+        if stamp not in self._depths:  # not already said to be ``coming``
+            self._depths.append(stamp)
         out = []
         while self._pending and self._pending[0].stamp < stamp - self.pair_ns:
             out.extend(self._take())
@@ -68,7 +68,7 @@ class ColourGaps:
     def coming(self, stamp: int) -> None:
         """A depth frame of ``stamp`` arrived but waits its turn: its colour frame is joined, not due, however
         long the wait."""
-        self._coming.append(stamp)
+        self._depths.append(stamp)
 
     def real(self, stamp: int) -> None:
         self._source = max(self._source, stamp)
@@ -105,7 +105,7 @@ class ColourGaps:
 
     def _take(self) -> list[ColourFrame]:
         c = self._pending.popleft()
-        paired = any(abs(s - c.stamp) <= self.pair_ns for s in (*self._depths, *self._coming))
+        paired = any(abs(s - c.stamp) <= self.pair_ns for s in self._depths)
         # a colour frame older than synthesis's source would be made from the future: skipped
         return [] if paired or c.stamp < self._source else [c]
 
