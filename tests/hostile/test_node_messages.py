@@ -118,3 +118,79 @@ def test_settings_are_checked_at_start(weights):
     for scale in (-1, 0, float("nan"), "abc"):
         with pytest.raises(ConfigError, match="depth-scale"):
             Ros2Node("/hostile/depth", scale, Wire(domain=178), models=weights, model="unet8")
+
+
+class _Info:
+    valid_data = True
+
+
+class _Reader:
+    """Hands over raw CDR samples as Cyclone's DataReader.take does: every sample of a take decoded in one
+    call (``Image.deserialize``), then given its sample_info; ``fail`` makes the take itself raise."""
+
+    def __init__(self, raws: list[bytes], fail: bool = False) -> None:
+        self.raws, self.fail = raws, fail
+
+    def take(self, N: int = 1) -> list:
+        from d2sr.ros2.msgs import Image
+
+        if self.fail:
+            raise RuntimeError("the take failed")
+        out = []
+        for raw in self.raws[:N]:
+            sample = Image.deserialize(raw)
+            sample.sample_info = _Info()
+            out.append(sample)
+        self.raws = self.raws[N:]
+        return out
+
+
+def _wire(i: int) -> bytes:
+    from d2sr.ros2.msgs import Header, Image, Time
+
+    m = _real(i)
+    return Image(Header(Time(20 + i, 0), "cam"), m.height, m.width, m.encoding, 0, m.step,
+                 np.frombuffer(m.data, np.uint8)).serialize()  # fmt: skip
+
+
+def test_bytes_that_are_not_an_image_are_refused_and_the_frames_beside_them_taken(node):
+    """A peer without type information (another DDS, a fuzzer) can send any bytes under the topic's type
+    name; Cyclone decodes a take's samples in one call, so one that raised there would stop the node."""
+    good = _wire(0)
+    junk = [b"", b"\x00\x01\x00\x00", good[:10], good[:40], good[:12] + b"\xff\xff\xff\x7f" + good[16:]]
+    real = node.reader
+    before, refused = node.stats.published, node.stats.refused
+    try:
+        node.reader = _Reader([junk[0], _wire(1), *junk[1:], _wire(2)])
+        node.take(time.monotonic)
+        node.reader = _Reader([_wire(3)], fail=True)
+        node.take(time.monotonic)  # the take itself fails: said once, the node goes on
+    finally:
+        node.reader = real
+    assert [m.header.stamp.sec for m, _ in node.waiting] == [21, 22]
+    while node.waiting:
+        node.start_oldest()
+    while node.running:
+        node.publish_done(wait=True)
+    assert node.stats.published - before == 2
+    assert node.stats.refused - refused == len(junk)
+    assert any("not a readable image" in line for line in node.lines)
+    assert any("a take failed" in line for line in node.lines)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=600), st.integers(0, 80))
+def test_any_bytes_decode_to_a_message_or_say_why(raw, cut):
+    """Image and CompressedImage decode any bytes without raising: a message, or an empty one whose
+    ``unreadable`` says why; a real message read back whole, cut short it is unreadable."""
+    from d2sr.ros2.msgs import CompressedImage, Image, unreadable
+
+    for kind in (Image, CompressedImage):
+        m = kind.deserialize(raw)
+        assert isinstance(m, kind)
+        why = unreadable(m)
+        assert why is None or (isinstance(why, str) and len(why) < 200)
+    good = _wire(cut % 3)
+    back = Image.deserialize(good)
+    assert unreadable(back) is None and back.header.stamp.sec == 20 + cut % 3
+    assert unreadable(Image.deserialize(good[: 4 + cut])) is not None

@@ -133,16 +133,34 @@ class CameraLoop:
         return [self.repaired, self.mask, self.status, self.info, *(w for w in own if w is not None)]
 
     def take(self, now: Callable[[], float]) -> None:
-        """Whatever its readers hold: depth frames wait (``receive``), camera_info and colour are kept."""
-        for sample in self.reader.take(N=64):
-            if getattr(sample, "sample_info", None) is not None and not sample.sample_info.valid_data:
+        """Whatever its readers hold: depth frames wait (``receive``), camera_info and colour are kept. A
+        message that cannot be decoded is refused here (counted, said once) and the rest are taken."""
+        from d2sr.ros2.msgs import unreadable
+
+        for sample in self._taken(self.reader, 64):
+            why = unreadable(sample)
+            if why is not None:
+                self.stats.received += 1
+                self._refuse("undecodable", f"{self.topic}: a message is not a readable image ({why}); "
+                             "such messages are skipped")  # fmt: skip
                 continue
             self.receive(sample, now())
         self._take_info()
         if self.colour_reader is not None:
-            for sample in self.colour_reader.take(N=8):
-                if getattr(sample, "sample_info", None) is None or sample.sample_info.valid_data:
+            for sample in self._taken(self.colour_reader, 8):
+                if unreadable(sample) is None:
                     self._colour(sample, now())
+                else:
+                    self._warn(f"{self.topic}: a colour message is not a readable image; skipped", "colour")
+
+    def _taken(self, reader: Any, n: int) -> list[Any]:
+        """The valid samples a reader holds, at most ``n``; none (said once) when the take itself fails."""
+        try:
+            samples = reader.take(N=n)
+        except Exception as exc:  # what Cyclone could not hand over must not stop the node
+            self._warn(f"{self.topic}: a take failed ({type(exc).__name__}); its messages are lost", "take")
+            return []
+        return [s for s in samples if getattr(s, "sample_info", None) is None or s.sample_info.valid_data]
 
     def receive(self, msg: Any, taken: float) -> None:
         """A message off the reader: it waits for a free worker; beyond ``WAITING`` such frames the oldest is

@@ -25,6 +25,7 @@ __all__ = [
     "ParticipantEntitiesInfo",
     "RegionOfInterest",
     "Time",
+    "unreadable",
     "warm_codecs",
 ]
 
@@ -58,10 +59,25 @@ def warm_codecs() -> None:
     CompressedImage.deserialize(CompressedImage(Header(), "16UC1; compressedDepth png", pixels).serialize())
 
 
-def _decode(data: bytes, kind: str) -> tuple[Any, "Header"]:
-    """(rosbags' message of ``kind`` from CDR ``data``, its header as ours)."""
-    m = _store().deserialize_cdr(data, kind)
-    return m, Header(Time(m.header.stamp.sec, m.header.stamp.nanosec), m.header.frame_id)
+def _decode(data: bytes, kind: str) -> tuple[Any, "Header"] | str:
+    """(rosbags' message of ``kind`` from CDR ``data``, its header as ours), or why it cannot be read."""
+    try:
+        m = _store().deserialize_cdr(bytes(data), kind)
+        return m, Header(Time(m.header.stamp.sec, m.header.stamp.nanosec), m.header.frame_id)
+    except Exception as exc:  # rosbags raises its own and Python's errors on bytes that are not CDR
+        return f"{type(exc).__name__}: {str(exc).splitlines()[0][:80] if str(exc) else 'no detail'}"
+
+
+def unreadable(msg: Any) -> str | None:
+    """Why a message taken off the wire could not be decoded (None for one that was): Cyclone decodes
+    every sample of a take in one call, so a message that raised there would lose the others with it and
+    stop the node; it comes out as an empty message that says so instead."""
+    return getattr(msg, "_unreadable", None)
+
+
+def _unread(msg: Any, why: str) -> Any:
+    msg._unreadable = why
+    return msg
 
 
 @dataclass
@@ -94,7 +110,10 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
 
     @classmethod
     def deserialize(cls, data: bytes, has_header: bool = True, use_version_2: Any = None) -> "Image":
-        m, header = _decode(data, IMAGE)
+        got = _decode(data, IMAGE)
+        if isinstance(got, str):
+            return _unread(cls(), got)
+        m, header = got
         return cls(header, m.height, m.width, m.encoding, m.is_bigendian, m.step, m.data)
 
 
@@ -167,7 +186,10 @@ class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedIma
     def deserialize(
         cls, data: bytes, has_header: bool = True, use_version_2: Any = None
     ) -> "CompressedImage":
-        m, header = _decode(data, COMPRESSED)
+        got = _decode(data, COMPRESSED)
+        if isinstance(got, str):
+            return _unread(cls(), got)
+        m, header = got
         return cls(header, m.format, m.data)
 
 
