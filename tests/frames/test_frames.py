@@ -8,9 +8,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from d2sr.errors import InputError
 from d2sr.frames import Frame, Intrinsics, detect_format, open_frames, open_writer
+from d2sr.frames.base import MAX_PIXELS
+from d2sr.frames.rosbag import INFO
 
 INTR = Intrinsics(40, 30, 30.5, 30.25, 19.5, 14.75)
 
@@ -145,6 +149,12 @@ def test_rewrite_replaces_old_output(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rec"]
 
 
+def _intrinsics(folder: Path, **bad: float) -> None:
+    """A meta.json whose intrinsics have the ``bad`` values (the rest a plausible 40x30 camera's)."""
+    k = {"width": 40, "height": 30, "fx": 30.0, "fy": 30.0, "px": 19.5, "py": 14.5, **bad}
+    (folder / "meta.json").write_text(json.dumps({"depth_scale": 1000, "intrinsics": k}))
+
+
 def _png_folder(tmp_path: Path, n: int = 3) -> Path:
     d = tmp_path / "in"
     d.mkdir()
@@ -170,6 +180,12 @@ def _png_folder(tmp_path: Path, n: int = 3) -> Path:
         ),
         (lambda d: (d / "meta.json").write_text("{"), "not valid JSON"),
         (lambda d: (d / "meta.json").write_text(json.dumps({"depth_scale": -1})), "positive"),
+        (lambda d: _intrinsics(d, width=0), "0x30 pixels has no pixels"),  # divided by zero in the fill
+        (lambda d: _intrinsics(d, fx=float("nan")), "fx and fy must be finite and positive"),
+        (lambda d: _intrinsics(d, fy=-300.0), "fx and fy must be finite and positive"),
+        (lambda d: _intrinsics(d, fx=1e400), "fx and fy must be finite"),  # JSON's Infinity
+        (lambda d: _intrinsics(d, px=float("inf")), "px and py must be finite"),
+        (lambda d: _intrinsics(d, height=10**12), "d2sr takes images up to"),
     ],
 )
 def test_bad_png_folder(tmp_path, damage, message):
@@ -233,3 +249,77 @@ def test_a_wrong_scale_names_every_sensor_scale_that_fits_the_sensor_s_own_first
     text = str(err.value)
     assert text.index("at 4000 (raw L515, 0.25 mm) it would be 2.90 m") < text.index("at 5000 (TUM")
     assert "--" not in text and "max_range" in text and err.value.setting == "depth_scale"
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        (0, 30, 30.0, 30.0, 20.0, 15.0),
+        (40, 30, 0.0, 30.0, 20.0, 15.0),
+        (40, 30, 30.0, float("nan"), 20.0, 15.0),
+        (40, 30, 30.0, 30.0, float("-inf"), 15.0),
+        (40.5, 30, 30.0, 30.0, 20.0, 15.0),
+        (True, 30, 1.0, 1.0, 0, 0),
+        (40, 30, "30", 30.0, 20.0, 15.0),
+        (40, 30, 30.0, 30.0, 20.0, 10**400),
+    ],
+)
+def test_intrinsics_no_camera_has_are_one_input_error(values):
+    with pytest.raises(InputError, match="intrinsics"):
+        Intrinsics(*values)
+
+
+def test_a_bags_uncalibrated_camera_info_reads_as_none_and_a_damaged_one_as_one_line(tmp_path):
+    """ROS's uncalibrated camera sends K all zeros: no intrinsics (the fill guesses them), not an error;
+    a camera_info that cannot be decoded is one line naming it."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    t = ts.types
+    head = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=1, nanosec=0), frame_id="c")
+    roi = t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+    info = t["sensor_msgs/msg/CameraInfo"](
+        header=head, height=30, width=40, distortion_model="", d=np.zeros(0), k=np.zeros(9), r=np.zeros(9),
+        p=np.zeros(12), binning_x=0, binning_y=0, roi=roi,
+    )  # fmt: skip
+    depth = _frames(1)[0].depth
+    image = t["sensor_msgs/msg/Image"](
+        header=head, height=30, width=40, encoding="16UC1", is_bigendian=0, step=80,
+        data=depth.view(np.uint8).reshape(-1),
+    )  # fmt: skip
+    for name, raw_info in (("zeros", ts.serialize_cdr(info, INFO)), ("damaged", b"\x00\x01\x00\x00\x01")):
+        bag = tmp_path / name
+        with Writer(bag, version=9) as w:
+            ci = w.add_connection("/cam/depth/camera_info", INFO, typestore=ts)
+            im = w.add_connection("/cam/depth/image_rect_raw", "sensor_msgs/msg/Image", typestore=ts)
+            w.write(ci, 1, raw_info)
+            w.write(im, 2, ts.serialize_cdr(image, "sensor_msgs/msg/Image"))
+        if name == "zeros":
+            assert open_frames(bag).intrinsics is None
+        else:
+            with pytest.raises(InputError, match="camera_info: cannot decode") as err:
+                open_frames(bag)
+            assert "\n" not in str(err.value)
+
+
+_VALUE = st.one_of(
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.booleans(),
+    st.text(max_size=3),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.tuples(_VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE))
+def test_any_values_make_intrinsics_a_camera_could_have_or_one_input_error(values):
+    try:
+        k = Intrinsics(*values)
+    except InputError as exc:
+        assert "\n" not in str(exc) and len(str(exc)) < 200
+        return
+    assert 0 < k.width * k.height <= MAX_PIXELS
+    assert k.fx > 0 and k.fy > 0 and np.isfinite([k.fx, k.fy, k.px, k.py]).all()
+    half = k.scaled(max(k.width // 2, 1), max(k.height // 2, 1))
+    assert half.fx > 0 and np.isfinite([half.fx, half.fy, half.px, half.py]).all()

@@ -43,7 +43,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Intrinsics:
-    """Pinhole intrinsics of a depth image (pixels)."""
+    """Pinhole intrinsics of a depth image (pixels): an image d2sr takes (``check_pixels``), focal lengths
+    finite and positive, a finite principal point; anything else is one ``InputError`` when made."""
 
     width: int
     height: int
@@ -51,6 +52,20 @@ class Intrinsics:
     fy: float
     px: float
     py: float
+
+    def __post_init__(self) -> None:
+        w, h = self.width, self.height
+        if not all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in (w, h)):
+            raise InputError(f"intrinsics: width and height must be whole numbers, got {w!r} x {h!r}"[:120])
+        check_pixels(int(h), int(w), "intrinsics")
+        if not (positive_finite(self.fx) and positive_finite(self.fy)):
+            raise InputError(
+                f"intrinsics: fx and fy must be finite and positive, got {self.fx!r}, {self.fy!r}"
+            )
+        if not all(
+            isinstance(v, numbers.Real) and not isinstance(v, bool) and _finite(v) for v in (self.px, self.py)
+        ):
+            raise InputError(f"intrinsics: px and py must be finite, got {self.px!r}, {self.py!r}"[:120])
 
     def scaled(self, width: int, height: int) -> Intrinsics:
         sx, sy = width / self.width, height / self.height
@@ -62,9 +77,10 @@ class Intrinsics:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Intrinsics:
         try:
-            return cls(int(d["width"]), int(d["height"]), *(float(d[k]) for k in ("fx", "fy", "px", "py")))
+            w, h, *k = int(d["width"]), int(d["height"]), *(float(d[k]) for k in ("fx", "fy", "px", "py"))
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise InputError(f"intrinsics: missing or bad field {str(exc)[:60]}") from None
+        return cls(w, h, *k)
 
 
 @dataclass(frozen=True)
@@ -235,6 +251,13 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
                 f"(results may be poor; about {mb:.0f} MB of working memory)"
             )
     return warnings
+
+
+def _finite(x: numbers.Real) -> bool:
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:  # an int beyond a float's range
+        return False
 
 
 def positive_finite(x: object) -> bool:

@@ -120,7 +120,10 @@ class PngReader(Reader):
         meta = read_meta(self.path)
         self.depth_scale = check_scale(meta.get("depth_scale"), str(self.path))
         intr = meta.get("intrinsics")
-        self.intrinsics = Intrinsics.from_dict(intr) if intr and "fx" in intr else None
+        try:
+            self.intrinsics = Intrinsics.from_dict(intr) if intr and "fx" in intr else None
+        except InputError as exc:
+            raise InputError(f"{self.path}: {exc}") from None
         self._frame_meta = {f["name"]: f for f in meta.get("frames", [])}
         self._shape: tuple[int, int] | None = None
 

@@ -148,9 +148,17 @@ class BagReader(Reader):
         if not conns:
             return None
         for conn, _, raw in reader.messages(connections=conns):
-            m: Any = reader.deserialize(raw, conn.msgtype)  # a message class rosbags builds at run time
+            try:
+                m: Any = reader.deserialize(raw, conn.msgtype)  # a class rosbags builds at run time
+            except Exception as exc:  # rosbags raises several types for damaged messages
+                raise InputError(
+                    f"{conn.topic}: cannot decode its first camera_info ({type(exc).__name__})"
+                ) from None
             k = [float(x) for x in (m.k if hasattr(m, "k") else m.K)]
-            return Intrinsics(int(m.width), int(m.height), k[0], k[4], k[2], k[5])
+            try:
+                return Intrinsics(int(m.width), int(m.height), k[0], k[4], k[2], k[5])
+            except InputError:  # ROS's uncalibrated camera (K all zeros), or values no camera has: none
+                return None
         return None
 
     def __len__(self) -> int:
