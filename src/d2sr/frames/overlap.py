@@ -3,11 +3,14 @@ releases the GIL) overlap the work on the frame in between."""
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 __all__ = ["Behind", "prefetch"]
@@ -15,25 +18,49 @@ __all__ = ["Behind", "prefetch"]
 T = TypeVar("T")
 
 
-def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[T]:
-    """Produce ``items`` on a thread, ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
-    inference), re-raising its errors here."""
+# How long a stopped reader may take to finish the item it is producing (a frame's decode) before the
+# caller goes on without it.
+STOP_S = 10.0
+
+
+@contextmanager
+def prefetch(items: Iterable[T], depth: int = 4) -> Iterator[Iterator[T]]:
+    """``items``, produced on a thread ``depth`` ahead (PNG decoding releases the GIL, so reading overlaps
+    inference), its errors re-raised in the caller. Leaving the block stops the thread and waits for it:
+    a thread still inside a decoder when the interpreter exits (an error, Ctrl-C) aborts the process
+    ("terminate called without an active exception", exit 134) instead of the exit code d2sr gives."""
     q: queue.Queue[Any] = queue.Queue(depth)
     done = object()
+    stop = threading.Event()
 
     def run() -> None:
         try:
             for it in items:
                 q.put(it)
+                if stop.is_set():
+                    return
         except BaseException as exc:
             q.put(exc)
         q.put(done)
 
-    threading.Thread(target=run, daemon=True).start()
-    while (it := q.get()) is not done:
-        if isinstance(it, BaseException):
-            raise it
-        yield it
+    def produced() -> Iterator[T]:
+        while (it := q.get()) is not done:
+            if isinstance(it, BaseException):
+                raise it
+            yield it
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield produced()
+    finally:
+        stop.set()
+        end = time.monotonic() + STOP_S
+        while thread.is_alive() and time.monotonic() < end:
+            with contextlib.suppress(queue.Empty):  # make room for the put it may be waiting on
+                while True:
+                    q.get_nowait()
+            thread.join(0.02)
 
 
 class Behind:

@@ -212,14 +212,15 @@ def detect_recording(
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_HEADER)
     flagged = done = used = 0
-    caps = (Capture(f, scale) for f in prefetch(checked(reader, scale)))
-    for res in map(loop.process, loop.primed(caps, s.prime)):
-        flagged += res.flagged
-        used += bool(res.scene)
-        w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged), res.reason])
-        done += 1
-        if progress is not None:
-            progress(done, len(reader))
+    with prefetch(checked(reader, scale)) as frames:
+        caps = (Capture(f, scale) for f in frames)
+        for res in map(loop.process, loop.primed(caps, s.prime)):
+            flagged += res.flagged
+            used += bool(res.scene)
+            w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged), res.reason])
+            done += 1
+            if progress is not None:
+                progress(done, len(reader))
     atomic_write(out, buf.getvalue())
     return Summary(
         done, flagged, 0, Path(out), "csv", DETECTOR, net.name, scale, 0, used if s.scene else None
@@ -322,8 +323,12 @@ def recover_recording(
     flagged = repaired = done = used = 0
     report = Report(f"d2sr recover {input}") if wr.report else None
     report_path: Path | None = None
-    with log as view, _open_sink(kind, Path(out), Path(input), reader, filler) as sink:
-        frames = prefetch(checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale))
+    read = checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale)
+    with (
+        log as view,
+        _open_sink(kind, Path(out), Path(input), reader, filler) as sink,
+        prefetch(read) as frames,
+    ):
         caps = loop.primed((Capture(f, scale) for f in frames), s.prime)
         for res in in_order(loop, caps, workers):
             if view is not None:

@@ -103,9 +103,9 @@ def fill_recording(
 
     # Depth and colour are decoded ahead and the outputs encoded behind, on threads of their own: the
     # synthesis in between has the main thread (the job's speed: docs/fill.md).
-    with atomic_dir(out) as tmp, contextlib.closing(Behind()) as writes:
+    with atomic_dir(out) as tmp, contextlib.closing(Behind()) as writes, prefetch(read()) as frames:
         folder = FrameFolder(tmp, FILLED)
-        for i, (frame, colour) in enumerate(prefetch(read())):
+        for i, (frame, colour) in enumerate(frames):
             if frame.depth.dtype != np.uint16:
                 raise InputError(f"{frame.name}: d2sr fill writes 16-bit frames; this recording's are metres")
             if kept(i, active_frames, offset):
