@@ -113,6 +113,9 @@ def test_pipeline_repairs_as_recover_does_over_a_sequence(tmp_path):
         (lambda: d2sr.repair(room(), models=Path("/nonexistent")), "no such"),
         (lambda: d2sr.Pipeline(controller="oracle"), "controller"),
         (lambda: d2sr.Pipeline(active_frames=0), "active_frames"),
+        (lambda: d2sr.Pipeline(depth_scale=-5), "depth_scale must be a positive"),  # was taken until a frame
+        (lambda: d2sr.Pipeline(depth_scale=0), "depth_scale must be a positive"),
+        (lambda: d2sr.open_frames(None), "a recording is a path"),  # a TypeError from pathlib before
     ],
 )
 def test_bad_input_is_one_d2sr_error(call, message):

@@ -236,3 +236,32 @@ def test_colour_alone_follows_the_simulated_robot():
     truth = start.then(pose.inverse())
     assert s.method == "warp-colour" and np.linalg.norm(truth.t) > 0.03
     assert np.linalg.norm(f._moved.t - truth.t) < 0.2 * np.linalg.norm(truth.t)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"radius": -1}, "radius"),  # a ValueError from numpy on the first warp before
+        ({"radius": 10**9}, "radius"),  # a kernel of 10^18 bytes
+        ({"radius": 2.5}, "radius"),
+        ({"radius": True}, "radius"),
+        ({"intrinsics": "fx=500"}, "intrinsics must be"),  # an AttributeError on the first warp before
+    ],
+)
+def test_a_filler_refuses_settings_no_fill_could_use(kwargs, message):
+    with pytest.raises(ConfigError, match=message):
+        Filler(**kwargs)
+
+
+def test_a_real_frame_reads_what_is_not_a_positive_finite_depth_as_no_return():
+    """Float depth marks no return as 0, NaN or a negative value, by driver: none of them comes back as a
+    depth, and a held frame holds none of them."""
+    metres = np.full((30, 40), 2.0, np.float32)
+    metres[0, :3] = [np.nan, -1.0, np.inf]
+    f = Filler(K.scaled(40, 30), radius=0)
+    real = f.real(metres)
+    held = f.synthesize()
+    for s in (real, held):
+        assert (s.depth[0, :3] == 0).all() and (s.confidence[0, :3] == 0).all()
+        assert np.isfinite(s.depth).all() and (s.depth >= 0).all()
+    assert (held.depth[1:] == 2.0).all()

@@ -14,6 +14,7 @@ realsense  RealSense ``.db3`` / ``.bag`` recording     ``d2sr.frames.realsense``
 from __future__ import annotations
 
 import importlib
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,6 +96,8 @@ def detect_format(path: Path) -> str:
 
 def open_frames(path: Path, topic: str | None = None, format: str | None = None) -> Reader:
     """Open any supported recording for reading. ``topic`` picks a stream in a bag."""
+    if not isinstance(path, str | os.PathLike):
+        raise InputError(f"a recording is a path, got {type(path).__name__}")
     fmt = format or detect_format(Path(path))
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; known: {', '.join(FORMATS)}")

@@ -237,6 +237,8 @@ class Pipeline:
         **options: Any,
     ) -> None:
         check_types(depth_scale=depth_scale, controller=controller, active_frames=active_frames, seed=seed)
+        if depth_scale is not None and depth_scale <= 0:
+            raise ConfigError(f"depth_scale must be a positive number, got {depth_scale}", "depth_scale")
         if controller not in CONTROLLERS or controller == "oracle":
             names = ", ".join(c for c in CONTROLLERS if c != "oracle")
             raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")

@@ -4,12 +4,13 @@ through the colour frames, ``synth.motion``), or is unknown: then the last real 
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from d2sr.errors import InputError
+from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Intrinsics
 from d2sr.synth.along import fill_along_colour
 from d2sr.synth.motion import ColourTrack
@@ -29,6 +30,7 @@ __all__ = ["METHODS", "Filler", "Synthesized"]
 #: held, or nothing to go on (no real frame yet).
 METHODS = ("real", "warp-pose", "warp-colour", "hold", "none")
 HOLD_CONFIDENCE = 0.5  # a held frame is right only where nothing moved: said, not hidden
+MAX_RADIUS = 1024  # pixels a hole may be grown over from its background: far beyond any frame's 5% default
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,18 @@ class Filler:
     hole is filled from its background side (None: 5% of the width)."""
 
     def __init__(self, intrinsics: Intrinsics | None = None, radius: int | None = None) -> None:
+        if intrinsics is not None and not isinstance(intrinsics, Intrinsics):
+            raise ConfigError(
+                f"intrinsics must be d2sr.frames.Intrinsics or None, got {type(intrinsics).__name__}"
+            )
+        if radius is not None and (
+            isinstance(radius, bool)
+            or not isinstance(radius, numbers.Integral)
+            or not 0 <= radius <= MAX_RADIUS
+        ):
+            raise ConfigError(
+                f"radius must be a whole number of pixels in 0..{MAX_RADIUS}, got {str(radius)[:40]}"
+            )
         self.intrinsics = intrinsics
         self.radius = radius
         self._track: ColourTrack | None = None
@@ -138,7 +152,7 @@ class Filler:
         if not isinstance(metres, np.ndarray) or metres.ndim != 2 or metres.dtype.kind not in "fiu":
             shape = getattr(metres, "shape", None)
             raise InputError(f"depth must be a 2-D image of numbers, got shape {shape}")
-        return np.where(np.isfinite(metres), metres, 0).astype(np.float32)
+        return np.where(np.isfinite(metres) & (metres > 0), metres, 0).astype(np.float32)  # else: no return
 
 
 def _as_colour(colour: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray | None:
