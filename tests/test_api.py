@@ -11,6 +11,7 @@ import pytest
 import d2sr
 from d2sr.frames.png import encode_png
 from d2sr.sim.interference import corrupt
+from d2sr.synth.recording import FillSettings
 from helpers import d2sr_inprocess, room
 
 SCALE = 4000.0
@@ -97,6 +98,10 @@ def test_pipeline_repairs_as_recover_does_over_a_sequence(tmp_path):
         assert np.array_equal(p.process(f).depth, written)
 
 
+_NOWHERE = Path("/nonexistent/d2sr")
+_FILL = FillSettings(active_frames=6)
+
+
 @pytest.mark.parametrize(
     ("call", "message"),
     [
@@ -116,6 +121,20 @@ def test_pipeline_repairs_as_recover_does_over_a_sequence(tmp_path):
         (lambda: d2sr.Pipeline(depth_scale=-5), "depth_scale must be a positive"),  # was taken until a frame
         (lambda: d2sr.Pipeline(depth_scale=0), "depth_scale must be a positive"),
         (lambda: d2sr.open_frames(None), "a recording is a path"),  # a TypeError from pathlib before
+        # The recording-level calls check their arguments before any work (AttributeErrors and TypeErrors
+        # from deep inside before).
+        (lambda: d2sr.recover_recording(None, _NOWHERE), "input must be a path"),
+        (lambda: d2sr.recover_recording(_NOWHERE, 5), "out must be a path"),
+        (
+            lambda: d2sr.recover_recording(_NOWHERE, _NOWHERE / "o", {"threshold": 0.5}),
+            "settings must be Run",
+        ),
+        (lambda: d2sr.recover_recording(_NOWHERE, _NOWHERE / "o", progress=5), "progress must be a function"),
+        (lambda: d2sr.detect_recording(_NOWHERE, _NOWHERE / "o.csv", "fast"), "settings must be RunSettings"),
+        (lambda: d2sr.learn_scene_recording(_NOWHERE, None), "out must be a path"),
+        (lambda: d2sr.fill_recording(_NOWHERE, _NOWHERE / "o", _FILL, say="quiet"), "say must be a function"),
+        (lambda: d2sr.recover_fleet("rec", _NOWHERE / "o"), "recordings must be a list of paths"),
+        (lambda: d2sr.recover_fleet([_NOWHERE, None], _NOWHERE / "o"), "recording 1 must be a path"),
     ],
 )
 def test_bad_input_is_one_d2sr_error(call, message):

@@ -6,6 +6,7 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
+from d2sr.arguments import check_paths
 from d2sr.atomic.manifest import made
 from d2sr.atomic.naming import MANIFEST, absolute, made_by_d2sr, real
 from d2sr.atomic.placing import tidy
@@ -26,6 +27,8 @@ def check_out(
     """Refuse an output path that would destroy something d2sr did not make; the absolute path otherwise.
 
     ``resume``: an existing folder d2sr made is taken as it is (a run folder a command resumes)."""
+    inputs = list(inputs)
+    check_paths(**{option: out}, **{f"input {k}": p for k, p in enumerate(inputs) if p is not None})
     if not os.fspath(out).strip():
         raise OutputError(f"{option} is empty; name a new file or folder")
     if "\x00" in os.fspath(out):

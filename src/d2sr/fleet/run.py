@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import check_out, record_manifest
 from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
 from d2sr.fleet.cluster import Cluster, connected
@@ -78,9 +79,14 @@ def recover_fleet(
     stopped before recording it is replaced: d2sr made it). ``written.overwrite`` redoes them all; other
     settings than the folder's are refused unless it is given. A recording that fails does not stop the
     others: it is an ``Outcome`` with its reason (``FleetSummary.failed``)."""
+    check_instances(settings=(settings, RunSettings), written=(written, Written), cluster=(cluster, Cluster))
+    check_callbacks(progress=progress)
     s = settings if settings is not None else RunSettings()
     wr = written if written is not None else Written()
     cl = cluster if cluster is not None else Cluster()
+    if isinstance(recordings, str | os.PathLike) or not isinstance(recordings, Sequence):
+        raise ConfigError(f"recordings must be a list of paths, got {type(recordings).__name__}")
+    check_paths(out=out, **{f"recording {k}": r for k, r in enumerate(recordings)})
     if not recordings:
         raise ConfigError("no recordings given")
     if s.repair == "none":

@@ -23,6 +23,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
@@ -198,6 +199,9 @@ def detect_recording(
     as the still sensor's own scene weighs it, primed on the recording's first ``settings.prime`` frames;
     reason: why, one of ``runtime.loop.REASONS``). ``progress(done, total)`` follows the frames; ``say``
     gets the one line on the input and its scale."""
+    check_paths(input=input, out=out)
+    check_instances(settings=(settings, RunSettings))
+    check_callbacks(progress=progress, say=say)
     s = settings if settings is not None else RunSettings()
     check_out(out, is_dir=False, overwrite=overwrite, inputs=_inputs(input))
     reuse_freed_memory()
@@ -261,6 +265,9 @@ def recover_recording(
     come out bit for bit as they went in."""
     from d2sr.runtime.viewer import LIVE, RerunLog
 
+    check_paths(input=input, out=out)
+    check_instances(settings=(settings, RunSettings), written=(written, Written))
+    check_callbacks(progress=progress, say=say)
     s = settings if settings is not None else RunSettings()
     wr = written if written is not None else Written()
     if s.repair == "none":

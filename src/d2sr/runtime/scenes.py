@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import check_out
 from d2sr.errors import InputError
 from d2sr.frames import Reader
@@ -25,10 +26,13 @@ def learn_scene_recording(
 ) -> StoredScene:
     """Learn the scene of ``clean`` (any recording d2sr reads: its frames must be clean, the sensor still;
     read as ``settings`` say: depth scale, topic, range) and store it in ``out`` (a ``.npz`` file)."""
+    check_paths(clean=clean, out=out)
+    check_instances(settings=(settings, RunSettings))
+    check_callbacks(say=say)
+    check_out(out, is_dir=False, overwrite=overwrite, inputs=[clean])
     s = settings if settings is not None else RunSettings()
     if Path(out).suffix != ".npz":
         raise InputError(f"{out}: a stored scene is a .npz file", "out")
-    check_out(out, is_dir=False, overwrite=overwrite, inputs=[clean])
     reader, scale = open_input(clean, s.topic, s.depth_scale, "clean", 1000.0, s.max_range, say)
     if reader.depth_scale is None and s.depth_scale is None and say is not None:
         say(f"{clean}: no depth scale given or recorded; the scene is stored at {scale:g} units per metre")

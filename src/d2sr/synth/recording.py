@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 from pydantic import Field
 
+from d2sr.arguments import check_callbacks, check_paths
 from d2sr.atomic import atomic_dir, check_out
 from d2sr.config import Settings
 from d2sr.desync import TOTAL_FRAMES
@@ -84,6 +85,8 @@ def fill_recording(
     holding the last kept frame."""
     if not isinstance(settings, FillSettings):
         raise ConfigError(f"settings must be FillSettings, got {type(settings).__name__}", "settings")
+    check_paths(input=input, out=out)
+    check_callbacks(progress=progress, say=say)
     active_frames, offset, rgb = settings.active_frames, settings.offset, settings.colour
     depth_scale, topic = settings.depth_scale, settings.topic
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[input, rgb])
