@@ -51,6 +51,8 @@ def test_config_rejects_what_cannot_work(tmp_path):
         _cfg(tmp_path, steps=0)
     with pytest.raises(ConfigError, match="gate_previous is for the temporal"):
         _cfg(tmp_path, model="unet8", gate_previous=True)
+    with pytest.raises(ConfigError, match="batch: Input should be less than or equal to 1024"):
+        _cfg(tmp_path, batch=10**9)  # hung making a billion indices
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

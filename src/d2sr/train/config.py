@@ -27,12 +27,15 @@ class Folders(Settings):
     topic: str | None = None
 
 
+MAX_BATCH = 1024  # frames a step: beyond any machine's memory at 640x480 (a billion hung making its indices)
+
+
 class TrainConfig(Settings):
     task: Literal["detector", "recovery"]
     model: str = Field("detector", description="a name from d2sr.models.MODELS")
     seed: int = 0
     steps: int = Field(3000, ge=1)
-    batch: int = Field(16, ge=1)
+    batch: int = Field(16, ge=1, le=MAX_BATCH)
     lr: float = Field(2e-3, gt=0)
     weight_decay: float = Field(1e-4, ge=0)
     init: Path | None = Field(None, description="weights to start from (fine-tuning); see warm_start")
