@@ -1,7 +1,9 @@
-"""Settings are pydantic models; this module turns their validation errors into one-line ConfigErrors."""
+"""Settings are pydantic models; this module turns their validation errors into one-line ConfigErrors, and
+checks the entry points' other arguments (paths, objects of a kind, callbacks) the same way."""
 
 from __future__ import annotations
 
+import os
 import tomllib
 from pathlib import Path
 from typing import Any, TypeVar
@@ -10,7 +12,15 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from d2sr.errors import ConfigError
 
-__all__ = ["Settings", "load_toml", "one_line", "read_toml"]
+__all__ = [
+    "Settings",
+    "check_callbacks",
+    "check_instances",
+    "check_paths",
+    "load_toml",
+    "one_line",
+    "read_toml",
+]
 
 M = TypeVar("M", bound="Settings")
 
@@ -60,3 +70,28 @@ def read_toml(path: Path) -> dict[str, Any]:
 def load_toml(cls: type[M], path: Path) -> M:
     """Read a TOML file into a settings model."""
     return cls.make(**read_toml(path))
+
+
+# The library's entry points check what they are given before any work: a caller's mistake is one of
+# d2sr's errors naming the argument, not an AttributeError or TypeError from deep inside.
+
+
+def check_instances(**arguments: tuple[object, type[Any]]) -> None:
+    """Each ``name=(value, kind)``: the value is None or a ``kind``."""
+    for name, (value, kind) in arguments.items():
+        if value is not None and not isinstance(value, kind):
+            raise ConfigError(f"{name} must be {kind.__name__} or None, got {type(value).__name__}")
+
+
+def check_callbacks(**arguments: object) -> None:
+    """Each ``name=value``: the value is None or something to call."""
+    for name, value in arguments.items():
+        if value is not None and not callable(value):
+            raise ConfigError(f"{name} must be a function or None, got {type(value).__name__}")
+
+
+def check_paths(**arguments: object) -> None:
+    """Each ``name=value``: the value is a path (a str or an os.PathLike)."""
+    for name, value in arguments.items():
+        if not isinstance(value, str | os.PathLike):
+            raise ConfigError(f"{name} must be a path, got {type(value).__name__}")

@@ -6,10 +6,10 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
-from d2sr.arguments import check_paths
 from d2sr.atomic.manifest import made
 from d2sr.atomic.naming import MANIFEST, absolute, made_by_d2sr, real
 from d2sr.atomic.placing import tidy
+from d2sr.config import check_paths
 from d2sr.errors import OutputError
 
 __all__ = ["check_out"]

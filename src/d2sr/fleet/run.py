@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import check_out, record_manifest
+from d2sr.config import check_callbacks, check_instances, check_paths
 from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
 from d2sr.fleet.cluster import Cluster, connected
 from d2sr.fleet.ledger import LEDGER, Ledger, Outcome, fingerprint

@@ -23,8 +23,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
+from d2sr.config import check_callbacks, check_instances, check_paths
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError

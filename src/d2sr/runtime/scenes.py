@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from d2sr.arguments import check_callbacks, check_instances, check_paths
 from d2sr.atomic import check_out
+from d2sr.config import check_callbacks, check_instances, check_paths
 from d2sr.errors import InputError
 from d2sr.frames import Reader
 from d2sr.frames.checks import checked_counts, open_input

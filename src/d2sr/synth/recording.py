@@ -16,9 +16,8 @@ import cv2
 import numpy as np
 from pydantic import Field
 
-from d2sr.arguments import check_callbacks, check_paths
 from d2sr.atomic import atomic_dir, check_out
-from d2sr.config import Settings
+from d2sr.config import Settings, check_callbacks, check_paths
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, to_metres, to_units

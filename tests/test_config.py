@@ -1,4 +1,4 @@
-"""The entry points' argument checks: None or the kind asked for passes, anything else is one ConfigError
+"""d2sr.config's argument checks: None or the kind asked for passes, anything else is one ConfigError
 naming the argument."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from d2sr.arguments import check_callbacks, check_instances, check_paths
+from d2sr.config import check_callbacks, check_instances, check_paths
 from d2sr.errors import ConfigError
 
 
