@@ -79,6 +79,12 @@ def test_simulate_bad_options(tmp_path):
         (["--controller", "nope"], "unknown controller"),
         (["--resolution", "big"], "resolution"),
         (["--format", "avi"], "format"),
+        (
+            ["--seconds", "1e12"],
+            "seconds: Input should be less than or equal to 3600",
+        ),  # a MemoryError before
+        (["--people", "1000000"], "people must be a whole number in 0..20"),  # rendered for hours before
+        (["--workers", "100000"], "workers: Input should be less than or equal to 256"),  # took the memory
     ):
         r = _cli("simulate", "--out", str(tmp_path / "o"), *args)
         assert r.returncode == 2 and msg in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)

@@ -136,6 +136,7 @@ def main() -> None:
     shows the traceback of an error d2sr did not foresee)."""
     with contextlib.suppress(ValueError):  # SIGTERM unwinds like Ctrl-C: temporaries go, commits finish
         signal.signal(signal.SIGTERM, _terminated)
+    code: object = None
     try:
         code = app(standalone_mode=False)
     except typer.TyperException as exc:  # click's usage errors (typer vendors click): one line too
@@ -155,18 +156,24 @@ def main() -> None:
         extra = EXTRAS[top]
         _fail(f"this command needs {top}, not installed: pip install '.[{extra}]' in a d2sr clone")
     except KeyboardInterrupt:
-        flush_warnings(show=False)
-        print("d2sr: interrupted; nothing half-written was left at the output", file=sys.stderr)
-        raise SystemExit(130) from None
+        _interrupted()
     except OSError as exc:  # the system refused (no permission, a full disk, a device gone)
         where = f"{exc.filename}: " if exc.filename else ""
         _fail(f"{where}{exc.strerror or type(exc).__name__}")
     except Exception as exc:
         _unforeseen(exc)
-    finally:
-        flush_warnings()  # a command that ended well (or by typer's own usage error) shows what waited
+    finally:  # a command that ended well (or by typer's own usage error) shows what waited
+        flush_warnings(show=code != 130)
+    if code == 130:  # typer turns Ctrl-C (and SIGTERM, raised as one) inside a command into Exit(130)
+        _interrupted()
     if isinstance(code, int) and code:  # typer.Exit(code), outside standalone mode, comes back as a value
         raise SystemExit(code)
+
+
+def _interrupted() -> NoReturn:
+    flush_warnings(show=False)
+    print("d2sr: interrupted; nothing half-written was left at the output", file=sys.stderr)
+    raise SystemExit(130) from None
 
 
 def _terminated(signum: int, frame: object) -> None:

@@ -72,6 +72,9 @@ def simulate(
     check_out(out, is_dir=True, overwrite=overwrite)
     from d2sr.sim.rooms import L515_INTRINSICS
 
+    settings = RecordSettings(
+        seconds=seconds, active_frames=fps, controller=controller, seed=seed, workers=workers or None
+    )
     rig = make_rig(seed, sensors, moving, people, L515_INTRINSICS.scaled(w, h))
     model = L515.model_copy(update={"depth_scale": 1000.0}) if fmt == "ros2" else L515
     with progress_bar() as bar:
@@ -80,9 +83,6 @@ def simulate(
         def tick(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        settings = RecordSettings(
-            seconds=seconds, active_frames=fps, controller=controller, seed=seed, workers=workers or None
-        )
         summary = record(
             rig, out, settings, model, progress=tick,
             finish=(lambda tmp: to_ros2(tmp, sensors)) if fmt == "ros2" else None,

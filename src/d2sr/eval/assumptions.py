@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -20,6 +19,7 @@ import numpy as np
 
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.desync import Cell, run_cell
+from d2sr.frames.overlap import MAX_WORKERS, processes
 from d2sr.sim.timing import TimingConfig
 
 __all__ = [
@@ -127,7 +127,7 @@ def run_grid(
     ]
     work.sort(key=lambda j: -j[0] * (j[1] + 3))  # largest first, so workers finish together
     results = []
-    with ProcessPoolExecutor(jobs or os.cpu_count() or 1) as pool:
+    with processes(jobs or min(os.cpu_count() or 1, MAX_WORKERS)) as pool:
         for r in pool.map(_run, work, chunksize=2):
             results.append(r)
             if progress:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ import numpy as np
 
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.errors import InputError
+from d2sr.frames.overlap import processes
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.passing import WORLDS, passing_rooms
 from d2sr.sim.timing import TimingConfig, TimingRun, simulate
@@ -236,7 +236,7 @@ def sweep(
             if progress:
                 progress(out[-1])
         return out
-    with ProcessPoolExecutor(jobs) as pool:
+    with processes(jobs) as pool:
         futures = [pool.submit(run_cell, c) for c in grid]
         results = []
         for f in futures:

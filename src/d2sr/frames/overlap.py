@@ -1,21 +1,56 @@
-"""Reading ahead and writing behind on threads of their own, so that decoding and encoding frames (OpenCV
-releases the GIL) overlap the work on the frame in between."""
+"""Work beside the caller's thread: reading ahead and writing behind on threads of their own, so that
+decoding and encoding frames (OpenCV releases the GIL) overlap the work on the frame in between; and pools of
+worker processes that end with the caller (``processes``)."""
 
 from __future__ import annotations
 
 import contextlib
 import queue
+import signal
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-__all__ = ["Behind", "prefetch"]
+from d2sr.errors import ConfigError
+
+__all__ = ["MAX_WORKERS", "Behind", "prefetch", "processes"]
 
 T = TypeVar("T")
+
+
+MAX_WORKERS = 256  # processes one job starts, at most (a hundred thousand asked took the machine's memory)
+
+
+@contextmanager
+def processes(workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``workers`` processes that ends with its caller: when the block is left by an error or an
+    interrupt, the work not started is cancelled and the workers are ended. ProcessPoolExecutor's own exit
+    waits for every task queued, so a Ctrl-C on a long simulation ran on for hours."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
+        raise ConfigError(f"workers must be a whole number in 1..{MAX_WORKERS}, got {workers}", "workers")
+    pool = ProcessPoolExecutor(workers, initializer=_worker_signals)
+    try:
+        yield pool
+    except BaseException:
+        workers_now = list((getattr(pool, "_processes", None) or {}).values())  # no public way before 3.14
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in workers_now:
+            proc.terminate()
+        for proc in workers_now:
+            proc.join(STOP_S)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _worker_signals() -> None:
+    """A worker leaves Ctrl-C to its caller, which ends it, and ends at once when told to (forked, it would
+    otherwise raise the caller's KeyboardInterrupt and print a traceback of its own)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 # How long a stopped reader may take to finish the item it is producing (a frame's decode) before the

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
@@ -21,6 +20,7 @@ import numpy as np
 
 from d2sr.atomic import atomic_dir
 from d2sr.errors import InputError
+from d2sr.frames.overlap import processes
 from d2sr.sim.calibrate import static_camera
 from d2sr.sim.families import WideConfig, wide_interference
 from d2sr.sim.rooms import L515, Pose, Renderer, SensorModel, SensorNoise, make_room
@@ -164,7 +164,7 @@ def generate(
         step = 50
         jobs = [(tmp, a, min(a + step, count), seed, previous, config, sensor) for a in range(0, count, step)]
         rows: list[dict] = []
-        with ProcessPoolExecutor(max_workers=max(workers, 1)) as pool:
+        with processes(max(workers, 1)) as pool:
             for part in pool.map(_chunk, jobs):
                 rows += part
                 if progress:

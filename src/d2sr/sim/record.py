@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
 
@@ -24,6 +23,7 @@ from d2sr.config import Settings
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
+from d2sr.frames.overlap import MAX_WORKERS, processes
 from d2sr.sim.interference import InterferenceConfig
 from d2sr.sim.room import Camera
 from d2sr.sim.rooms import L515, SensorModel
@@ -83,16 +83,19 @@ def _work(args: tuple) -> list[dict]:
     return rows
 
 
+MAX_SECONDS = 3600.0  # an hour of a room: 108,000 frames a sensor (a trillion seconds asked 11 TB of memory)
+
+
 class RecordSettings(Settings):
     """How ``record`` runs the simulated room: for ``seconds``, each sensor's laser on ``active_frames`` of
     every 30-slot period under ``controller``, seeded by ``seed``, rendered on ``workers`` processes
     [up to 2]."""
 
-    seconds: float = Field(10.0, gt=0, allow_inf_nan=False)
+    seconds: float = Field(10.0, gt=0, le=MAX_SECONDS, allow_inf_nan=False)
     active_frames: int = Field(15, ge=1, le=TOTAL_FRAMES)
     controller: str = "static"
     seed: int = 0
-    workers: int | None = Field(None, ge=1)
+    workers: int | None = Field(None, ge=1, le=MAX_WORKERS)
 
 
 def record(
@@ -129,7 +132,7 @@ def record(
         done = 0
         n_work = workers or min(2, os.cpu_count() or 1)
         if n_work > 1:
-            with ProcessPoolExecutor(n_work) as pool:
+            with processes(n_work) as pool:
                 for (i, s), got in zip(jobs, pool.map(_work, args), strict=True):
                     rows[i] += got
                     done += len(s)

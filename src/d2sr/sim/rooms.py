@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import Field
 
 from d2sr.config import Settings
+from d2sr.errors import ConfigError
 from d2sr.frames.base import Intrinsics
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
 L515_INTRINSICS = Intrinsics(640, 480, 457.4, 457.3, 312.9, 250.1)
 #: Share of surfaces that are dark to the sensor (checked by ``d2sr calibrate``).
 DARK = 0.35
+MAX_PEOPLE = 20  # walking in one room of at most 8 x 7 m: more is a crowd the renderer takes hours over
 
 
 @dataclass(frozen=True)
@@ -186,6 +188,10 @@ def make_room(
     size: tuple[float, float, float] | None = None,
 ) -> Room:
     """A random furnished room (4-8 m by 4-7 m); furniture keeps clear of the given camera positions."""
+    if people is not None and (
+        isinstance(people, bool) or not isinstance(people, int) or not 0 <= people <= MAX_PEOPLE
+    ):
+        raise ConfigError(f"people must be a whole number in 0..{MAX_PEOPLE}, got {people}")
     rng = np.random.default_rng([seed, 0x5CE])
     dims = np.array(size or (rng.uniform(4.0, 8.0), rng.uniform(4.0, 7.0), rng.uniform(2.5, 3.2)))
     keep = [np.array([p.x, p.y]) for p in cameras or []]

@@ -27,7 +27,6 @@ import json
 import shutil
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,6 +47,7 @@ from d2sr.contract.catalog import (
     detector_input,
 )
 from d2sr.errors import InputError
+from d2sr.frames.overlap import processes
 from d2sr.frames.png import decode_png
 from d2sr.models.detector import MaskDetector
 from d2sr.models.store import load_model, mask_logit, save_model, torch_device, write_card
@@ -287,7 +287,7 @@ def prepare(
                 tick(PREPARING, done, total)
         return got
 
-    with ProcessPoolExecutor(max_workers=max(workers, 1)) as ex:
+    with processes(max(workers, 1)) as ex:
         data.bad = each(ex.map(_corrupt, jobs, chunksize=8))
         data.held_bad = each(ex.map(_corrupt, held_jobs, chunksize=8))
         data.rehearsal = each(ex.map(_generated, seeds, chunksize=8))
