@@ -240,3 +240,11 @@ def test_blur_shares_are_what_cv2_blur_gives_for_each_count():
         ones = rng.random((50, 70)) < rng.random((50, 70))
         count = cv2.boxFilter(ones.view(np.uint8), -1, (side, side), normalize=False)
         assert np.array_equal(blur_shares(side)[count], cv2.blur(ones.astype(np.float32), (side, side)))
+
+
+@pytest.mark.parametrize("memory_mb", [0.0, -1.0, float("nan"), float("inf")])
+def test_clean_stats_refuse_a_memory_budget_that_is_not_a_positive_number(memory_mb):
+    """NaN passed every check and read the whole sequence in one stripe: the budget was not kept."""
+    seq = _seq()
+    with pytest.raises(ConfigError, match="memory_mb must be a positive number"):
+        clean_stats(lambda: iter(seq), 4000.0, memory_mb=memory_mb)

@@ -14,7 +14,7 @@ from rich.table import Table
 from d2sr.atomic import atomic_dir, check_out
 from d2sr.cli.common import Overwrite, Topic, renamed, resolution_of
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import Reader
+from d2sr.frames.base import Reader, positive_finite
 from d2sr.frames.checks import checked_counts, open_input
 from d2sr.provenance import stamp
 from d2sr.ui import NA, console, progress_bar
@@ -121,8 +121,8 @@ def label(
     from d2sr.frames.layout import LABELS, FrameFolder
     from d2sr.scene import Labeller, clean_stats, label_frames
 
-    if memory_mb <= 0:
-        raise ConfigError("--memory-mb must be positive")
+    if not positive_finite(memory_mb):
+        raise ConfigError(f"--memory-mb must be a positive number, got {memory_mb}")
     check_out(out, is_dir=True, overwrite=overwrite, inputs=[clean, interfered])
     creader, scale = open_input(clean, topic, depth_scale, "clean")
     ireader, _ = open_input(interfered, topic, scale, "interfered")

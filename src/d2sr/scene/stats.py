@@ -12,7 +12,8 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-from d2sr.errors import InputError
+from d2sr.errors import ConfigError, InputError
+from d2sr.frames.base import positive_finite
 
 __all__ = [
     "STAT_FIELDS",
@@ -54,6 +55,8 @@ def clean_stats(
     when the reader knows it, to skip the pass that counts frames."""
     if depth_scale <= 0 or not np.isfinite(depth_scale):
         raise InputError(f"depth scale must be a positive number, got {depth_scale}")
+    if not positive_finite(memory_mb):  # NaN read the whole sequence at once
+        raise ConfigError(f"memory_mb must be a positive number, got {memory_mb}")
     first = iter(frames())
     f0 = next(first, None)
     if f0 is None:
