@@ -24,11 +24,14 @@ import matplotlib.pyplot as plt
 from d2sr.atomic import atomic_dir
 from d2sr.contract.catalog import DEFAULT_MODEL
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
+from d2sr.errors import ConfigError
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
+from d2sr.frames.base import positive_finite
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
+from d2sr.sim.record import MAX_SECONDS
 from d2sr.sim.timing import TimingConfig
 
 __all__ = ["CAPTION", "DEMO_CONTROLLERS", "HEADERS", "markdown_table", "read_log", "run_demo", "table_rows"]
@@ -89,6 +92,8 @@ def run_demo(
     progress: Callable[[str, float], None] | None = None,
 ) -> dict:
     """Run each controller's closed loop; write runs, plots, ``results.json`` and ``report.md``."""
+    if not (positive_finite(seconds) and seconds <= MAX_SECONDS):  # inf overflowed, 1e9 ran for ever
+        raise ConfigError(f"seconds must be in (0, {MAX_SECONDS:g}] for the demo, got {seconds}", "seconds")
     periods = round(seconds * TimingConfig().fps / TOTAL_FRAMES)
     results: dict[str, dict] = {}
     examples: list[tuple[int, Result]] = []
