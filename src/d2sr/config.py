@@ -3,6 +3,7 @@ checks the entry points' other arguments (paths, objects of a kind, callbacks) t
 
 from __future__ import annotations
 
+import numbers
 import os
 import tomllib
 from pathlib import Path
@@ -17,6 +18,7 @@ __all__ = [
     "check_callbacks",
     "check_instances",
     "check_paths",
+    "check_whole",
     "load_toml",
     "one_line",
     "read_toml",
@@ -95,3 +97,9 @@ def check_paths(**arguments: object) -> None:
     for name, value in arguments.items():
         if not isinstance(value, str | os.PathLike):
             raise ConfigError(f"{name} must be a path, got {type(value).__name__}")
+
+
+def check_whole(name: str, value: object, lo: int, hi: int) -> None:
+    """``value`` is a whole number in ``lo..hi`` (not a bool): a count that sizes work or memory."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not lo <= int(value) <= hi:
+        raise ConfigError(f"{name} must be a whole number in {lo}..{hi}, got {str(value)[:40]}", name)

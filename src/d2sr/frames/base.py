@@ -62,9 +62,7 @@ class Intrinsics:
             raise InputError(
                 f"intrinsics: fx and fy must be finite and positive, got {self.fx!r}, {self.fy!r}"
             )
-        if not all(
-            isinstance(v, numbers.Real) and not isinstance(v, bool) and _finite(v) for v in (self.px, self.py)
-        ):
+        if not (finite_real(self.px) and finite_real(self.py)):
             raise InputError(f"intrinsics: px and py must be finite, got {self.px!r}, {self.py!r}"[:120])
 
     def scaled(self, width: int, height: int) -> Intrinsics:
@@ -253,7 +251,10 @@ def probe(frames: list[Frame], scale: float, max_range: float = PLAUSIBLE_M[1]) 
     return warnings
 
 
-def _finite(x: numbers.Real) -> bool:
+def finite_real(x: object) -> bool:
+    """``x`` is a real number and finite (not a bool, a string, or an integer too large for a float)."""
+    if not isinstance(x, numbers.Real) or isinstance(x, bool):
+        return False
     try:
         return math.isfinite(float(x))
     except OverflowError:  # an int beyond a float's range
@@ -261,14 +262,9 @@ def _finite(x: numbers.Real) -> bool:
 
 
 def positive_finite(x: object) -> bool:
-    """``x`` is a real number, finite and positive (not a bool, a string, or an integer too large for a
-    float): what a scale read from a file must be before any arithmetic on it."""
-    if not isinstance(x, numbers.Real) or isinstance(x, bool):
-        return False
-    try:
-        return math.isfinite(float(x)) and float(x) > 0
-    except OverflowError:  # an int beyond a float's range
-        return False
+    """``x`` is a real number, finite and positive: what a scale read from a file must be before any
+    arithmetic on it."""
+    return finite_real(x) and float(x) > 0  # type: ignore[arg-type]  # a Real, checked
 
 
 def check_scale(depth_scale: float | None, where: str) -> float | None:

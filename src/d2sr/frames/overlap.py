@@ -15,13 +15,16 @@ from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from d2sr.errors import ConfigError
+from d2sr.config import check_whole
 
 __all__ = ["MAX_WORKERS", "Behind", "prefetch", "processes"]
 
 T = TypeVar("T")
 
 
+# How long a stopped reader or worker may take to finish what it is doing (a frame's decode) before the
+# caller goes on without it.
+STOP_S = 10.0
 MAX_WORKERS = 256  # processes one job starts, at most (a hundred thousand asked took the machine's memory)
 
 
@@ -30,8 +33,7 @@ def processes(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A pool of ``workers`` processes that ends with its caller: when the block is left by an error or an
     interrupt, the work not started is cancelled and the workers are ended. ProcessPoolExecutor's own exit
     waits for every task queued, so a Ctrl-C on a long simulation ran on for hours."""
-    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
-        raise ConfigError(f"workers must be a whole number in 1..{MAX_WORKERS}, got {workers}", "workers")
+    check_whole("workers", workers, 1, MAX_WORKERS)
     pool = ProcessPoolExecutor(workers, initializer=_worker_signals)
     try:
         yield pool
@@ -51,11 +53,6 @@ def _worker_signals() -> None:
     otherwise raise the caller's KeyboardInterrupt and print a traceback of its own)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
-# How long a stopped reader may take to finish the item it is producing (a frame's decode) before the
-# caller goes on without it.
-STOP_S = 10.0
 
 
 @contextmanager

@@ -62,10 +62,10 @@ def warm_codecs() -> None:
 def _decode(data: bytes, kind: str) -> tuple[Any, "Header"] | str:
     """(rosbags' message of ``kind`` from CDR ``data``, its header as ours), or why it cannot be read."""
     try:
-        m = _store().deserialize_cdr(bytes(data), kind)
+        m = _store().deserialize_cdr(data, kind)
         return m, Header(Time(m.header.stamp.sec, m.header.stamp.nanosec), m.header.frame_id)
     except Exception as exc:  # rosbags raises its own and Python's errors on bytes that are not CDR
-        return f"{type(exc).__name__}: {str(exc).splitlines()[0][:80] if str(exc) else 'no detail'}"
+        return f"{type(exc).__name__}: {(str(exc).splitlines() or ['no detail'])[0][:80]}"
 
 
 def unreadable(msg: Any) -> str | None:

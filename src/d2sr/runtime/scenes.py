@@ -26,7 +26,7 @@ def learn_scene_recording(
 ) -> StoredScene:
     """Learn the scene of ``clean`` (any recording d2sr reads: its frames must be clean, the sensor still;
     read as ``settings`` say: depth scale, topic, range) and store it in ``out`` (a ``.npz`` file)."""
-    check_paths(clean=clean, out=out)
+    check_paths(clean=clean)  # check_out skips an input of None, and reads --out's own
     check_instances(settings=(settings, RunSettings))
     check_callbacks(say=say)
     check_out(out, is_dir=False, overwrite=overwrite, inputs=[clean])

@@ -13,8 +13,7 @@ import cv2
 import numpy as np
 from pydantic import Field
 
-from d2sr.config import Settings
-from d2sr.errors import ConfigError
+from d2sr.config import Settings, check_whole
 from d2sr.frames.base import Intrinsics
 
 __all__ = [
@@ -188,10 +187,8 @@ def make_room(
     size: tuple[float, float, float] | None = None,
 ) -> Room:
     """A random furnished room (4-8 m by 4-7 m); furniture keeps clear of the given camera positions."""
-    if people is not None and (
-        isinstance(people, bool) or not isinstance(people, int) or not 0 <= people <= MAX_PEOPLE
-    ):
-        raise ConfigError(f"people must be a whole number in 0..{MAX_PEOPLE}, got {people}")
+    if people is not None:
+        check_whole("people", people, 0, MAX_PEOPLE)
     rng = np.random.default_rng([seed, 0x5CE])
     dims = np.array(size or (rng.uniform(4.0, 8.0), rng.uniform(4.0, 7.0), rng.uniform(2.5, 3.2)))
     keep = [np.array([p.x, p.y]) for p in cameras or []]

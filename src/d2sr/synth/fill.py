@@ -4,13 +4,13 @@ through the colour frames, ``synth.motion``), or is unknown: then the last real 
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from d2sr.errors import ConfigError, InputError
+from d2sr.config import check_instances, check_whole
+from d2sr.errors import InputError
 from d2sr.frames.base import Intrinsics
 from d2sr.synth.along import fill_along_colour
 from d2sr.synth.motion import ColourTrack
@@ -54,18 +54,9 @@ class Filler:
     hole is filled from its background side (None: 5% of the width)."""
 
     def __init__(self, intrinsics: Intrinsics | None = None, radius: int | None = None) -> None:
-        if intrinsics is not None and not isinstance(intrinsics, Intrinsics):
-            raise ConfigError(
-                f"intrinsics must be d2sr.frames.Intrinsics or None, got {type(intrinsics).__name__}"
-            )
-        if radius is not None and (
-            isinstance(radius, bool)
-            or not isinstance(radius, numbers.Integral)
-            or not 0 <= radius <= MAX_RADIUS
-        ):
-            raise ConfigError(
-                f"radius must be a whole number of pixels in 0..{MAX_RADIUS}, got {str(radius)[:40]}"
-            )
+        check_instances(intrinsics=(intrinsics, Intrinsics))
+        if radius is not None:
+            check_whole("radius", radius, 0, MAX_RADIUS)
         self.intrinsics = intrinsics
         self.radius = radius
         self._track: ColourTrack | None = None
