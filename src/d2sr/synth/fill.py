@@ -51,7 +51,7 @@ class Filler:
     every frame it skipped, in time order. ``colour``: the colour frame at the same time (BGR or grey,
     same size as the depth); ``pose``: the camera's pose in the caller's world frame (camera to world);
     ``intrinsics``: the depth camera's (depth aligned to colour), guessed when None; ``radius``: pixels a
-    hole is filled from its background side (None: 5% of the width)."""
+    hole is filled from its background side, 0..MAX_RADIUS (None: 5% of the width)."""
 
     def __init__(self, intrinsics: Intrinsics | None = None, radius: int | None = None) -> None:
         check_instances(intrinsics=(intrinsics, Intrinsics))
