@@ -15,7 +15,7 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "ros2_dept
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
-def test_the_docs_ros2_example_gets_every_frame_back_repaired():
+def test_the_docs_ros2_example_gets_every_frame_back_and_only_the_interfered_ones_changed():
     pytest.importorskip("cyclonedds")
     domain = random.randint(100, 200)
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
@@ -34,5 +34,5 @@ def test_the_docs_ros2_example_gets_every_frame_back_repaired():
         node.communicate(timeout=30)
     assert res.returncode == 0, res.stdout + res.stderr
     assert f"6 of 6 frames came back on {topic}/repaired" in res.stdout
-    lines = [line for line in res.stdout.splitlines() if line.startswith("frame ")]
-    assert len(lines) == 6 and any(" 0 pixels repaired" not in line for line in lines[1::2])
+    # What the example's docstring says a correct result is: clean frames untouched, interfered ones put back.
+    assert "clean frames unchanged: 3 of 3; interfered frames repaired: 3 of 3" in res.stdout

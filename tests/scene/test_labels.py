@@ -204,7 +204,21 @@ def test_stack_stats_computes_only_the_fields_asked_for_and_the_same_values():
     stack[rng.random(stack.shape) < 0.3] = 0
     full, part = stack_stats(stack), stack_stats(stack, READ)
     assert tuple(full) == STAT_FIELDS and tuple(part) == READ
-    assert all(np.array_equal(full[k], part[k]) for k in READ)
+    assert all(np.array_equal(full[k], part[k]) for k in READ if k in STAT_FIELDS)
+
+
+@pytest.mark.parametrize("part", [0.25, 0.5])
+def test_stack_stats_gap_is_the_widest_gap_leaving_a_part_of_the_returns_on_each_side(part):
+    """``gap``, against each pixel's returns sorted one by one."""
+    rng = np.random.default_rng(1)
+    stack = rng.integers(1, 9000, (16, 9, 11)).astype(np.uint16)
+    stack[rng.random(stack.shape) < 0.4] = 0
+    got = stack_stats(stack, ("gap",), part)["gap"]
+    for (y, x), value in np.ndenumerate(got):
+        r = np.sort(stack[:, y, x][stack[:, y, x] > 0]).astype(float)
+        least = max(int(np.ceil(part * len(r))), 1)
+        gaps = [r[i + 1] - r[i] for i in range(len(r) - 1) if i + 1 >= least and len(r) - 1 - i >= least]
+        assert value == (max(gaps) if gaps else 0)
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 16, 17, 31, 32, 33])

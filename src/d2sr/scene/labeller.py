@@ -99,16 +99,36 @@ class Labeller:
 
     def mask(self, frame_m: np.ndarray) -> np.ndarray:
         """Boolean interference mask of one frame (metres, 0 = no return)."""
+        self._check(frame_m)
+        if self.method == "paper":
+            s = self.s
+            paper: np.ndarray = (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
+            return paper
+        return self._dense(self._raw(frame_m), frame_m > 0)
+
+    def masks(self, frame_m: np.ndarray, unknown: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(``mask`` of the frame, the same with no return at an ``unknown`` pixel taken as a deviation):
+        what changed, and what of it is evidence where the clean sequence does not tell one depth (the
+        ``stats`` method)."""
+        self._check(frame_m)
+        raw, has = self._raw(frame_m), frame_m > 0
+        every = self._dense(raw, has)
+        drop = raw & has & unknown
+        if not drop.any():  # the same mask: one object, which callers may test for
+            return every, every
+        return every, self._dense(raw & ~drop, has)
+
+    def _check(self, frame_m: np.ndarray) -> None:
         if frame_m.shape != self.s.shape:
             raise InputError(
                 f"interfered frame is {frame_m.shape[1]}x{frame_m.shape[0]}, the clean sequence is "
                 f"{self.s.shape[1]}x{self.s.shape[0]}"
             )
-        s = self.s
-        if self.method == "paper":
-            paper: np.ndarray = (np.abs(frame_m - s.median) > self.thr) & ~self.random_error
-            return paper
-        lim = self._limits
+
+    def _raw(self, frame_m: np.ndarray) -> np.ndarray:
+        """Each pixel that deviates on its own: a dropout where the pixel is reliable, a return where it
+        seldom returns far from its depth, a return outside its clean range."""
+        s, lim = self.s, self._limits
         has = frame_m > 0
         dropout = ~has & lim["reliable"]
         # A spurious return is one where the scene seldom returns (few pixels): worked out only there.
@@ -117,11 +137,15 @@ class Labeller:
         far = np.abs(frame_m.ravel()[at] - s.nz_median.ravel()[at]) > lim["tol"].ravel()[at]
         spurious.ravel()[at] = lim["never"].ravel()[at] | far
         wrong = has & lim["common"] & ((frame_m < lim["below"]) | (frame_m > lim["above"]))
-        raw = dropout | spurious | wrong
+        raw: np.ndarray = dropout | spurious | wrong
+        return raw
+
+    def _dense(self, raw: np.ndarray, has: np.ndarray) -> np.ndarray:
+        """The raw deviations amid others, and dropouts of pixels that usually return amid many."""
         count = cv2.boxFilter(raw.view(np.uint8), -1, (DENSITY_PX, DENSITY_PX), normalize=False)
         # Inside a clear interference region, a dropout of a pixel that usually returns is more likely
         # the interference than the pixel's own flicker.
-        likely = ~has & lim["likely"] & (count >= self._likely_from)
+        likely = ~has & self._limits["likely"] & (count >= self._likely_from)
         out: np.ndarray = (raw & (count >= self._dense_from)) | likely
         return out
 

@@ -41,7 +41,7 @@ __all__ = ["SceneReference"]
 
 #: The statistics the evidence and the repair read, refreshed stripe by stripe (``median`` and ``mean_err``
 #: are ``d2sr label``'s, for the paper's method only).
-READ = ("rate", "nz_median", "lo", "hi")
+READ = ("rate", "nz_median", "lo", "hi", "gap")
 
 
 class SceneReference:
@@ -51,7 +51,16 @@ class SceneReference:
     _stats: CleanStats | None  # None until warm
     _labeller: Labeller | None
     _streak: np.ndarray | None  # per pixel, frames in a row it has deviated
-    _steady: np.ndarray  # bool: pixels the scene is sure of (``trust_rate``), once warm (``_limits``)
+    # A pixel whose clean frames read two depths, apart by more than its own noise (``trust_abs``,
+    # ``trust_rel``), each in ``split_part`` of them or more, is parted: interference the detector passed,
+    # repeating at one place. It tells no surface: its median may be the interference's or lie between the
+    # two, and either may be the clean one. Interference comes in patches: a pixel amid parted ones (a
+    # quarter of its 9x9) is split too, though its few returns agreed.
+    _gap: np.ndarray  # float32 m: the clean returns' widest gap (``stack_stats``), once warm
+    _parted: np.ndarray  # bool, once warm
+    _split: np.ndarray  # bool: wide, or amid wide pixels; its returns are no evidence
+    _agree: np.ndarray  # bool: returning pixels that are not split
+    _steady: np.ndarray  # bool: pixels the scene is sure of (``trust_rate``, agreeing), once warm
     _shift_px: np.ndarray  # bool: pixels shifted windows are worked out over (``shift_rate``), once warm
     _far_lo: np.ndarray  # a return below this is far off, once warm (``_limits``)
     _far_hi: np.ndarray  # and above this
@@ -147,24 +156,32 @@ class SceneReference:
         if self.count < self.settings.warm or self._stored:
             return
         if self._stats is None:  # just warm: every stripe at once
-            self._start(frame.shape, _stats(self._ring[: self.count], self.scale))
+            ring = self._ring[: self.count]
+            gap = stack_stats(ring, ("gap",), self.settings.split_part)["gap"] / np.float32(self.scale)
+            self._start(frame.shape, _stats(ring, self.scale), gap)
             return
         stripes = self.settings.stripes
         rows = -(-frame.shape[0] // stripes)
         r0 = self._stripe * rows
         r1 = min(frame.shape[0], r0 + rows)
-        fresh = stack_stats(self._ring[: self.count, r0:r1], READ)
-        for name, v in _metres(fresh, self.scale).items():
+        part = stack_stats(self._ring[: self.count, r0:r1], READ, self.settings.split_part)
+        fresh = _metres(part, self.scale)
+        self._gap[r0:r1] = fresh.pop("gap")
+        for name, v in fresh.items():
             getattr(self._stats, name)[r0:r1] = v
         self._limits(slice(r0, r1))
         self._stripe = (self._stripe + 1) % stripes
 
-    def _start(self, shape: tuple[int, ...], stats: CleanStats) -> None:
-        """The scene's statistics (of the first ``warm`` clean frames, or stored), and the limits read from
-        them."""
+    def _start(self, shape: tuple[int, ...], stats: CleanStats, gap: np.ndarray | None = None) -> None:
+        """The scene's statistics (of the first ``warm`` clean frames, or stored: learned clean, no gaps) and
+        their returns' ``gap`` (``stack_stats``, metres), and the limits read from them."""
         s = self.settings
         self._stats = stats
+        self._gap = gap if gap is not None else np.zeros(shape, np.float32)
         self._labeller = Labeller(self._stats, tolerance=(s.tol_abs, s.tol_rel))
+        self._parted = np.zeros(shape, bool)
+        self._split = np.zeros(shape, bool)
+        self._agree = np.zeros(shape, bool)
         self._steady = np.zeros(shape, bool)
         # At trust_rate the shifted windows' pixels are the steady ones: the same array, kept once.
         self._shift_px = self._steady if s.shift_rate == s.trust_rate else np.zeros(shape, bool)
@@ -180,13 +197,25 @@ class SceneReference:
         s, labeller, cfg = self._stats, self._labeller, self.settings
         assert s is not None and labeller is not None
         labeller.refresh(rows)
-        self._steady[rows] = (s.rate[rows] >= cfg.trust_rate) & (s.nz_median[rows] > 0)
+        median = s.nz_median[rows]
+        self._parted[rows] = (self._gap[rows] > cfg.trust_abs + cfg.trust_rel * median) & (median > 0)
+        # The split pixels, which the parted ones decide within their 9x9 neighbourhoods (beyond the stripe).
+        start = rows.start or 0
+        near = slice(max(start - 4, 0), None if rows.stop is None else rows.stop + 4)
+        top = start - near.start
+        parted = self._parted[near]
+        split = parted | (neighbours(parted) >= QUARTER)
+        split = split[top : top + (s.rate[rows].shape[0])]
+        self._split[rows] = split
+        agree = self._agree[rows] = ~split & (s.nz_median[rows] > 0)
+        self._steady[rows] = (s.rate[rows] >= cfg.trust_rate) & agree
         if self._shift_px is not self._steady:
-            self._shift_px[rows] = (s.rate[rows] >= cfg.shift_rate) & (s.nz_median[rows] > 0)
+            self._shift_px[rows] = (s.rate[rows] >= cfg.shift_rate) & agree
         self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
-        # A return is far off only where the scene returns at least range_rate of the time (+-inf elsewhere).
+        # A return is far off only where the scene returns at least range_rate of the time, at one depth
+        # (+-inf elsewhere).
         tol = cfg.far_abs + cfg.far_rel * s.nz_median[rows]
-        often = s.rate[rows] >= cfg.range_rate
+        often = (s.rate[rows] >= cfg.range_rate) & ~split
         self._far_lo[rows] = np.where(often, s.lo[rows] - tol, -np.inf)
         self._far_hi[rows] = np.where(often, s.hi[rows] + tol, np.inf)
         self._known = max(int(self._returned.sum()), 1)
@@ -205,9 +234,9 @@ class SceneReference:
             return none(frame.shape)
         cfg = self.settings
         metres = to_metres(frame, self.scale) if metres is None else metres
-        deviates = self._labeller.mask(metres)
+        seen, deviates = self._labeller.masks(metres, self._split)
         known = self._known
-        share = float(np.count_nonzero(deviates)) / known
+        share = float(np.count_nonzero(seen)) / known
         if self._view_changed(share):
             return none(frame.shape)
         if share > cfg.elsewhere:  # another view: no evidence
@@ -221,6 +250,9 @@ class SceneReference:
             self._naps = 0
         self._judged = share
         shift, off_px = self._shifted(metres)
+        # Every deviation tells what moved and what lasts; a return where the scene knows no one depth (split)
+        # is no evidence of interference, nor a dropout amid such returns.
+        changed = seen | shift
         mask = deviates | shift
         near = neighbours(deviates)
         dense_share = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference not
@@ -234,8 +266,12 @@ class SceneReference:
                 fresh = fresh | (mask & self._on_surface(metres))
             return fresh, dense(fresh & deviates, known)
 
-        self._before = _explains(metres, mask, neighbours(mask) if shift.any() else near)
-        self._keep_lasting(frame, mask)
+        if seen is not deviates:
+            near = neighbours(changed)
+        elif shift.any():
+            near = neighbours(mask)
+        self._before = _explains(metres, changed, near)
+        self._keep_lasting(frame, changed)
         far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
         parts = Parts(cfg, explain, shift, off_px, far_off, before)
         return Evidence(
@@ -366,7 +402,7 @@ class SceneReference:
         keep = (m > 0) & ~ev.mask & (seldom | within)
         depth = np.where(where, s.nz_median, 0).astype(np.float32)
         if ev.shift_evident:
-            at, by = _offsets(ev, s, where, cfg)
+            at, by = _offsets(ev, s, where, cfg, self._agree)
             where, keep = where | at, keep & ~at
             depth[at] = m[at] - by[at]
         return SceneRepair(where, depth, keep)
@@ -381,6 +417,7 @@ class SceneReference:
         s.nz_median[where] = s.lo[where] = s.hi[where] = v
         s.rate[where] = (v > 0).astype(np.float32)
         s.mean_err[where] = 0
+        self._gap[where] = 0
         self._streak[where] = 0
         self._limits()
 
@@ -396,16 +433,16 @@ def _explains(metres: np.ndarray, mask: np.ndarray, near: np.ndarray) -> np.ndar
 
 
 def _offsets(
-    ev: Evidence, s: CleanStats, filled: np.ndarray, cfg: SceneSettings
+    ev: Evidence, s: CleanStats, filled: np.ndarray, cfg: SceneSettings, agree: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(bool: returns of a surface shifted as a whole, float32: their window's mean offset in metres). A
     window's mean over a hundred-odd pixels is known to a few millimetres where each pixel's own noise spans
     centimetres. A return amid such a surface (windows whose fresh shifted pixels are a quarter of the window
     and half of its returns) that reads off the same way, by at least half the mean, takes its own depth
     less the mean; where the scene's fill (``filled``) writes its median, only if the offsets agree (spread
-    within ``shift_m``) and are within ``offset_cap``."""
+    within ``shift_m``) and are within ``offset_cap``; only where the clean depths ``agree``."""
     m = ev.metres
-    has = (m > 0) & (s.rate >= cfg.range_rate) & (s.nz_median > 0)
+    has = (m > 0) & (s.rate >= cfg.range_rate) & agree
     diff = np.subtract(m, s.nz_median, dtype=np.float32)
     diff *= has  # products, not np.where: a third of the time on scattered masks
     assert ev.parts is not None and ev.parts.shift is not None  # a shift-evident frame has shifted windows

@@ -92,13 +92,20 @@ def clean_stats(
 STAT_FIELDS = ("median", "rate", "nz_median", "lo", "hi", "mean_err")
 
 
-def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dict[str, np.ndarray]:
+def stack_stats(
+    stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS, part: float = 0.25
+) -> dict[str, np.ndarray]:
     """``CleanStats``' fields (in the frames' units, ``rate`` a share) of a stack of uint16 frames or of
-    rows of them, ``(n, rows, width)``; only ``fields`` (a scene reference refreshes the four it reads)."""
+    rows of them, ``(n, rows, width)``; only ``fields`` (a scene reference refreshes the ones it reads).
+    Also ``gap`` when asked: the widest gap between a pixel's sorted returns that leaves at least ``part``
+    of them on each side (0 where none does), which two depths at one pixel open and one depth's noise
+    does not."""
     n = stack.shape[0]
     srt = sort_frames(stack)
     k = (srt > 0).sum(axis=0)  # returns per pixel; zeros sort first
     out: dict[str, np.ndarray] = {}
+    if "gap" in fields:
+        out["gap"] = _gap(srt, k, part)
     if "median" in fields or "mean_err" in fields:
         out["median"] = _at(srt, np.full(k.shape, (n - 1) / 2))
     if "rate" in fields:
@@ -109,6 +116,21 @@ def stack_stats(stack: np.ndarray, fields: tuple[str, ...] = STAT_FIELDS) -> dic
     if "mean_err" in fields:
         out["mean_err"] = np.abs(stack.astype(np.float32) - out["median"][None]).mean(axis=0)
     return {name: out[name] for name in fields}
+
+
+def _gap(srt: np.ndarray, k: np.ndarray, part: float) -> np.ndarray:
+    """``stack_stats``' ``gap`` (float32, in the frames' units) of a sorted stack, ``k`` returns a pixel."""
+    n = srt.shape[0]
+    if n < 2:
+        return np.zeros(k.shape, np.float32)
+    least = np.maximum(np.ceil(part * k), 1).astype(np.intp)  # returns each side keeps
+    # The gap after sorted index i leaves i + 1 - (n - k) returns below it and n - 1 - i above.
+    first, last = n - k + least - 1, n - 1 - least
+    at = np.arange(n - 1, dtype=np.intp).reshape(-1, *([1] * k.ndim))
+    gaps = np.diff(srt, axis=0)  # sorted: never negative
+    gaps *= (at >= first) & (at <= last)
+    out: np.ndarray = gaps.max(axis=0).astype(np.float32)
+    return out
 
 
 def sort_frames(stack: np.ndarray) -> np.ndarray:
