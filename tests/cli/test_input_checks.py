@@ -74,8 +74,43 @@ def test_the_scale_used_and_its_source_are_printed(tmp_path, weights):
     code, out, err = _run(["detect", str(src), "--out", str(tmp_path / "a.csv"), "--models", str(weights)])
     assert code == 0 and "depth scale 4000 units per metre (from the recording)" in out, out + err
     args = ["detect", str(src), "--out", str(tmp_path / "b.csv"), "--models", str(weights)]
-    code, out, err = _run([*args, "--depth-scale", "1000"])
+    code, out, err = _run([*args, "--depth-scale", "1000", "--recording-scale-wrong"])
     assert "(as given)" in out and "it says its depth scale is 4000; using the one given, 1000" in err
+
+
+@pytest.mark.parametrize("given", ["40000", "1000", "4001"])
+def test_a_depth_scale_that_contradicts_the_recording_s_is_refused_before_any_work(tmp_path, weights, given):
+    """recover l515/dev1 --depth-scale 40000 (its intrinsics say 4000) repaired 41 of 195 clean frames by up
+    to 11 m and exited 0; a scale too large passed the range check. Now one line naming both scales, exit 2,
+    nothing written, in the CLI and the library alike; the user says when the recording's own is wrong."""
+    import d2sr
+    from d2sr.runtime.settings import RunSettings
+
+    rng = np.random.default_rng(3)
+    src = _folder(tmp_path / "in", [_room(rng, 2.0) for _ in range(3)], 4000)
+    (src / "meta.json").write_text('{"depth_scale": 4000}')
+    out = tmp_path / "o"
+    code, _, err = _run(
+        ["recover", str(src), "--out", str(out), "--models", str(weights), "--depth-scale", given]
+    )
+    assert code == 2 and not out.exists(), err
+    line = err.strip().splitlines()[-1]
+    assert f"--depth-scale {given} given, but the recording says 4000" in line, err
+    assert "--recording-scale-wrong" in line and len(err.strip().splitlines()) == 1, err
+    with pytest.raises(InputError, match="recording_scale_wrong"):
+        d2sr.recover_recording(src, out, RunSettings(depth_scale=float(given), models=weights))
+    assert not out.exists()
+    learn = ["scene", "learn", str(src), "--out", str(tmp_path / "s.npz"), "--depth-scale", given]
+    assert _run(learn)[0] == 2 and not (tmp_path / "s.npz").exists()
+    # Said explicitly: taken, with a warning; the recording's own scale or none given: as before.
+    code, _, err = _run(
+        ["recover", str(src), "--out", str(out), "--models", str(weights), "--depth-scale", "1000",
+         "--recording-scale-wrong"]
+    )  # fmt: skip
+    assert code == 0 and "using the one given, 1000" in err, err
+    for same in (["--depth-scale", "4000"], []):
+        args = ["recover", str(src), "--out", str(tmp_path / f"same{len(same)}"), "--models", str(weights)]
+        assert _run([*args, *same])[0] == 0
 
 
 def test_frames_with_no_valid_depth_are_named(tmp_path, weights):

@@ -38,6 +38,13 @@ Scale = Annotated[
     float | None,
     typer.Option(help="Units per metre (default: what the recording says, else 1000; raw L515 is 4000)."),
 ]
+ScaleWrong = Annotated[
+    bool,
+    typer.Option(
+        help="The recording's own depth scale is wrong: --depth-scale replaces it (else a --depth-scale that "
+        "contradicts it is refused)."
+    ),
+]
 Input = Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")]
 Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 ColourTopic = Annotated[

@@ -19,6 +19,7 @@ from d2sr.cli.common import (
     Passes,
     PrimeOpt,
     Scale,
+    ScaleWrong,
     SceneFromOpt,
     SceneOpt,
     SceneRepairOpt,
@@ -60,6 +61,7 @@ def fleet(
         ),
     ] = None,
     depth_scale: Scale = None,
+    recording_scale_wrong: ScaleWrong = False,
     repair: Annotated[
         str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
     ] = "flagged",
@@ -90,6 +92,7 @@ def fleet(
     from d2sr.fleet import Cluster, FleetProgress, recover_fleet
 
     settings = RunSettings(
+        recording_scale_wrong=recording_scale_wrong,
         depth_scale=depth_scale, topic=topic, repair=repair, model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,

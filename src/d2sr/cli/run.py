@@ -22,6 +22,7 @@ from d2sr.cli.common import (
     RepairOpt,
     RerunOpt,
     Scale,
+    ScaleWrong,
     SceneFromOpt,
     SceneRepairOpt,
     Threshold,
@@ -62,6 +63,7 @@ def run(
     mask_logit: MaskLogit = None,
     passes: Passes = REPAIR_PASSES,
     depth_scale: Scale = None,
+    recording_scale_wrong: ScaleWrong = False,
     topic: Topic = None,
     backend: BackendOpt = "auto",
     models: ModelDir = WEIGHTS,
@@ -129,7 +131,8 @@ def run(
     settings = RunSettings(
         model=model, models=models, backend=backend, repair=repair, threshold=threshold,
         mask_logit=mask_logit, passes=passes, depth_scale=depth_scale, max_range=max_range, topic=topic,
-        threads=threads, int8=int8, scene_repair=scene_repair, prime=prime, scene_from=scene_from, **given,
+        threads=threads, int8=int8, scene_repair=scene_repair, prime=prime, scene_from=scene_from,
+        recording_scale_wrong=recording_scale_wrong, **given,
     )  # fmt: skip
     loop = LoopSettings(
         controller=controller, active_frames=active_frames, seed=seed, sensors=sensors, seconds=seconds,

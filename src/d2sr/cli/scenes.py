@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from d2sr.cli.common import Input, MaxRange, Overwrite, Scale, Topic
+from d2sr.cli.common import Input, MaxRange, Overwrite, Scale, ScaleWrong, Topic
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.settings import RunSettings
 from d2sr.ui import print_line
@@ -19,6 +19,7 @@ def learn(
     clean: Input,
     out: Annotated[Path, typer.Option(help="The scene file to write (.npz).")],
     depth_scale: Scale = None,
+    recording_scale_wrong: ScaleWrong = False,
     topic: Topic = None,
     max_range: MaxRange = PLAUSIBLE_M[1],
     overwrite: Overwrite = False,
@@ -30,7 +31,9 @@ def learn(
     """
     from d2sr.runtime.scenes import learn_scene_recording
 
-    settings = RunSettings(depth_scale=depth_scale, topic=topic, max_range=max_range)
+    settings = RunSettings(
+        recording_scale_wrong=recording_scale_wrong, depth_scale=depth_scale, topic=topic, max_range=max_range
+    )
     s = learn_scene_recording(clean, out, settings, overwrite=overwrite, say=print_line)
     h, w = s.shape
     print_line(

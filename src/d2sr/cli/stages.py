@@ -22,6 +22,7 @@ from d2sr.cli.common import (
     PrimeOpt,
     RerunOpt,
     Scale,
+    ScaleWrong,
     SceneFromOpt,
     SceneOpt,
     SceneRepairOpt,
@@ -56,6 +57,7 @@ def detect(
         ),
     ],
     depth_scale: Scale = None,
+    recording_scale_wrong: ScaleWrong = False,
     threshold: Threshold = None,
     topic: Topic = None,
     backend: BackendOpt = "auto",
@@ -73,6 +75,7 @@ def detect(
     from d2sr.runtime.batch import detect_recording
 
     settings = RunSettings(
+        recording_scale_wrong=recording_scale_wrong,
         depth_scale=depth_scale, topic=topic, threshold=threshold, models=models, backend=backend,
         max_range=max_range, scene=scene, prime=prime, scene_from=scene_from,
     )  # fmt: skip
@@ -91,6 +94,7 @@ def recover(
         ),
     ],
     depth_scale: Scale = None,
+    recording_scale_wrong: ScaleWrong = False,
     repair: Annotated[
         str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
     ] = "flagged",
@@ -135,6 +139,7 @@ def recover(
     from d2sr.runtime.batch import Written, recover_recording
 
     settings = RunSettings(
+        recording_scale_wrong=recording_scale_wrong,
         depth_scale=depth_scale, topic=topic, repair=repair, model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,

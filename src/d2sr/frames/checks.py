@@ -25,16 +25,30 @@ def open_input(
     default: float | None = None,
     max_range: float = PLAUSIBLE_M[1],
     say: Callable[[str], object] | None = None,
+    recording_wrong: bool | None = None,
 ) -> tuple[Reader, float]:
     """A non-empty recording and its depth scale: ``scale`` if given, else what the recording says, else
-    ``default`` (None: the user must say). Frames sampled through it are checked before any work (values,
-    size, a scale that makes indoor sense); the scale used and where it came from are printed."""
+    ``default`` (None: the user must say). A given scale that contradicts the recording's is refused (every
+    clean frame would read off by their ratio and be judged and repaired so) unless ``recording_wrong``
+    (the ``RunSettings`` field of that name; None: the caller has no such setting). Frames sampled through
+    it are checked before any work (values, size, a scale that makes indoor sense); the scale used and where
+    it came from are printed."""
     reader = open_frames(path, topic=topic)
     notes = []  # warnings wait until every check passed: an error stays the only line
     if scale is not None:
         use, source = scale, "as given"
-        if reader.depth_scale and abs(reader.depth_scale - scale) > 1e-6 * scale:
-            notes.append(f"it says its depth scale is {reader.depth_scale:g}; using the one given, {scale:g}")
+        own = reader.depth_scale
+        if own and abs(own - scale) > 1e-6 * scale:
+            if not recording_wrong:
+                fix = (
+                    "" if recording_wrong is None else ", or set recording_scale_wrong if the recording's is"
+                )
+                raise InputError(
+                    f"{path}: depth_scale {scale:g} given, but the recording says {own:g} units per metre; "
+                    f"drop depth_scale to use the recording's{fix}",
+                    "depth_scale",
+                )
+            notes.append(f"it says its depth scale is {own:g}; using the one given, {scale:g}")
     elif reader.depth_scale:
         use, source = reader.depth_scale, "from the recording"
     else:

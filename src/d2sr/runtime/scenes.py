@@ -33,7 +33,9 @@ def learn_scene_recording(
     s = settings if settings is not None else RunSettings()
     if Path(out).suffix != ".npz":
         raise InputError(f"{out}: a stored scene is a .npz file", "out")
-    reader, scale = open_input(clean, s.topic, s.depth_scale, "clean", 1000.0, s.max_range, say)
+    reader, scale = open_input(
+        clean, s.topic, s.depth_scale, "clean", 1000.0, s.max_range, say, s.recording_scale_wrong
+    )
     if reader.depth_scale is None and s.depth_scale is None and say is not None:
         say(f"{clean}: no depth scale given or recorded; the scene is stored at {scale:g} units per metre")
     frames = lambda: (f.depth for f in checked_counts(reader, scale, "clean frame"))  # noqa: E731
@@ -60,6 +62,8 @@ def open_recording(
     """A recording's reader and depth scale as ``settings`` say (topic, scale, range; ``open_input`` prints
     through ``say``), with the stored scene they name checked against it before any work."""
     s = settings
-    reader, scale = open_input(input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say)
+    reader, scale = open_input(
+        input, s.topic, s.depth_scale, "input", 1000.0, s.max_range, say, s.recording_scale_wrong
+    )
     check_stored(s, reader, scale)
     return reader, scale

@@ -61,6 +61,11 @@ class RunSettings(Settings):
         "first is judged (0: none, as a live sensor starts).",
     )
     depth_scale: float | None = Field(None, gt=0, description="Units per metre [what the recording says].")
+    recording_scale_wrong: bool = Field(
+        False,
+        description="The recording's own depth scale is wrong: "
+        "depth_scale replaces it (else a depth_scale that contradicts it is refused).",
+    )
     max_range: float = Field(
         PLAUSIBLE_M[1], gt=0, description="Farthest median scene depth (m) the scale check accepts."
     )
