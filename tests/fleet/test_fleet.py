@@ -138,7 +138,7 @@ def test_the_command_line_names_each_failure_and_refuses_a_wrong_address_in_one_
     code, out, err = d2sr_inprocess(
         "fleet", str(rec), str(bad), "--out", str(tmp_path / "out"), "--depth-scale", "4000", "--no-scene"
     )
-    assert code == 1 and "1 of 2 recordings repaired" in out
+    assert code == 1 and "1 of 2 recordings done" in out
     assert len(err.strip().splitlines()) == 1 and err.startswith(f"d2sr: error: {bad}:")
     started = time.perf_counter()
     code, _, err = d2sr_inprocess(

@@ -816,12 +816,12 @@ def test_the_commands_judge_the_scene_by_default_and_no_scene_leaves_the_detecto
     assert flags["default"] == [0] * 9 + [1] and flags["alone"] == [0] * 10
     # the summary line says how many verdicts the scene weighed: every one, as the recording's frames ahead
     # built it first (``--prime``); from the 6th with --prime 0, as a live sensor starts
-    assert "1 of 10 frames interfered, the sensor's scene weighed 10 ->" in said["default"]
-    assert "0 of 10 frames interfered ->" in said["alone"]
+    assert "1 of 10 frames flagged as interfered; 10 also judged against the sensor's own" in said["default"]
+    assert "0 of 10 frames flagged as interfered ->" in said["alone"]
     code, cold, err = d2sr_inprocess(
         "detect", str(rec), "--depth-scale", "4000", "--out", str(tmp_path / "cold.csv"), "--prime", "0"
     )
-    assert code == 0 and "1 of 10 frames interfered, the sensor's scene weighed 5 ->" in cold, err
+    assert code == 0 and "1 of 10 frames flagged as interfered; 5 also judged against" in cold, err
     # Each result says whether the scene weighed it: from the 6th frame (4 build it, the 5th shows it still)
     frames = [f.depth for f in open_frames(rec)]
     judged = [d2sr.Pipeline(depth_scale=4000, scene=s) for s in (True, False)]

@@ -354,7 +354,7 @@ def test_recover_a_bag_with_its_colour_topic_gives_every_slot_a_depth_frame(tmp_
     out = tmp_path / "out"
     code, stdout, err = d2sr_inprocess("recover", str(tmp_path / "bag"), "--topic", DEPTH, "--colour-topic",
                                        COLOUR, "--models", str(weights), "--out", str(out))  # fmt: skip
-    assert code == 0 and f"synthesized {SLOTS - 12} for colour frames" in stdout, err
+    assert code == 0 and f"{SLOTS - 12} synthesized for colour frames" in stdout, err
     got: dict[str, list[tuple[int, object]]] = {}
     with AnyReader([out]) as r:
         for conn, _, raw in r.messages():

@@ -108,14 +108,18 @@ def fleet(
         s = recover_fleet(
             recordings, out, settings, written, cluster=Cluster(workers, address), progress=show
         )
-    table = Table("recording", "frames", "flagged", "repaired", "seconds", "status")
+    table = Table("recording", "frames", "flagged", "changed", "pixels", "seconds", "status")
     for o in s.outcomes:
-        table.add_row(o.name, str(o.frames), str(o.flagged), str(o.repaired), f"{o.seconds:.1f}", o.status)
+        row = (o.frames, o.flagged, o.changed, f"{o.pixels:,}", f"{o.seconds:.1f}")
+        table.add_row(o.name, *map(str, row), o.status)
     console.print(table)
-    done = len(s.outcomes) - len(s.failed)
+    done = [o for o in s.outcomes if o.status == "done"]
     before = f" ({s.skipped} as a run before left them, not redone)" if s.skipped else ""
-    print_line(f"{done} of {len(s.outcomes)} recordings repaired{before}, {s.frames} frames this run "
-               f"in {s.seconds:.1f} s -> {s.out}")  # fmt: skip
+    flagged, changed = sum(o.flagged for o in done), sum(o.changed for o in done)
+    pixels = sum(o.pixels for o in done)
+    print_line(f"{len(done)} of {len(s.outcomes)} recordings done{before}: {flagged} frames flagged, "
+               f"{changed} changed ({pixels:,} pixels); {s.frames} frames read this run in {s.seconds:.1f} s "
+               f"-> {s.out}")  # fmt: skip
     for o in s.outcomes:
         for w in o.warnings:
             print(w if w.startswith("d2sr: ") else f"d2sr: warning: {w}", file=sys.stderr)

@@ -81,7 +81,7 @@ def detect(
     )  # fmt: skip
     with _bar("detecting") as progress:
         s = detect_recording(input, out, settings, overwrite=overwrite, progress=progress, say=print_line)
-    typer.echo(f"{s.flagged} of {s.frames} frames interfered{s.scene_note()} -> {out}")
+    typer.echo(f"{s.flagged} of {s.frames} frames flagged as interfered{s.scene_note()} -> {out}")
 
 
 def recover(
@@ -147,7 +147,6 @@ def recover(
     written = Written(format, rerun, colour_topic, overwrite, report)
     with _bar(f"recovering ({model})") as progress:
         s = recover_recording(input, out, settings, written, progress=progress, say=print_line)
-    made = f", synthesized {s.synthesized} for colour frames without depth" if colour_topic else ""
-    typer.echo(f"repaired {s.repaired} of {s.frames} frames{made}{s.scene_note()} -> {out}")
+    typer.echo(s.line())
     if s.report is not None:
         typer.echo(f"what changed, and why: {s.report}")

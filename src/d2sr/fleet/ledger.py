@@ -31,7 +31,9 @@ class Outcome(BaseModel):
     status: Literal["done", "failed"]
     frames: int = Field(0, ge=0)
     flagged: int = Field(0, ge=0)
-    repaired: int = Field(0, ge=0)
+    repaired: int = Field(0, ge=0, description="frames given to the repair (the flagged ones, or all)")
+    changed: int = Field(0, ge=0, description="of them, frames whose depth changed")
+    pixels: int = Field(0, ge=0, description="pixels changed")
     seconds: float = Field(0.0, ge=0, description="wall time of its task, start-up included")
     reason: str = ""
     report: str | None = Field(None, description="its report.html, relative to the fleet's folder")

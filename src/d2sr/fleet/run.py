@@ -212,7 +212,7 @@ def _task(name: str, input: str, out: str, written: Written, shared: tuple[RunSe
     report = str(s.report.relative_to(Path(out).parent)) if s.report is not None else None
     seconds = round(time.perf_counter() - started, 3)
     return Outcome(**base, status="done", frames=s.frames, flagged=s.flagged, repaired=s.repaired,
-                   seconds=seconds, report=report)  # fmt: skip
+                   changed=s.changed, pixels=s.pixels, seconds=seconds, report=report)  # fmt: skip
 
 
 class Tally:

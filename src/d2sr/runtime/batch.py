@@ -58,9 +58,10 @@ FORMATS = ("auto", "png", "bag")  # recover's outputs: auto is a bag for a ROS b
 
 @dataclass(frozen=True)
 class Summary:
-    """What a recording job did: ``frames`` read, ``flagged`` by the detector, ``repaired`` (changed
-    where the model found interference), written to ``out`` (``format``: png, ros1 or ros2) with
-    ``model`` on ``backend`` at ``depth_scale`` units per metre."""
+    """What a recording job did: ``frames`` read, ``flagged`` by the detector (and the scene), ``repaired``
+    (given to the repair: the flagged ones, or every frame), ``changed`` of them (their depth changed) and
+    the ``pixels`` changed, written to ``out`` (``format``: png, ros1 or ros2) with ``model`` on
+    ``backend`` at ``depth_scale`` units per metre."""
 
     frames: int
     flagged: int
@@ -73,10 +74,32 @@ class Summary:
     synthesized: int = 0  # frames made for colour frames no depth frame joined (a bag's colour topic)
     scene_used: int | None = None  # frames whose verdict the sensor's scene weighed (None: not judged)
     report: Path | None = None  # what the job did, for a person (report.html)
+    changed: int = 0
+    pixels: int = 0
 
     def scene_note(self) -> str:
-        """', the sensor's scene weighed N' for a command's summary line ('' where no scene was judged)."""
-        return "" if self.scene_used is None else f", the sensor's scene weighed {self.scene_used}"
+        """'; N judged against the sensor's own scene too' for a command's summary line ('' where no scene
+        was judged): the frames in which the sensor held still long enough for its scene to weigh in."""
+        if self.scene_used is None:
+            return ""
+        return f"; {self.scene_used} also judged against the sensor's own scene (it held still)"
+
+    def line(self) -> str:
+        """The summary a command prints: what was flagged, and what changed, in frames and pixels."""
+        given = (
+            "every frame repaired"
+            if self.repaired == self.frames > self.flagged
+            else f"{self.flagged} flagged"
+        )
+        return (
+            f"{self.frames} frames: {given}, {self.changed} changed ({self.pixels:,} pixels)"
+            + (
+                f"; {self.synthesized} synthesized for colour frames without depth"
+                if self.synthesized
+                else ""
+            )
+            + f"{self.scene_note()} -> {self.out}"
+        )
 
 
 def _quiet(line: str) -> None:
@@ -327,7 +350,7 @@ def recover_recording(
     log: AbstractContextManager[Any] = (
         RerunLog(wr.rerun, 1, f"d2sr recover {input}") if wr.rerun else nullcontext()
     )
-    flagged = repaired = done = used = 0
+    flagged = repaired = done = used = changed = pixels = 0
     report = Report(f"d2sr recover {input}") if wr.report else None
     report_path: Path | None = None
     read = checked_counts(reader, scale, "frame") if kind == "png" else checked(reader, scale)
@@ -344,6 +367,9 @@ def recover_recording(
             sink.write(res.capture.frame, res.depth, res.mask, fix)
             flagged += res.flagged
             repaired += fix
+            moved = _changed(res)
+            changed += moved > 0
+            pixels += moved
             used += bool(res.scene)
             done += 1
             if report is not None:
@@ -370,7 +396,17 @@ def recover_recording(
         made,
         used if scene else None,
         report_path,
+        changed,
+        pixels,
     )
+
+
+def _changed(res: Result) -> int:
+    """Pixels of a result's depth that differ from the frame's (only the repair's mask may)."""
+    if not res.mask.any():
+        return 0
+    raw = res.capture.frame.depth
+    return int(np.count_nonzero(res.depth[res.mask] != raw[res.mask]))
 
 
 def _inputs(input: Path) -> list[Path]:
