@@ -53,7 +53,7 @@ def one_line(exc: ValidationError, what: str) -> str:
     for err in exc.errors():
         field = ".".join(str(p) for p in err["loc"]) or "value"
         got = err.get("input")
-        shown = "" if isinstance(got, dict) else f" (got {got!r})"
+        shown = "" if isinstance(got, dict) or repr(got) in err["msg"] else f" (got {got!r})"
         msg = err["msg"].removeprefix("Value error, ")  # a validator's own words need no label
         parts.append(f"{field}: {msg}{shown}")
     return f"{what}: " + "; ".join(parts)

@@ -3,6 +3,7 @@ exactly as d2sr recover writes it; a broken one among them, a rerun, a wrong add
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -172,3 +173,44 @@ def test_without_ray_the_command_says_how_to_install_it(tmp_path, monkeypatch):
     rec = _recording(tmp_path / "rec", 2, 1)
     code, _, err = d2sr_inprocess("fleet", str(rec), "--out", str(tmp_path / "out"), "--depth-scale", "4000")
     assert code == 2 and "pip install '.[fleet]'" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_an_address_that_speaks_http2_but_is_not_ray_is_refused_in_one_line(tmp_path):
+    """Something that accepts TCP and answers HTTP/2's preface as Ray's head does, but is not Ray (another
+    gRPC server): Ray retried it for minutes or ended the process (exit 15) with no d2sr line."""
+    import socket
+    import threading
+
+    srv = socket.create_server(("127.0.0.1", 0))
+    port = srv.getsockname()[1]
+    stop = threading.Event()
+
+    def serve() -> None:
+        srv.settimeout(0.2)
+        held = []
+        while not stop.is_set():
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                continue
+            with contextlib.suppress(OSError):
+                conn.recv(1024)
+                conn.sendall(b"\x00\x00\x00\x04\x00\x00\x00\x00\x00")  # an empty SETTINGS frame
+            held.append(conn)
+        for c in held:
+            c.close()
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    rec = _recording(tmp_path / "rec", 2, 1)
+    try:
+        code, _, err = d2sr_inprocess(
+            "fleet", str(rec), "--out", str(tmp_path / "o"), "--address", f"127.0.0.1:{port}"
+        )
+    finally:
+        stop.set()
+        thread.join(5)
+        srv.close()
+    assert code == 2 and "not a Ray cluster" in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

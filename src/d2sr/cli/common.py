@@ -23,6 +23,7 @@ __all__ = [
     "ModelName",
     "Overwrite",
     "Real",
+    "RepairOpt",
     "RerunOpt",
     "Scale",
     "SceneOpt",
@@ -30,6 +31,7 @@ __all__ = [
     "int_list",
     "out_dir",
     "renamed",
+    "repair_of",
     "resolution_of",
     "split_list",
 ]
@@ -41,10 +43,25 @@ Scale = Annotated[
 ScaleWrong = Annotated[
     bool,
     typer.Option(
+        "--recording-scale-wrong",
         help="The recording's own depth scale is wrong: --depth-scale replaces it (else a --depth-scale that "
         "contradicts it is refused)."
     ),
 ]
+#: What recover and fleet repair (RunSettings.repair's "none" is for d2sr run and detect).
+REPAIRS = ("flagged", "all")
+RepairOpt = Annotated[
+    str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
+]
+
+
+def repair_of(repair: str) -> str:
+    """``--repair`` of recover and fleet: one of ``REPAIRS`` (a one-line error naming them otherwise)."""
+    if repair not in REPAIRS:
+        raise ConfigError(f"--repair: unknown {repair!r}; choose from {', '.join(REPAIRS)}")
+    return repair
+
+
 Input = Annotated[Path, typer.Argument(help="PNG folder of depth frames or any recording.", metavar="INPUT")]
 Topic = Annotated[str | None, typer.Option(help="Depth topic in a ROS bag.")]
 ColourTopic = Annotated[

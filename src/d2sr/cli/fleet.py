@@ -18,6 +18,7 @@ from d2sr.cli.common import (
     Overwrite,
     Passes,
     PrimeOpt,
+    RepairOpt,
     Scale,
     ScaleWrong,
     SceneFromOpt,
@@ -25,6 +26,7 @@ from d2sr.cli.common import (
     SceneRepairOpt,
     Threshold,
     Topic,
+    repair_of,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.contract.repair import REPAIR_PASSES
@@ -62,9 +64,7 @@ def fleet(
     ] = None,
     depth_scale: Scale = None,
     recording_scale_wrong: ScaleWrong = False,
-    repair: Annotated[
-        str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
-    ] = "flagged",
+    repair: RepairOpt = "flagged",
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
@@ -93,7 +93,7 @@ def fleet(
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong,
-        depth_scale=depth_scale, topic=topic, repair=repair, model=model,
+        depth_scale=depth_scale, topic=topic, repair=repair_of(repair), model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,
     )  # fmt: skip

@@ -20,6 +20,7 @@ from d2sr.cli.common import (
     Overwrite,
     Passes,
     PrimeOpt,
+    RepairOpt,
     RerunOpt,
     Scale,
     ScaleWrong,
@@ -28,6 +29,7 @@ from d2sr.cli.common import (
     SceneRepairOpt,
     Threshold,
     Topic,
+    repair_of,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.contract.repair import REPAIR_PASSES
@@ -95,9 +97,7 @@ def recover(
     ],
     depth_scale: Scale = None,
     recording_scale_wrong: ScaleWrong = False,
-    repair: Annotated[
-        str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
-    ] = "flagged",
+    repair: RepairOpt = "flagged",
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
@@ -140,7 +140,7 @@ def recover(
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong,
-        depth_scale=depth_scale, topic=topic, repair=repair, model=model,
+        depth_scale=depth_scale, topic=topic, repair=repair_of(repair), model=model,
         models=models, threshold=threshold, mask_logit=mask_logit, passes=passes, backend=backend,
         max_range=max_range, scene=scene, scene_repair=scene_repair, prime=prime, scene_from=scene_from,
     )  # fmt: skip

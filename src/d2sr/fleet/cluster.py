@@ -1,6 +1,7 @@
 """Where a fleet runs: a local Ray cluster started for it, or one the user started (``ray start --head``)
 joined at its address. An address that does not answer as a Ray cluster is refused in one line within a
-few seconds (Ray itself would retry for minutes)."""
+few seconds (Ray itself would retry for minutes); one that speaks HTTP/2 but is not Ray's head, within
+``JOIN_S`` (Ray hangs on it, or ends the process with no word)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import contextlib
 import logging
 import os
 import socket
+import subprocess
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -17,6 +20,13 @@ from d2sr.errors import ConfigError
 __all__ = ["Cluster", "connected"]
 
 PROBE_S = 5.0  # how long an address has to answer
+JOIN_S = 30.0  # how long joining it may take in a child process (a real head takes a few seconds)
+# Joining in a child: Ray's client retries a head that does not answer as Ray for minutes, then may end its
+# process; the child's end is what tells.
+_JOIN = (
+    "import logging, sys, ray; "
+    "ray.init(address=sys.argv[1], logging_level=logging.ERROR, log_to_driver=False); ray.shutdown()"
+)
 # What a gRPC server (Ray's control store) says first to a client's HTTP/2 preface: a SETTINGS frame.
 _PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n"
 _SETTINGS = 0x4
@@ -46,6 +56,8 @@ def connected(cluster: Cluster) -> Iterator[Any]:
     address = None if cluster.address is None else _resolve(cluster.address)
     if address is not None:
         _probe(address)
+        _use_token()
+        _joins(address)
     if ray.is_initialized():
         yield ray
         return
@@ -54,7 +66,6 @@ def connected(cluster: Cluster) -> Iterator[Any]:
         cores = cluster.workers or os.cpu_count() or 1
         ray.init(num_cpus=cores, include_dashboard=False, **quiet)
     else:
-        _use_token()
         try:
             ray.init(address=cluster.address, **quiet)
         except (ConnectionError, RuntimeError, ValueError) as exc:
@@ -68,12 +79,18 @@ def connected(cluster: Cluster) -> Iterator[Any]:
 def _use_token() -> None:
     """Present this machine's Ray token (``ray start`` makes one, ``~/.ray/auth_token``) to a cluster joined
     at its address, as Ray does by itself only for ``auto``."""
-    with contextlib.suppress(ImportError, AttributeError):
-        from ray._private.authentication.authentication_token_setup import (
-            maybe_enable_token_auth_if_token_available,
-        )
+    ray_log = logging.getLogger("ray")
+    level = ray_log.level
+    ray_log.setLevel(logging.ERROR)  # its notice that tokens are on is no line of ours
+    try:
+        with contextlib.suppress(ImportError, AttributeError):
+            from ray._private.authentication.authentication_token_setup import (
+                maybe_enable_token_auth_if_token_available,
+            )
 
-        maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+            maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    finally:
+        ray_log.setLevel(level)
 
 
 def _resolve(address: str) -> str:
@@ -106,6 +123,27 @@ def _probe(address: str) -> None:
         raise ConfigError(f"address {address}: no Ray cluster answers there ({why})", "address") from None
     if len(head) < 9 or head[3] != _SETTINGS:
         raise ConfigError(f"address {address}: something answers there, but not a Ray cluster", "address")
+
+
+def _joins(address: str) -> None:
+    """Refuse an address whose server speaks HTTP/2 but does not take a Ray driver in within ``JOIN_S``."""
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _JOIN, address], env=env, capture_output=True, timeout=JOIN_S
+        )  # fmt: skip
+    except subprocess.TimeoutExpired:
+        raise ConfigError(
+            f"address {address}: something answers there, but not a Ray cluster (no Ray head took us in "
+            f"within {JOIN_S:g} s)",
+            "address",
+        ) from None
+    if done.returncode != 0:
+        said = done.stderr.decode(errors="replace").strip().splitlines()
+        why = said[-1][:200] if said else f"exit status {done.returncode}"
+        raise ConfigError(
+            f"address {address}: something answers there, but not a Ray cluster ({why})", "address"
+        )
 
 
 def _first(exc: BaseException) -> str:
