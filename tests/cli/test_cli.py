@@ -1,5 +1,6 @@
 import json
 import os
+import re
 
 import pytest
 
@@ -239,3 +240,12 @@ def test_bench_typical_times_only_the_frames_after_settle():
     assert out["as shipped"]["cpu_ms_per_frame"] > 0
     with pytest.raises(ValueError, match="frames to time"):
         bench_typical(frames, 4000.0, repeats=1, settle=8)
+
+
+def test_run_sim_counts_interfered_frames_as_the_demo_does_and_draws_one_bar(tmp_path):
+    """d2sr run sim printed interference as a share (0.0667) where the demo prints 109/360, and each progress
+    call added a bar that stayed at 0% (setdefault made a new one every time)."""
+    code, printed, err = d2sr_inprocess("run", "sim", "--seconds", "2", "--out", str(tmp_path / "r"))
+    assert code == 0, err
+    assert re.search(r"│ all\s+│\s+\d+ │\s+\d+/\d+ │", printed), printed
+    assert " 0%" not in printed + err and printed.count("3 sensors") == 1, printed + err

@@ -142,8 +142,9 @@ def run(
         tasks: dict[str, TaskID] = {}
 
         def progress(what: str, done: float) -> None:
-            task = tasks.setdefault(what, bar.add_task(what, total=1.0))
-            bar.update(task, completed=done)
+            if what not in tasks:  # one bar a job (setdefault would add one every call)
+                tasks[what] = bar.add_task(what, total=1.0)
+            bar.update(tasks[what], completed=done)
 
         summary = run_source(source, out, settings, loop, rerun=rerun, overwrite=overwrite, progress=progress)
     console.print(stats_table(summary, f"d2sr run {source}"))

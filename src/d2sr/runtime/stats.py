@@ -82,6 +82,7 @@ class RunStats:
             out["scene_used"] = round(self.scene_used / self.frames, 4)
         if self.truth_known:
             out["interfered"] = self.interfered
+            out["interfered_of"] = self.truth_known
             out["interfered_ratio"] = round(self.interfered / self.truth_known, 4)
             out["precision"] = round(self.true_flags / self.flagged, 4) if self.flagged else None
             out["recall"] = round(self.true_flags / self.interfered, 4) if self.interfered else None
@@ -93,7 +94,7 @@ class RunStats:
 
 COLUMNS = {
     "frames": "frames",
-    "interfered_ratio": "interfered",
+    "interfered": "interfered",
     "flagged": "flagged",
     "precision": "P",
     "recall": "R",
@@ -113,8 +114,18 @@ def stats_table(summary: dict[str, Any], title: str) -> Table:
         t.add_column(COLUMNS[c], justify="right")
     rows = [(str(i), s) for i, s in enumerate(summary["sensors"])] if len(summary["sensors"]) > 1 else []
     for name, s in [*rows, ("all", summary["all"])]:
-        t.add_row(name, *(NA if s.get(c) is None else str(s[c]) for c in cols))
+        t.add_row(name, *(_cell(s, c) for c in cols))
     return t
+
+
+def _cell(s: dict[str, Any], column: str) -> str:
+    """A summary's figure as the table shows it: interfered frames as a count of those with truth (as the
+    demo's table does), the rest as they are."""
+    if s.get(column) is None:
+        return NA
+    if column == "interfered" and s.get("interfered_of") is not None:
+        return f"{s['interfered']}/{s['interfered_of']}"
+    return str(s[column])
 
 
 def median_p99_ms(seconds: list[float]) -> tuple[float, float]:
