@@ -80,3 +80,29 @@ def test_the_dating_rule_sees_an_undated_figure():
         "Caption (2026-11-26).\n| a | 1.5 ms |",
         "Text 2.0 ms.",
     ]
+
+
+def test_every_relative_link_in_the_docs_and_the_lab_notes_resolves():
+    """A newcomer found 10 links in README and docs/ that led nowhere (docs/fill.md to lab/notes/decisions.md,
+    written from a folder it was not in), and the lab notes' moved with them."""
+    root = DOCS.parent
+    pages = [root / "README.md", root / "CHANGELOG.md", *DOCS.rglob("*.md"), *(root / "lab").rglob("*.md")]
+    broken = []
+    for page in pages:
+        for target in re.findall(r"\]\(([^)\s]+)\)", page.read_text()):
+            if re.match(r"^[a-z][a-z0-9+.-]*:", target) or target.startswith("#"):
+                continue  # a web address, a mail, an anchor on the page
+            if not (page.parent / target.split("#")[0]).exists():
+                broken.append(f"{page.relative_to(root)}: {target}")
+    assert not broken, broken
+
+
+def test_no_two_commands_of_one_example_write_the_same_output():
+    """docs/fill.md's two examples both wrote --out filled/: run in turn, the second was refused."""
+    root = DOCS.parent
+    clashes = []
+    for page in [root / "README.md", *DOCS.rglob("*.md")]:
+        for block in re.findall(r"```bash\n(.*?)```", page.read_text(), flags=re.S):
+            outs = re.findall(r"^d2sr .*?--out (\S+)", block, flags=re.M)
+            clashes += [f"{page.name}: {o}" for o in set(outs) if outs.count(o) > 1]
+    assert not clashes, clashes
