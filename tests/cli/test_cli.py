@@ -249,3 +249,29 @@ def test_run_sim_counts_interfered_frames_as_the_demo_does_and_draws_one_bar(tmp
     assert code == 0, err
     assert re.search(r"│ all\s+│\s+\d+ │\s+\d+/\d+ │", printed), printed
     assert " 0%" not in printed + err and printed.count("3 sensors") == 1, printed + err
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_help_at_80_columns_cuts_nothing_and_keeps_research_commands_apart():
+    """At 80 columns detect --help cut its --out text and --models' default path (a "…" in the help column;
+    rich still shortens a long option name in its own column); the top-level help mixed research commands
+    with the ones users run, each listed with its docstring's whole first paragraph."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "COLUMNS": "80", "TERM": "dumb"}
+
+    def shown(*args: str) -> str:
+        run = subprocess.run([sys.executable, "-m", "d2sr", *args, "--help"], env=env, capture_output=True,
+                             text=True, timeout=120, check=True)  # fmt: skip
+        return run.stdout
+
+    for command in ("detect", "recover"):
+        help_column = [line[40:] for line in shown(command).splitlines()]
+        assert not any("…" in cell for cell in help_column), help_column
+    top = shown()
+    users, research = top.split("Research: data, training, evaluations, benchmarks")
+    for name in ("detect", "recover", "fleet", "run", "ros2", "demo"):
+        assert f"│ {name} " in users
+    for name in ("train", "calibrate", "label", "bench", "eval", "export"):
+        assert f"│ {name} " in research and f"│ {name} " not in users

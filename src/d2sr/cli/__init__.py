@@ -50,8 +50,8 @@ trigger_app = typer.Typer(
     "Example: d2sr trigger check serial:/dev/ttyACM0",
     no_args_is_help=True,
 )
-app.add_typer(desync_app, name="desync")
-app.add_typer(eval_app, name="eval")
+app.add_typer(desync_app, name="desync", rich_help_panel="Research: data, training, evaluations, benchmarks")
+app.add_typer(eval_app, name="eval", rich_help_panel="Research: data, training, evaluations, benchmarks")
 app.add_typer(trigger_app, name="trigger")
 scene_app = typer.Typer(
     help="A still sensor's scene, learned once from a clean recording.\n\n"
@@ -94,9 +94,22 @@ EVAL: dict[str, Callable[..., None]] = {
 TRIGGER: dict[str, Callable[..., None]] = {"check": trigger.check, "firmware": trigger.firmware}
 SCENE: dict[str, Callable[..., None]] = {"learn": scenes.learn}
 GROUPS = ((app, COMMANDS), (desync_app, DESYNC), (eval_app, EVAL), (trigger_app, TRIGGER), (scene_app, SCENE))
+
+
+def _first_sentence(fn: Callable[..., None]) -> str:
+    """A command's line in its group's help: its docstring's first sentence, on one line."""
+    para = " ".join((fn.__doc__ or "").strip().split("\n\n")[0].split())
+    end = re.search(r"(?<!\.)\.\s(?=[A-Z])", para)  # not "OFFSET .. OFFSET+N-1"
+    return para if end is None else para[: end.start() + 1]
+
+
+#: The top-level help shows what users run apart from what builds and measures d2sr itself.
+RESEARCH = "Research: data, training, evaluations, benchmarks"
+RESEARCH_COMMANDS = {"simulate", "label", "calibrate", "gallery", "train", "threshold", "export", "bench"}
 for group, commands in GROUPS:
     for name, fn in commands.items():
-        group.command(name)(fn)
+        panel = RESEARCH if group is app and name in RESEARCH_COMMANDS else None
+        group.command(name, rich_help_panel=panel, short_help=_first_sentence(fn))(fn)
 
 
 def _version(value: bool) -> None:

@@ -45,7 +45,7 @@ ScaleWrong = Annotated[
     typer.Option(
         "--recording-scale-wrong",
         help="The recording's own depth scale is wrong: --depth-scale replaces it (else a --depth-scale that "
-        "contradicts it is refused)."
+        "contradicts it is refused).",
     ),
 ]
 #: What recover and fleet repair (RunSettings.repair's "none" is for d2sr run and detect).
@@ -74,7 +74,12 @@ ColourTopic = Annotated[
 BackendOpt = Annotated[str, typer.Option(help="auto (onnxruntime when installed), onnx or torch.")]
 # A folder of models is --models on every command; one model by name is --model.
 ModelDir = Annotated[
-    Path, typer.Option("--models", help="Folder of models (safetensors, ONNX; d2sr adapt makes one).")
+    Path,
+    typer.Option(
+        "--models",
+        help="Folder of models (safetensors, ONNX; d2sr adapt makes one). [default: the shipped models]",
+        show_default=False,
+    ),
 ]
 ModelName = Annotated[str, typer.Option(help=MODEL_HELP)]
 Real = Annotated[Path, typer.Option(help="Folder with the L515 captures dev0/ and dev1/.")]

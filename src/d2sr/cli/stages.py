@@ -54,7 +54,8 @@ def detect(
     out: Annotated[
         Path,
         typer.Option(
-            help="CSV file: frame,score,interfered,reason (why: detector, scene, detector+scene or "
+            help="CSV file with the columns frame, score, interfered and reason (why: detector, scene, "
+            "detector+scene or "
             "cleared by scene)."
         ),
     ],
