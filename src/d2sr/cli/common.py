@@ -23,7 +23,7 @@ __all__ = [
     "ModelName",
     "Overwrite",
     "Real",
-    "RepairOpt",
+    "RecoverRepairOpt",
     "RerunOpt",
     "Scale",
     "SceneOpt",
@@ -48,9 +48,9 @@ ScaleWrong = Annotated[
         "contradicts it is refused).",
     ),
 ]
-#: What recover and fleet repair (RunSettings.repair's "none" is for d2sr run and detect).
+#: What recover and fleet repair (RunSettings.repair's "none" is for d2sr run).
 REPAIRS = ("flagged", "all")
-RepairOpt = Annotated[
+RecoverRepairOpt = Annotated[
     str, typer.Option(help="flagged (default: the frames the detector flags) or all (every frame).")
 ]
 
