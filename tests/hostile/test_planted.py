@@ -195,7 +195,7 @@ def test_a_commit_killed_between_its_renames_is_undone_by_the_next_run(tmp_path,
     tidy(out)
     for name, data in with_user.items():
         assert (out / name).read_bytes() == data
-    assert not list(tmp_path.glob(".out.d2sr-*.old")) and not (tmp_path / ".out.d2sr-commit.json").exists()
+    assert not list(tmp_path.glob(".out.d2sr-*.old")) and not list(tmp_path.glob(".out.d2sr-*.journal.json"))
 
 
 def test_a_commit_killed_while_moving_the_users_files_back_is_finished(tmp_path, monkeypatch):

@@ -25,7 +25,16 @@ from __future__ import annotations
 from d2sr.atomic.manifest import listed, record_manifest
 from d2sr.atomic.naming import CALLER, CSV_HEADERS, MANIFEST, made_by_d2sr, ours, sibling
 from d2sr.atomic.oserrors import writing
-from d2sr.atomic.placing import atomic_dir, atomic_file, atomic_write, commit, discard, temp_for, tidy
+from d2sr.atomic.placing import (
+    atomic_dir,
+    atomic_file,
+    atomic_write,
+    commit,
+    discard,
+    state,
+    temp_for,
+    tidy,
+)
 from d2sr.atomic.policy import check_out
 
 __all__ = [
@@ -43,6 +52,7 @@ __all__ = [
     "ours",
     "record_manifest",
     "sibling",
+    "state",
     "temp_for",
     "tidy",
     "writing",

@@ -18,6 +18,7 @@ __all__ = [
     "absolute",
     "alive",
     "journal",
+    "journals",
     "made_by_d2sr",
     "ours",
     "real",
@@ -145,4 +146,17 @@ def temporaries(path: Path) -> list[Path]:
 
 
 def journal(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{MARK}-commit.json")
+    """A folder commit's journal beside ``path``: one per run (``ours`` reads its pid, kind ``journal``), so
+    that two runs replacing one output never share one."""
+    return sibling(path, "journal.json")
+
+
+def journals(path: Path) -> list[Path]:
+    """The commit journals beside ``path`` of runs that ended, or of this process (``placing`` leaves out
+    those of its commits in progress): a kill interrupted their commit."""
+    found = []
+    for p in temporaries(path):
+        kind = ours(p, ("journal",))
+        if kind is not None and (kind[1] == os.getpid() or not alive(kind[1])):
+            found.append(p)
+    return found

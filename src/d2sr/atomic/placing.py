@@ -13,11 +13,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from d2sr.atomic.manifest import empty_dirs, files_under, listed, made, prune, record_manifest
-from d2sr.atomic.naming import MANIFEST, absolute, alive, journal, ours, temporaries, token
+from d2sr.atomic.naming import MANIFEST, absolute, alive, journal, journals, ours, temporaries, token
 from d2sr.atomic.oserrors import writing
 from d2sr.errors import OutputError
 
-__all__ = ["atomic_dir", "atomic_file", "atomic_write", "commit", "discard", "temp_for", "tidy"]
+__all__ = ["atomic_dir", "atomic_file", "atomic_write", "commit", "discard", "state", "temp_for", "tidy"]
 
 
 def temp_for(path: Path, is_dir: bool) -> Path:
@@ -99,19 +99,51 @@ def _no_interrupt() -> Iterator[None]:
             signal.raise_signal(got[0])
 
 
-def commit(tmp: Path, path: Path) -> None:
+#: What ``state`` says of a path that does not exist.
+ABSENT = None
+
+
+def state(path: Path) -> tuple[int, ...] | None:
+    """What identifies ``path`` as it is now (not following a link): None where nothing is; a folder by its
+    inode alone (its files change as d2sr writes beside them), a file by its inode, size and time too."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return ABSENT
+    except OSError:
+        return (-1,)  # there, but unreadable: never taken for absent
+    if os.path.isdir(path) and not os.path.islink(path):
+        return (st.st_dev, st.st_ino)
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+_UNKNOWN = (-2,)  # commit's ``before`` when the caller did not say
+
+
+def commit(tmp: Path, path: Path, before: tuple[int, ...] | None = _UNKNOWN) -> None:
     """Move a finished temporary output into place. A file replaces a file; a folder replaces only what
-    d2sr made in an old folder of that name, and keeps everything else in it."""
+    d2sr made in an old folder of that name, and keeps everything else in it. ``before``: ``state(path)``
+    when the run began; what appeared or changed there since (a user's file, another run's output) is
+    never replaced (an OutputError), and a new output is placed so that nothing can take its place
+    meanwhile."""
     path = absolute(path)
     with _no_interrupt(), writing(path):
+        if before is not _UNKNOWN and state(path) != before:
+            raise OutputError(
+                f"{path} appeared or changed while this run wrote it: left as it is, this run's output "
+                "not kept"
+            )
         if not tmp.is_dir():
             if path.is_dir():
                 raise OutputError(f"{path} is a folder; not replaced by a file")
-            os.replace(tmp, path)
+            if before is ABSENT:
+                _place_new(tmp, path)
+            else:
+                os.replace(tmp, path)
             return
         if not path.exists() and not path.is_symlink():
             record_manifest(tmp)
-            tmp.rename(path)
+            _place_new(tmp, path)
             return
         if not path.is_dir() or path.is_symlink():
             raise OutputError(f"{path} exists and is not a folder; not replaced")
@@ -122,19 +154,71 @@ def commit(tmp: Path, path: Path) -> None:
             raise OutputError(f"{path / clash[0]} is not d2sr's and the new output has a file of that name")
         record_manifest(tmp)
         old = path.with_name(f".{path.name}.{token()}.old")
-        _write_journal(path, {"old": old.name, "tmp": tmp.name})
-        path.rename(old)
-        tmp.rename(path)
-        _settle(path, old)
-        journal(path).unlink()
+        log = journal(path)
+        _COMMITTING.add(log)
+        try:
+            _write_journal(log, {"old": old.name, "tmp": tmp.name})
+            path.rename(old)
+            tmp.rename(path)
+            _settle(path, old)
+            log.unlink()
+        finally:
+            _COMMITTING.discard(log)
 
 
-def _write_journal(path: Path, entries: dict[str, str]) -> None:
+#: The journals of this process's folder commits in progress (another thread's tidy leaves them alone).
+_COMMITTING: set[Path] = set()
+
+
+def _place_new(tmp: Path, path: Path) -> None:
+    """Rename ``tmp`` to ``path``, which must not exist: never over something that appeared there since it
+    was checked (Linux's renameat2 with RENAME_NOREPLACE; a hard link for a file where that is missing)."""
+    if _rename_noreplace(tmp, path):
+        return
+    if not tmp.is_dir():
+        try:
+            os.link(tmp, path)  # fails where anything is: the check and the placing are one step
+        except FileExistsError:
+            raise OutputError(f"{path} appeared while this run wrote it: left as it is") from None
+        except OSError:  # a file system without hard links: the checked rename below
+            pass
+        else:
+            os.unlink(tmp)
+            return
+    if path.exists() or path.is_symlink():
+        raise OutputError(f"{path} appeared while this run wrote it: left as it is")
+    os.rename(tmp, path)
+
+
+def _rename_noreplace(tmp: Path, path: Path) -> bool:
+    """renameat2(RENAME_NOREPLACE) where the C library has it: True once done, False where unsupported, an
+    OutputError where ``path`` exists."""
+    import ctypes
+    import errno
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, noreplace = -100, 1
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    if fn(at_fdcwd, os.fsencode(tmp), at_fdcwd, os.fsencode(path), noreplace) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err == errno.EEXIST:
+        raise OutputError(f"{path} appeared while this run wrote it: left as it is")
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False  # the file system or kernel cannot: the caller's fallback
+    raise OSError(err, os.strerror(err), str(path))
+
+
+def _write_journal(log: Path, entries: dict[str, str]) -> None:
     from d2sr.provenance import MADE_BY
 
-    tmp = path.with_name(f".{path.name}.{token()}.tmp.json")
+    tmp = log.with_name(f"{log.name}.{token()}.tmp.json")
     tmp.write_text(json.dumps({MADE_BY: "d2sr", **entries}) + "\n")
-    os.replace(tmp, journal(path))
+    os.replace(tmp, log)
 
 
 def _settle(path: Path, old: Path) -> None:
@@ -160,7 +244,12 @@ def _settle(path: Path, old: Path) -> None:
 def _resume_commit(path: Path) -> None:
     """Finish a folder commit a kill interrupted. Its journal names the old folder: if the new output never
     arrived, the old one goes back as it was; if it did, the user's files move over from the old one."""
-    log = journal(path)
+    for log in journals(path):
+        if log not in _COMMITTING:
+            _resume_one(path, log)
+
+
+def _resume_one(path: Path, log: Path) -> None:
     if not log.is_file() or log.is_symlink():
         return
     try:
@@ -196,10 +285,11 @@ def discard(tmp: Path) -> None:
 @contextlib.contextmanager
 def _atomic(path: Path, is_dir: bool) -> Iterator[Path]:
     tmp = temp_for(path, is_dir)
+    before = state(absolute(path))
     try:
         with writing(path):
             yield tmp
-        commit(tmp, path)
+        commit(tmp, path, before)
     except BaseException:
         discard(tmp)
         raise

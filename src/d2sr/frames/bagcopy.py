@@ -22,7 +22,7 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 
-from d2sr.atomic import CALLER, commit, discard, temp_for
+from d2sr.atomic import CALLER, commit, discard, state, temp_for
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.colour import PAIR_NS, decode_colour
@@ -85,6 +85,7 @@ class BagCopy:
         self.ts = _TS1 if ros1 else _TS2
         self.reader = _open(src)
         self.tmp: Path | None = temp_for(self.out, is_dir=not ros1)
+        self._before = state(self.out)  # what is there as the run begins: nothing else is replaced
         if ros1:
             discard(self.tmp)  # rosbags makes the file itself
         try:
@@ -239,7 +240,7 @@ class BagCopy:
         self.reader.close()
         if not self.ros1:
             unstage(self.tmp, self.out.name)
-        commit(self.tmp, self.out)
+        commit(self.tmp, self.out, self._before)
         self.tmp = None
 
     def abort(self) -> None:

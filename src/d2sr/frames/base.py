@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from d2sr.atomic import commit, discard, temp_for
+from d2sr.atomic import commit, discard, state, temp_for
 from d2sr.errors import InputError
 from d2sr.frames.encoded import MAX_PIXELS, check_pixels
 
@@ -346,6 +346,7 @@ class Writer(ABC):
         self.shape: tuple[int, int] | None = None
         self._names: set[str] = set()
         self._tmp: Path | None = temp_for(self.path, is_dir=self.is_dir)
+        self._before = state(self.path)  # what is there as the run begins: nothing else is replaced
 
     #: Whether the output is a folder (PNG) or a single file (npz, bags).
     is_dir = False
@@ -380,7 +381,7 @@ class Writer(ABC):
         except BaseException:
             self.abort()
             raise
-        commit(self._tmp, self.path)
+        commit(self._tmp, self.path, self._before)
         self._tmp = None
 
     def abort(self) -> None:

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.atomic import commit, ours, sibling, writing
+from d2sr.atomic import commit, ours, sibling, state, writing
 from d2sr.errors import D2SRError
 from d2sr.frames.layout import RUN, RUN_FILLED, FrameFolder, sensor_dir
 from d2sr.frames.overlap import Behind
@@ -65,6 +65,7 @@ class RunFolder:
         self.done: dict[tuple[int, str], dict[str, Any]] = {}
         self.resumed = False
         self._folders: dict[int, FrameFolder] = {}
+        self._before = state(self.out)  # what is there as the run begins: nothing else is replaced
         earlier = self._earlier()
         match = next((p for p in earlier if resumable and _settings(p) == self.settings), None)
         with writing(self.out):
@@ -217,7 +218,7 @@ class RunFolder:
         with writing(self.out):
             (self.partial / "summary.json").write_text(json.dumps(summary, indent=1, default=str) + "\n")
             (self.partial / RUN_MARK).unlink()
-        commit(self.partial, self.out)
+        commit(self.partial, self.out, self._before)
         return self.out
 
     def close(self) -> None:

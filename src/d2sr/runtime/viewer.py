@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.atomic import commit, discard, temp_for
+from d2sr.atomic import commit, discard, state, temp_for
 from d2sr.errors import InputError
 from d2sr.frames.base import check_name
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
@@ -73,6 +73,7 @@ class RerunLog:
         else:
             self.path = Path(target)
             self._tmp = temp_for(self.path, is_dir=False)
+            self._before = state(self.path)
             self.rec.save(str(self._tmp))
         self.rec.send_blueprint(self._blueprint(sensors))
         self._frames = [0] * sensors
@@ -177,7 +178,7 @@ class RerunLog:
         self.rec.disconnect()
         if self._tmp is not None and self.path is not None:
             if ok and failed is None:
-                commit(self._tmp, self.path)
+                commit(self._tmp, self.path, self._before)
             else:
                 discard(self._tmp)
             self._tmp = None
