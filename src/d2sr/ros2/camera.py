@@ -19,12 +19,13 @@ from d2sr.errors import D2SRError, InputError
 from d2sr.frames.base import MAX_PIXELS
 from d2sr.frames.colour import decode_colour
 from d2sr.ros2.dds import Dds
+from d2sr.ros2.wire import Wire
 from d2sr.runtime.pipeline import Pipeline
 from d2sr.runtime.stats import median_p99_ms
 from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.synth.recording import confidence_image
 
-__all__ = ["ENCODINGS", "Camera", "CameraLoop", "Stats"]
+__all__ = ["ENCODINGS", "Camera", "CameraLoop", "Stats", "planned"]
 
 #: Depth encodings the node takes (REP 118: 16-bit in millimetres unless told, float in metres).
 ENCODINGS: dict[str, np.dtype[Any]] = {
@@ -51,6 +52,32 @@ class Camera:
     colour_topic: str | None = None
     trigger: str | None = None
     scene_from: Path | None = None
+
+
+def planned(camera: Camera, wire: Wire) -> tuple[list[str], list[str]]:
+    """(what a camera's loop reads, what it writes): ROS 2 names, resolved and remapped, as ``CameraLoop``
+    names its readers and writers (``_names``). A name ROS 2 or DDS refuses is a ConfigError here."""
+    ins, outs = _names(wire.resolve(camera.topic), camera, wire.transport == "compressedDepth")
+    return [wire.resolve(n) for n in ins.values()], [wire.resolve(n) for n in outs.values()]
+
+
+def _names(t: str, camera: Camera, compressed: bool) -> tuple[dict[str, str], dict[str, str]]:
+    """(stream -> name read, stream -> name written) of the camera whose depth topic resolves to ``t``."""
+    # The camera's calibration, as image_transport pairs it: taken from beside the input image
+    # (<namespace>/camera_info) and written beside the repaired one (T/camera_info) with its stamp.
+    ins = {"depth": f"{t}/compressedDepth" if compressed else t, "info": t.rsplit("/", 1)[0] + "/camera_info"}
+    outs = {
+        "repaired": f"{t}/repaired",
+        "mask": f"{t}/mask",
+        "status": f"{t}/status",
+        "camera_info": f"{t}/camera_info",
+    }
+    if compressed:
+        outs["repaired_compressed"] = f"{t}/repaired/compressedDepth"
+    if camera.colour_topic is not None:
+        ins["colour"] = camera.colour_topic
+        outs["confidence"] = f"{t}/confidence"
+    return ins, outs
 
 
 @dataclass
@@ -85,27 +112,24 @@ class CameraLoop:
         self.camera, self.pipeline, self.pool, self.say = camera, pipeline, pool, say
         self.compressed = dds.wire.transport == "compressedDepth"
         t = self.topic = dds.wire.resolve(camera.topic)  # as named in logs and /status
+        ins, outs = _names(t, camera, self.compressed)
         if self.compressed:
-            self.reader = dds.reader(f"{t}/compressedDepth", CompressedImage, "depth")
-            self.repaired_compressed = dds.writer(
-                f"{t}/repaired/compressedDepth", CompressedImage, "repaired"
-            )
+            self.reader = dds.reader(ins["depth"], CompressedImage, "depth")
+            self.repaired_compressed = dds.writer(outs["repaired_compressed"], CompressedImage, "repaired")
         else:
-            self.reader = dds.reader(t, Image, "depth")
-        self.repaired = dds.writer(f"{t}/repaired", Image, "repaired")
-        self.mask = dds.writer(f"{t}/mask", Image, "mask")
-        self.status = dds.writer(f"{t}/status", DiagnosticStatus, "status")
-        # The camera's calibration, as image_transport pairs it: taken from beside the input image
-        # (<namespace>/camera_info) and written beside the repaired one (T/camera_info) with its stamp.
-        self.info_reader = dds.reader(t.rsplit("/", 1)[0] + "/camera_info", CameraInfo, "info")
-        self.info = dds.writer(f"{t}/camera_info", CameraInfo, "camera_info")
+            self.reader = dds.reader(ins["depth"], Image, "depth")
+        self.repaired = dds.writer(outs["repaired"], Image, "repaired")
+        self.mask = dds.writer(outs["mask"], Image, "mask")
+        self.status = dds.writer(outs["status"], DiagnosticStatus, "status")
+        self.info_reader = dds.reader(ins["info"], CameraInfo, "info")
+        self.info = dds.writer(outs["camera_info"], CameraInfo, "camera_info")
         self._info: Any = None  # the latest camera_info taken
         # Colour, for the frames the laser skips: each colour frame with no depth frame of its stamp gets a
         # synthesized one (d2sr.synth), published on /repaired, marked in /status, with /confidence.
         self.colour_reader = None
         if camera.colour_topic is not None:
-            self.colour_reader = dds.reader(camera.colour_topic, Image, "colour")
-            self.confidence = dds.writer(f"{t}/confidence", Image, "confidence")
+            self.colour_reader = dds.reader(ins["colour"], Image, "colour")
+            self.confidence = dds.writer(outs["confidence"], Image, "confidence")
         self.stats = Stats()
         self.running: deque[tuple[Any, float, Future[Any]]] = deque()
         self.waiting: deque[tuple[Any, float]] = deque()  # taken, not started (at most ``WAITING``)

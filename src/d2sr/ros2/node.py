@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.errors import ConfigError
-from d2sr.ros2.camera import ENCODINGS, Camera, CameraLoop, Stats
+from d2sr.ros2.camera import ENCODINGS, Camera, CameraLoop, Stats, planned
 from d2sr.ros2.dds import Dds
 from d2sr.ros2.wire import QOS, TRANSPORTS, Wire, dds_topic, domain_id
 
@@ -100,8 +100,16 @@ class Ros2Node:
         names = [w.resolve(c.topic) for c in cams]  # a bad name or rule fails here, before DDS starts
         if len(set(names)) < len(names):
             raise ConfigError("--topic: a camera is named twice")
+        _check_wiring(cams, w)
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline, settings_of
+        from d2sr.scene.stored import StoredScene
+
+        base = settings_of(pipeline.pop("settings", None), {})
+        # A scene that does not load stops the node before it starts, not each frame after.
+        scenes = {c.scene_from or base.scene_from for c in cams}
+        for path in (p for p in scenes if p is not None):
+            StoredScene.load(path)
 
         # Frames are judged in order and repaired on several threads (one onnxruntime thread each), as
         # d2sr recover does: on 2 cores that keeps 30 Hz where one frame at a time falls behind.
@@ -112,7 +120,6 @@ class Ros2Node:
         self.depth_scale = depth_scale
         self.domain = domain_id() if w.domain is None else w.domain
         self.dds = Dds(w, self.domain)
-        base = settings_of(pipeline.pop("settings", None), {})
         self.cameras: list[CameraLoop] = []
         for cam in cams:
             own = dict(pipeline)
@@ -238,3 +245,20 @@ def _gid(guid: Any) -> Any:
 
     raw = guid.bytes
     return Gid(list(raw) + [0] * (GID_BYTES - len(raw)))
+
+
+def _check_wiring(cams: list[Camera], wire: Wire) -> None:
+    """Refuse, before DDS starts, a node that would read what it writes: an output that resolves (after
+    remapping) onto any camera's input repairs its own output for ever. Every name is checked on the way."""
+    reads: dict[str, str] = {}
+    writes: dict[str, str] = {wire.resolve("/diagnostics"): "/diagnostics"}
+    for cam in cams:
+        ins, outs = planned(cam, wire)
+        reads.update(dict.fromkeys(ins, cam.topic))
+        writes.update(dict.fromkeys(outs, cam.topic))
+    for name, topic in writes.items():
+        if name in reads:
+            raise ConfigError(
+                f"--remap: {name} would be both written (camera {topic}) and read (camera {reads[name]}): "
+                "the node would repair its own output"
+            )

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import AliasChoices, BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from d2sr.errors import ConfigError, InputError
 
@@ -64,6 +64,16 @@ class NodeParams(BaseModel):
     diagnostics_qos: Profile | None = None
     confidence_qos: Profile | None = None
 
+    @field_validator(
+        "depth_scale", "active_frames", "threshold", "mask_logit", "passes", "seconds", mode="before"
+    )
+    @classmethod
+    def _not_a_switch(cls, v: object) -> object:
+        """YAML's true is no number (pydantic's lax mode would read it as 1)."""
+        if isinstance(v, bool):
+            raise ValueError("a number, not true or false")
+        return v
+
 
 def read_params(path: Path, node_name: str) -> dict[str, Any]:
     """The parameters for node ``node_name`` in ``path`` (its own section, then ``/**``'s beneath it), as
@@ -81,9 +91,10 @@ def read_params(path: Path, node_name: str) -> dict[str, Any]:
         raise InputError(
             f"--params-file {path}: cannot read it ({getattr(exc, 'strerror', None) or exc})"
         ) from None
-    except YAMLError as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"--params-file {path}: not YAML ({first})") from None
+    except (YAMLError, ValueError, RecursionError) as exc:  # a 5,000-digit number, nesting 30,000 deep
+        text = str(exc).strip()
+        first = text.splitlines()[0][:200] if text else type(exc).__name__
+        raise InputError(f"--params-file {path}: not YAML d2sr reads ({first})") from None
     if not isinstance(data, dict):
         raise InputError(f"--params-file {path}: not a ROS 2 parameters file (node: ros__parameters: ...)")
     merged: dict[str, Any] = {}

@@ -24,14 +24,24 @@ PROFILES = {"SENSOR_DATA": (False, 5), "SYSTEM_DEFAULT": (True, 10), "DEFAULT": 
 STREAMS_IN = ("depth", "info", "colour")
 STREAMS_OUT = ("repaired", "mask", "status", "camera_info", "diagnostics", "confidence")
 _NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
+#: The longest fully qualified topic name ROS 2 takes (rmw's RMW_TOPIC_MAX_NAME_LENGTH, 255 less 8 for
+#: DDS's prefixes): Cyclone crashed on a name of 65,536 characters.
+MAX_NAME = 255 - 8
 _NODE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 
 def dds_topic(name: str) -> str:
     """ROS 2 topic ``/a/b`` (or ``a/b``) -> DDS topic ``rt/a/b``, or a ConfigError for a name ROS refuses."""
-    if not _NAME.match(name):
-        raise ConfigError(f"--topic: {name!r} is not a ROS 2 topic name (letters, digits, _ and /)")
+    _check_name(name, "--topic")
     return "rt/" + name.lstrip("/")
+
+
+def _check_name(name: str, flag: str) -> None:
+    """A ConfigError for a name ROS 2 refuses: its characters (checked only within the length), its length."""
+    if len("/" + name.lstrip("/")) > MAX_NAME:
+        raise ConfigError(f"{flag}: a topic name of {len(name)} characters; ROS 2 takes at most {MAX_NAME}")
+    if not _NAME.match(name):
+        raise ConfigError(f"{flag}: {name[:80]!r} is not a ROS 2 topic name (letters, digits, _ and /)")
 
 
 def domain_id() -> int:
@@ -119,6 +129,7 @@ class Wire:
 
 def _resolve(topic: str, namespace: str, flag: str) -> str:
     """``topic`` as ROS 2 resolves it in ``namespace`` (no ``~``: the node has no private topics)."""
-    if not _NAME.match(topic):
-        raise ConfigError(f"{flag}: {topic!r} is not a ROS 2 topic name (letters, digits, _ and /)")
-    return topic if topic.startswith("/") else namespace.rstrip("/") + "/" + topic
+    _check_name(topic, flag)
+    full = topic if topic.startswith("/") else namespace.rstrip("/") + "/" + topic
+    _check_name(full, flag)
+    return full
