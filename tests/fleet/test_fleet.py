@@ -214,3 +214,25 @@ def test_an_address_that_speaks_http2_but_is_not_ray_is_refused_in_one_line(tmp_
         srv.close()
     assert code == 2 and "not a Ray cluster" in err, err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
+def test_sigterm_ends_a_fleet_as_ctrl_c_does(tmp_path):
+    """Ray took SIGTERM for its own: d2sr fleet then ended with exit 1 and no line."""
+    import subprocess
+    import sys
+
+    recs = [str(_recording(tmp_path / f"rec{i}", 40, i)) for i in range(4)]
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "d2sr", "fleet", *recs, "--out", str(out), "--depth-scale", "4000"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while not out.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)  # the fleet's folder appears once Ray runs and the first task started
+    assert proc.poll() is None, "the fleet ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "d2sr: interrupted; nothing half-written was left at the output"

@@ -8,9 +8,11 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import socket
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +22,7 @@ from d2sr.errors import ConfigError
 __all__ = ["Cluster", "connected"]
 
 PROBE_S = 5.0  # how long an address has to answer
-JOIN_S = 30.0  # how long joining it may take in a child process (a real head takes a few seconds)
+JOIN_S = 15.0  # how long joining it may take in a child process (a real head takes a few seconds)
 # Joining in a child: Ray's client retries a head that does not answer as Ray for minutes, then may end its
 # process; the child's end is what tells.
 _JOIN = (
@@ -62,6 +64,7 @@ def connected(cluster: Cluster) -> Iterator[Any]:
         yield ray
         return
     quiet: dict[str, Any] = {"logging_level": logging.ERROR, "log_to_driver": False}
+    term = signal.getsignal(signal.SIGTERM)
     if address is None:
         cores = cluster.workers or os.cpu_count() or 1
         ray.init(num_cpus=cores, include_dashboard=False, **quiet)
@@ -70,6 +73,10 @@ def connected(cluster: Cluster) -> Iterator[Any]:
             ray.init(address=cluster.address, **quiet)
         except (ConnectionError, RuntimeError, ValueError) as exc:
             raise ConfigError(f"address {cluster.address}: {_first(exc)}", "address") from None
+    # Ray takes SIGTERM for its own (the process then ended with exit 1 and no line): the caller's way back,
+    # which unwinds as Ctrl-C does.
+    if threading.current_thread() is threading.main_thread() and callable(term):
+        signal.signal(signal.SIGTERM, term)
     try:
         yield ray
     finally:
