@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from d2sr.cli.common import (
     BackendOpt,
@@ -90,6 +91,7 @@ def fleet(
     Example: d2sr fleet robots/*/depth/ --out repaired/ --workers 2
     """
     from d2sr.fleet import Cluster, FleetProgress, recover_fleet
+    from d2sr.fleet.ledger import printable
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong,
@@ -111,7 +113,7 @@ def fleet(
     table = Table("recording", "frames", "flagged", "changed", "pixels", "seconds", "status")
     for o in s.outcomes:
         row = (o.frames, o.flagged, o.changed, f"{o.pixels:,}", f"{o.seconds:.1f}")
-        table.add_row(o.name, *map(str, row), o.status)
+        table.add_row(Text(printable(o.name)), *map(str, row), o.status)  # names are data, not markup
     console.print(table)
     done = [o for o in s.outcomes if o.status == "done"]
     before = f" ({s.skipped} as a run before left them, not redone)" if s.skipped else ""
@@ -124,6 +126,6 @@ def fleet(
         for w in o.warnings:
             print(w if w.startswith("d2sr: ") else f"d2sr: warning: {w}", file=sys.stderr)
     for o in s.failed:
-        print(f"d2sr: error: {o.input}: {o.reason}", file=sys.stderr)
+        print(f"d2sr: error: {printable(o.input)}: {o.reason}", file=sys.stderr)
     if s.failed:
         raise typer.Exit(1)

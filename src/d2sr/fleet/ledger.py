@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from d2sr.atomic import atomic_write
 from d2sr.errors import OutputError
@@ -19,6 +19,9 @@ from d2sr.provenance import MADE_BY, stamp
 __all__ = ["LEDGER", "Ledger", "Outcome", "fingerprint"]
 
 LEDGER = "fleet.json"
+MAX_BYTES = 64 << 20  # a fleet's record of a few thousand recordings is a few MB; a larger file is not one
+LINE = 500  # characters a reason or warning keeps
+WARNINGS = 100  # warnings a recording keeps
 
 
 class Outcome(BaseModel):
@@ -42,6 +45,24 @@ class Outcome(BaseModel):
     fingerprint: str | None = None
     warnings: list[str] = Field(default_factory=list, description="what d2sr warned of, one line each")
 
+    @field_validator("reason")
+    @classmethod
+    def _one_line(cls, v: str) -> str:
+        return printable(v)
+
+    @field_validator("warnings")
+    @classmethod
+    def _lines(cls, v: list[str]) -> list[str]:
+        """Read back from a file anyone may have written: printed, so bounded and without control codes."""
+        return [printable(w) for w in v[:WARNINGS]]
+
+
+def printable(text: str) -> str:
+    """``text`` as one line a terminal shows as it is: control characters (an escape sequence, a carriage
+    return) written as Python escapes, at most ``LINE`` characters."""
+    out = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text[: 4 * LINE])
+    return out if len(out) <= LINE else out[: LINE - 1] + "…"
+
 
 class Ledger(BaseModel):
     """``fleet.json``: the run's settings (as the library's settings objects dump them) and outcomes."""
@@ -60,11 +81,13 @@ class Ledger(BaseModel):
         try:
             if path.is_symlink() or not path.is_file():
                 raise ValueError("not a plain file")
+            if path.stat().st_size > MAX_BYTES:
+                raise ValueError(f"larger than {MAX_BYTES >> 20} MB")
             data = json.loads(path.read_text(errors="strict"))
             if not isinstance(data, dict) or not str(data.get(MADE_BY, "")).startswith("d2sr "):
                 raise ValueError("not written by d2sr")
             return cls.model_validate(data)
-        except (OSError, UnicodeError, ValueError, ValidationError) as exc:
+        except (OSError, UnicodeError, ValueError, RecursionError, ValidationError) as exc:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise OutputError(
                 f"{path}: not a d2sr fleet's record ({reason}); name a new --out or remove it"
