@@ -47,6 +47,8 @@ class NpzReader(Reader):
             zipfile.BadZipFile,
             EOFError,
             RecursionError,
+            SyntaxError,  # a header numpy cannot parse (a number of 5,000 digits)
+            MemoryError,
         ) as exc:
             raise InputError(f"{self.path}: corrupt or truncated npz: {exc}") from None
         if self.depth.ndim == 2:
@@ -83,24 +85,53 @@ class NpzReader(Reader):
         return [self._frame(int(i)) for i in np.unique(np.linspace(0, len(self) - 1, k).round())]
 
 
+NAME_BYTES = 4 * 4096  # a frame's name: at most 4096 characters (numpy stores 4 bytes each)
+INTRINSICS_BYTES = 1 << 16  # the intrinsics' JSON text
+
+
+def _header(z: zipfile.ZipFile, member: str) -> tuple[tuple[int, ...], np.dtype[Any]]:
+    with z.open(member) as fh:
+        version = np.lib.format.read_magic(fh)
+        read = (
+            np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        )
+        shape, _, dtype = read(fh)
+    return tuple(shape), np.dtype(dtype)
+
+
 def _check_header(path: Path) -> None:
-    """The ``depth`` array's shape, from its header before it is read (an npz is read whole): each frame
-    within the pixel budget, all of them within half this machine's memory."""
+    """Each member the reader reads, from its header before it is read (an npz is read whole): ``depth``'s
+    frames within the pixel budget, all of them within half this machine's memory; ``names``,
+    ``timestamps_ns``, ``depth_scale`` and ``intrinsics`` no larger than the frames they describe need (a
+    390 kB file's names took 758 MB); and no member unpacking to more than its header says."""
     with zipfile.ZipFile(path) as z:
-        if "depth.npy" not in z.namelist():
+        members = {i.filename: i for i in z.infolist()}
+        if "depth.npy" not in members:
             return  # the reader says what is missing
-        with z.open("depth.npy") as fh:
-            version = np.lib.format.read_magic(fh)
-            read = (
-                np.lib.format.read_array_header_1_0
-                if version == (1, 0)
-                else np.lib.format.read_array_header_2_0
-            )
-            shape, _, dtype = read(fh)
+        shapes = {}
+        for name in ("depth", "names", "timestamps_ns", "depth_scale", "intrinsics"):
+            info = members.get(f"{name}.npy")
+            if info is None:
+                continue
+            shape, dtype = _header(z, info.filename)
+            size = int(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+            if info.file_size > size + 65536:  # the header is at most a few kB
+                raise InputError(f"{path}: '{name}' unpacks to more than its header says")
+            shapes[name] = (shape, dtype, size)
+    shape, dtype, total = shapes["depth"]
+    frames = shape[0] if len(shape) == 3 else 1
+    limits = {
+        "names": (frames * NAME_BYTES, "its frames' names"),
+        "timestamps_ns": (frames * 8, "a stamp per frame"),
+        "depth_scale": (8, "one number"),
+        "intrinsics": (INTRINSICS_BYTES, "a camera's intrinsics"),
+    }
+    for name, (most, what) in limits.items():
+        if name in shapes and shapes[name][2] > most:
+            raise InputError(f"{path}: '{name}' declares {shapes[name][2]:,} bytes, more than {what} need")
     if len(shape) in (2, 3) and all(isinstance(n, int) for n in shape):
         h, w = shape[-2:]
         check_pixels(h, w, f"{path}: 'depth'")
-        total = int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
         if total > memory // 2:
             raise InputError(
