@@ -29,7 +29,7 @@ def test_version_and_help():
         (["desync", "run", "--active-frames", "31"], "--active-frames (31)"),
         (["desync", "run", "--sensors", "0"], "--sensors >= 1"),
         (["desync", "run", "--recall", "1.5"], "recall"),
-        (["desync", "run", "--false-alarm", "-0.1"], "false_alarm"),
+        (["desync", "run", "--false-alarm", "-0.1"], "--false-alarm: "),
         (["desync", "run", "--scenario", "orbit"], "--scenario"),
         (["desync", "run", "--controllers", "d2sr,nope"], "unknown nope"),
         (["desync", "run", "--seconds", "0"], "duration"),

@@ -77,5 +77,5 @@ def test_the_command_line_names_the_flag_that_sets_a_bad_setting(tmp_path):
     src = tmp_path / "rec"
     src.mkdir()
     code, _, err = d2sr_inprocess("recover", str(src), "--out", str(tmp_path / "o"), "--mask-logit", "nan")
-    assert code == 2 and "RunSettings: --mask-logit: Input should be a finite number" in err
+    assert code == 2 and "error: --mask-logit: Input should be a finite number (got nan)" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

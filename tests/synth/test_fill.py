@@ -136,7 +136,7 @@ def test_fill_without_colour_holds_the_last_kept_frame(tmp_path):
     ("args", "message"),
     [
         (["--active-frames", "0"], "--active-frames: Input should be greater than or equal to 1"),
-        (["--active-frames", "6", "--offset", "30"], "(set by --offset)"),
+        (["--active-frames", "6", "--offset", "30"], "--offset: "),
         (["--active-frames", "6", "--colour", "NOPE"], "no such folder"),
     ],
 )
