@@ -17,6 +17,7 @@ __all__ = [
     "MARK",
     "absolute",
     "alive",
+    "cell",
     "journal",
     "journals",
     "made_by_d2sr",
@@ -98,6 +99,13 @@ def _bag_by_d2sr(path: Path) -> bool:
             return any(getattr(c.ext, "callerid", None) == CALLER for c in bag.connections)
     except Exception:  # rosbags raises its own errors on a damaged bag: then it is not ours to replace
         return False
+
+
+def cell(text: str) -> str:
+    """A name as a CSV cell a spreadsheet shows as text: one that starts as a formula would (=, +, -, @, a
+    tab or carriage return) gets a leading apostrophe, as spreadsheets expect for text that looks like a
+    formula (a frame named ``=HYPERLINK(...)`` ran as one)."""
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
 def absolute(path: Path) -> Path:

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from d2sr.errors import D2SRError, InputError
+from d2sr.fleet.ledger import LEDGER
 from d2sr.frames import detect_format
 
 __all__ = ["output_names"]
@@ -54,6 +55,8 @@ def _parts(path: Path) -> list[str]:
     own = resolved.name
     if own.lower().endswith(_SUFFIXES) and _out_is_folder(path):
         own = own[: own.rfind(".")]
+    if own.lower() == LEDGER:  # the fleet's own record has that name in the folder
+        own += "_"
     parts = [*resolved.parent.parts[1:], own]
     return [_safe(p) for p in parts]
 

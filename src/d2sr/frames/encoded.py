@@ -9,7 +9,8 @@ from d2sr.errors import InputError
 
 __all__ = ["check_encoded", "check_pixels", "encoded_size"]
 
-MAX_PIXELS = 4096 * 4096  # about 1.6 GB of working memory for a frame; larger frames are refused
+MAX_SIDE = 16384  # pixels a side: no depth camera comes near (libpng itself decodes at most 10^6)
+MAX_PIXELS = 4096 * 4096  # about 4.5 GB of working memory (frames.base.WORK_BYTES); larger ones are refused
 _PNG = b"\x89PNG\r\n\x1a\n"
 _JPEG = b"\xff\xd8"
 # JPEG start-of-frame markers (baseline, progressive, ...): the ones that carry the image size.
@@ -23,6 +24,10 @@ def check_pixels(height: int, width: int, where: str) -> None:
     if height * width > MAX_PIXELS:
         raise InputError(
             f"{where}: {width}x{height} pixels; d2sr takes images up to {MAX_PIXELS // 10**6} MP"
+        )
+    if max(height, width) > MAX_SIDE:
+        raise InputError(
+            f"{where}: {width}x{height} pixels; d2sr takes images up to {MAX_SIDE} pixels a side"
         )
 
 

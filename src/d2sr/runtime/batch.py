@@ -24,6 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from d2sr.atomic import CSV_HEADERS, atomic_dir, atomic_write, check_out
+from d2sr.atomic.naming import cell
 from d2sr.config import check_callbacks, check_instances, check_paths
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import TOTAL_FRAMES, make_controller
@@ -244,7 +245,7 @@ def detect_recording(
         for res in map(loop.process, loop.primed(caps, s.prime)):
             flagged += res.flagged
             used += bool(res.scene)
-            w.writerow([res.capture.name, f"{res.score:.6f}", int(res.flagged), res.reason])
+            w.writerow([cell(res.capture.name), f"{res.score:.6f}", int(res.flagged), res.reason])
             done += 1
             if progress is not None:
                 progress(done, len(reader))

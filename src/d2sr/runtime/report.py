@@ -87,7 +87,7 @@ class Report:
 
     def html(self) -> str:
         """The report, one self-contained page."""
-        e = html.escape
+        e = _text
         moved = self.repaired_px - self.filled_px
         head = (
             f"<p>{self.frames} frames; {self.flagged} flagged; {self.repaired_px} pixels repaired: {moved} "
@@ -151,6 +151,12 @@ class Report:
 
     def write(self, path: Path) -> None:
         atomic_write(path, self.html())
+
+
+def _text(name: str) -> str:
+    """A name as HTML text in a page declared UTF-8: escaped, and bytes that are not UTF-8 (a file name
+    read with surrogateescape) shown as escapes rather than written raw."""
+    return html.escape(name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace"))
 
 
 def _empty(depth: np.ndarray) -> np.ndarray:

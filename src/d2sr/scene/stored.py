@@ -98,6 +98,7 @@ class StoredScene:
             if a is None or a.dtype != np.float32 or a.shape != (h, w) or not np.isfinite(a).all():
                 raise InputError(f"{path}: its {k} is not a {w}x{h} float32 array", "scene_from")
         stats = CleanStats(frames=meta["frames"], **{k: np.array(got[k]) for k in _ARRAYS})
+        _sensible(path, stats)
         return cls(stats, float(meta["depth_scale"]), int(meta["frames"]), str(meta["source"]))
 
 
@@ -108,6 +109,25 @@ def _member(z: Any, name: str, most: int) -> np.ndarray | None:
         return None
     out: np.ndarray = z[name]
     return out
+
+
+MAX_FRAMES = 10**9  # clean frames a scene is learned from: years of a camera's frames
+
+
+def _sensible(path: Path, s: CleanStats) -> None:
+    """Statistics a clean sequence can have: shares in 0..1, depths not negative, and where a pixel
+    returned, its 2nd percentile at most its median, its median at most its 98th (a few micrometres of
+    float32 aside)."""
+    seen = s.rate > 0
+    slack = np.float32(1e-4)
+    ok = (
+        bool(((s.rate >= 0) & (s.rate <= 1)).all())
+        and all(bool((getattr(s, k) >= 0).all()) for k in ("median", "nz_median", "lo", "hi", "mean_err"))
+        and bool((s.lo[seen] <= s.nz_median[seen] + slack).all())
+        and bool((s.nz_median[seen] <= s.hi[seen] + slack).all())
+    )
+    if not ok:
+        raise InputError(f"{path}: its statistics are none a clean sequence has", "scene_from")
 
 
 def _meta(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
@@ -128,7 +148,7 @@ def _meta(path: Path, raw: np.ndarray | None) -> dict[str, Any]:
         and shape[0] * shape[1] <= MAX_PIXELS  # the frames d2sr takes: no larger scene is unpacked
         and positive_finite(scale)
         and isinstance(frames, int)
-        and frames >= 1
+        and 1 <= frames <= MAX_FRAMES
         and isinstance(meta.get("source"), str)
     )
     if not ok:

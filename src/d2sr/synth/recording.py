@@ -17,6 +17,7 @@ import numpy as np
 from pydantic import Field
 
 from d2sr.atomic import atomic_dir, check_out
+from d2sr.atomic.naming import cell
 from d2sr.config import Settings, check_callbacks, check_paths
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError, InputError
@@ -178,5 +179,7 @@ def _csv(rows: list[dict[str, object]]) -> str:
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["frame"])
     w.writeheader()
-    w.writerows(rows)
+    w.writerows(
+        {k: cell(v) if k == "frame" and isinstance(v, str) else v for k, v in r.items()} for r in rows
+    )
     return buf.getvalue()
