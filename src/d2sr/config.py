@@ -3,6 +3,7 @@ checks the entry points' other arguments (paths, objects of a kind, callbacks) t
 
 from __future__ import annotations
 
+import json
 import numbers
 import os
 import tomllib
@@ -57,6 +58,25 @@ def one_line(exc: ValidationError, what: str) -> str:
         msg = err["msg"].removeprefix("Value error, ")  # a validator's own words need no label
         parts.append(f"{field}: {msg}{shown}")
     return f"{what}: " + "; ".join(parts)
+
+
+JSON_BYTES = 1 << 20  # a small JSON file d2sr reads back (a description, a manifest, settings): at most this
+
+
+def read_json(path: Path, most: int = JSON_BYTES) -> Any:
+    """A small JSON file d2sr reads back, as data: a ValueError (one line) for a file over ``most`` bytes, not
+    JSON, nested too deep, or holding a number Python will not read (5,000 digits); OSError as the system
+    says."""
+    with open(path, "rb") as fh:
+        raw = fh.read(most + 1)
+    if len(raw) > most:
+        raise ValueError(f"larger than {most:,} bytes")
+    try:
+        return json.loads(raw.decode("utf-8"))
+    except RecursionError:
+        raise ValueError("nested too deep") from None
+    except (UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError, an integer of thousands of digits
+        raise ValueError(str(exc).splitlines()[0][:120] if str(exc) else "not JSON") from None
 
 
 def read_toml(path: Path) -> dict[str, Any]:

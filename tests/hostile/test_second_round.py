@@ -86,3 +86,33 @@ def test_a_recording_named_like_the_fleet_s_record_is_named_apart(tmp_path):
     for name in ("fleet.json", "other"):
         (tmp_path / name).mkdir()
     assert output_names([tmp_path / "fleet.json", tmp_path / "other"]) == ["fleet.json_", "other"]
+
+
+@pytest.mark.parametrize(
+    "text",
+    ['{"depth_scale": ' + "9" * 5000 + "}", "[" * 30_000 + "]" * 30_000, '{"a": "' + "x" * (2 << 20) + '"}'],
+)
+def test_json_d2sr_reads_back_is_bounded_one_line(tmp_path, text):
+    """A 5,000-digit number, nesting 30,000 deep, a file of megabytes: one line, never an unforeseen error."""
+    from d2sr.atomic import made_by_d2sr
+    from d2sr.atomic.manifest import made
+    from d2sr.errors import OutputError
+    from d2sr.frames import open_frames
+
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    import cv2
+
+    cv2.imwrite(str(rec / "000.png"), np.full((96, 128), 8000, np.uint16))
+    (rec / "meta.json").write_text(text)
+    with pytest.raises(InputError, match=r"meta\.json"):
+        open_frames(rec)
+    out = tmp_path / "out.json"
+    out.write_text(text)
+    assert not made_by_d2sr(out)
+    folder = tmp_path / "o"
+    folder.mkdir()
+    (folder / "a.png").write_bytes(b"x")
+    (folder / ".d2sr-manifest.json").write_text(text)
+    with pytest.raises(OutputError, match="did not make"):
+        made(folder)

@@ -11,7 +11,10 @@ from pathlib import Path
 
 from d2sr.atomic.naming import MANIFEST
 from d2sr.atomic.oserrors import writing
+from d2sr.config import read_json
 from d2sr.errors import OutputError
+
+MANIFEST_BYTES = 64 << 20  # a manifest of a million frames' names: larger is no manifest of ours
 
 __all__ = ["confined", "empty_dirs", "files_under", "listed", "made", "prune", "record_manifest"]
 
@@ -42,7 +45,7 @@ def made(folder: Path) -> set[str]:
     if not any(folder.iterdir()):
         return set()
     try:
-        listed = json.loads((folder / MANIFEST).read_text())["files"]
+        listed = read_json(folder / MANIFEST, MANIFEST_BYTES)["files"]
     except (OSError, ValueError, KeyError, TypeError):
         raise OutputError(
             f"{folder} holds files d2sr did not make (no valid {MANIFEST}); not replaced"

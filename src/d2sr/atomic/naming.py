@@ -48,9 +48,11 @@ def made_by_d2sr(path: Path) -> bool:
     if path.is_symlink() or not path.is_file():
         return False
     if suffix == ".json":
+        from d2sr.config import read_json
+
         try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, ValueError):
+            data = read_json(Path(path))
+        except (OSError, ValueError):  # too large, too deep or no JSON: no file of ours
             return False
         return isinstance(data, dict) and str(data.get(MADE_BY, "")).startswith("d2sr")
     try:

@@ -15,6 +15,7 @@ from pathlib import Path
 from d2sr.atomic.manifest import empty_dirs, files_under, listed, made, prune, record_manifest
 from d2sr.atomic.naming import MANIFEST, absolute, alive, journal, journals, ours, temporaries, token
 from d2sr.atomic.oserrors import writing
+from d2sr.config import read_json
 from d2sr.errors import OutputError
 
 __all__ = ["atomic_dir", "atomic_file", "atomic_write", "commit", "discard", "state", "temp_for", "tidy"]
@@ -253,7 +254,7 @@ def _resume_one(path: Path, log: Path) -> None:
     if not log.is_file() or log.is_symlink():
         return
     try:
-        data = json.loads(log.read_text())
+        data = read_json(log)
         old = path.with_name(str(data["old"]))
     except (OSError, ValueError, KeyError, TypeError):
         return

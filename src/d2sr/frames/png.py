@@ -11,6 +11,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from d2sr.config import read_json
 from d2sr.errors import InputError
 from d2sr.frames.base import Frame, Intrinsics, Reader, Writer, check_names, check_scale, stamp_from_name
 from d2sr.frames.encoded import check_encoded
@@ -67,8 +68,8 @@ def read_meta(folder: Path) -> dict[str, Any]:
         f = folder / name
         if f.is_file():
             try:
-                meta = json.loads(f.read_text())
-            except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+                meta = read_json(f)
+            except ValueError as exc:
                 raise InputError(f"{f}: not valid JSON: {str(exc)[:100]}") from None
             except OSError as exc:
                 raise InputError(f"{f}: cannot read: {exc.strerror}") from None

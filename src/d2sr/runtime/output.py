@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.atomic import commit, ours, sibling, state, writing
+from d2sr.config import read_json
 from d2sr.errors import D2SRError
 from d2sr.frames.layout import RUN, RUN_FILLED, FrameFolder, sensor_dir
 from d2sr.frames.overlap import Behind
@@ -107,7 +108,7 @@ class RunFolder:
             if ours(p, ("partial",)) is None or p.is_symlink() or not p.is_dir():
                 continue
             with contextlib.suppress(OSError, ValueError):
-                mark = json.loads((p / RUN_MARK).read_text())
+                mark = read_json(p / RUN_MARK)
                 if isinstance(mark, dict) and mark.get("made_by") == "d2sr" and mark.get("out") == name:
                     found.append(p)
         return found
@@ -253,7 +254,7 @@ class SensorSink:
 
 def _settings(folder: Path) -> dict[str, Any] | None:
     try:
-        data = json.loads((folder / "settings.json").read_text())
+        data = read_json(folder / "settings.json")
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None

@@ -11,7 +11,6 @@ result)`` is what a run calls for every frame; ``view(run_folder)`` replays a fi
 from __future__ import annotations
 
 import csv
-import json
 import os
 import queue
 import socket
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from d2sr.atomic import commit, discard, state, temp_for
+from d2sr.config import read_json
 from d2sr.errors import InputError
 from d2sr.frames.base import check_name
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
@@ -250,7 +250,7 @@ def view(run: Path, target: str | Path) -> int:
     if not log_path.is_file():
         raise InputError(f"{run}: not a finished d2sr run folder (no log.csv)")
     try:
-        settings = json.loads((Path(run) / "settings.json").read_text())
+        settings = read_json(Path(run) / "settings.json")
         with log_path.open(newline="", errors="surrogateescape") as fh:
             rows = [_row(r, k + 2, run) for k, r in enumerate(csv.DictReader(fh))]
     except (OSError, ValueError, csv.Error) as exc:
