@@ -87,7 +87,7 @@ def main() -> int:
         time.sleep(0.1)
     got: dict[str, dict[int, np.ndarray]] = {"repaired": {}, "mask": {}}
     end = time.monotonic() + args.wait
-    while time.monotonic() < end and len(got["repaired"]) < args.frames:
+    while time.monotonic() < end and min(len(v) for v in got.values()) < args.frames:  # frames and masks
         for part, reader in readers.items():
             for msg in reader.take(N=64):
                 got[part][msg.header.stamp.sec - 1_000] = pixels(msg)
