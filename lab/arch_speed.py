@@ -28,7 +28,8 @@ from d2sr.eval.speed import write_result
 from d2sr.models.onnx.export import _onnx
 from d2sr.models.unet import UNet
 
-# name: UNet's keywords (fill=True, s2d=4 for all: the shipped layout). The first is unet8 as shipped.
+# name: UNet's keywords (fill=True; s2d=4 unless given: the shipped layout). The first is unet8 as shipped.
+# Issue 44's widths; issue 78's folds of 8x8 blocks (the trunk at 80x60), toward a quarter of unet8's pass.
 CANDIDATES: dict[str, dict[str, int]] = {
     "unet8 (shipped)": {"width": 8},
     "unet8, head 32": {"width": 8, "hidden": 32},
@@ -36,6 +37,9 @@ CANDIDATES: dict[str, dict[str, int]] = {
     "unet4": {"width": 4},
     "unet4, head 32": {"width": 4, "hidden": 32},
     "unet4, head 16": {"width": 4, "hidden": 16},
+    "s2d 8, unet16": {"width": 16, "s2d": 8},
+    "s2d 8, unet8": {"width": 8, "s2d": 8},
+    "s2d 8, unet8, head 64": {"width": 8, "s2d": 8, "hidden": 64},
 }
 CONV = "Conv"
 
@@ -76,25 +80,29 @@ def main() -> None:
     out: dict = {}
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        files, params = {}, {}
+        files, params, inputs = {}, {}, {}
         for name, kw in CANDIDATES.items():
-            net = UNet(s2d=4, fill=True, **kw).eval()
+            net = UNet(**{"s2d": 4, **kw}, fill=True).eval()
+            # The frame padded to the model's stride, as the runtime pads it (480 rows: 512 at stride 64).
+            rows = -(-x.shape[2] // net.stride) * net.stride
+            inputs[name] = np.pad(x, ((0, 0), (0, 0), (0, rows - x.shape[2]), (0, 0)))
             files[name] = tmp / f"{len(files)}.onnx"
-            _onnx(net, (torch.from_numpy(x),), files[name], ["depth"], ["mask_logit", "pred_depth"], {})
+            one = (torch.from_numpy(inputs[name]),)
+            _onnx(net, one, files[name], ["depth"], ["mask_logit", "pred_depth"], {})
             params[name] = sum(p.numel() for p in net.parameters())
         times: dict[tuple[str, int], list[float]] = defaultdict(list)
         sessions = {(n, k): _session(f, k) for n, f in files.items() for k in (1, 2)}
-        for s in sessions.values():
+        for (n, _), s in sessions.items():
             for _ in range(3):
-                s.run(None, {"depth": x})
+                s.run(None, {"depth": inputs[n]})
         for _ in range(args.repeats):
             for key, s in sessions.items():
                 t0 = time.perf_counter()
-                s.run(None, {"depth": x})
+                s.run(None, {"depth": inputs[key[0]]})
                 times[key].append(1000 * (time.perf_counter() - t0))
         first = next(iter(CANDIDATES))
         for name in CANDIDATES:
-            ops = _by_operator(files[name], x, 10, tmp)
+            ops = _by_operator(files[name], inputs[name], 10, tmp)
             conv = ops.get(CONV, 0.0)
             one = statistics.median(times[(name, 1)])
             out[name] = {
