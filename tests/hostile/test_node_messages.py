@@ -106,9 +106,23 @@ _FIELDS = st.builds(
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(_FIELDS)
 def test_random_messages_never_stop_the_node(node, msg):
+    """Each message ends one way, counted (published, refused or dropped), and a real frame after it is
+    still answered: a handler that returned at once, or one that stopped, fails here."""
+    st = node.stats
+
+    def ends() -> int:
+        return st.published + st.refused + st.dropped
+
+    before = ends()
     node.handle(msg, time.monotonic())
     while node.running:
         node.publish_done(wait=True)
+    assert ends() - before == 1
+    published = st.published
+    node.handle(_real(0), time.monotonic())
+    while node.running:
+        node.publish_done(wait=True)
+    assert st.published == published + 1
 
 
 def test_settings_are_checked_at_start(weights):
