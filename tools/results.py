@@ -191,29 +191,31 @@ README_ROWS = (
         "`make eval-paper`",
     ),
     Row(
-        "`d2sr recover` on recordings, outside sets: RMSE change mean / worst; most frames worse in a set",
+        "`d2sr recover` on recordings, outside sets (development): RMSE change mean / worst; most frames "
+        "worse in a set",
         "—",
         "docs/results/recover_recording.json",
         _recording,
         "`python -m lab.scene_repair --what recording`",
     ),
     Row(
-        "the models alone on every frame (`--repair all --no-scene`), outside sets: RMSE mean / worst",
+        "the models alone on every frame (`--repair all --no-scene`), outside sets (development): RMSE "
+        "mean / worst",
         "—",
         "docs/results/outside_sets.json",
         _outside,
         "`make outside`",
     ),
     Row(
-        "detector + scene on recordings, outside sets: precision / recall, mean / worst",
+        "detector + scene on recordings, outside sets (development): precision / recall, mean / worst",
         "—",
         "docs/results/scene_reference.json",
         _scene_flags,
         "`python -m lab.scene_reference`",
     ),
     Row(
-        "real Kinect v2 interference, scene stored from 6 clean frames: put back (> 2 cm), `recover` / "
-        "`--repair all`; frames worse; `detect` recall; without the stored scene",
+        "real Kinect v2 interference (development), scene stored from 6 clean frames: put back (> 2 cm), "
+        "`recover` / `--repair all`; frames worse; `detect` recall; without the stored scene",
         "—",
         "docs/results/kinect2_cam0.json",
         lambda d: (
@@ -228,7 +230,7 @@ README_ROWS = (
         "`python -m lab.kinect2_cam0`",
     ),
     Row(
-        "stored scene, L515 outside sets: RMSE, recall, mean / worst",
+        "stored scene, L515 outside sets (development): RMSE, recall, mean / worst",
         "—",
         "docs/results/stored_scene_l515.json",
         lambda d: (
