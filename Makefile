@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-fast edge-check lint sweep desync-grid bench soak calibrate labels weights trials thresholds lofo eval-models outside results overlap adapt-runs eval-generalization eval-paper clean
+.PHONY: demo test test-fast edge-check lint verify-results sweep desync-grid bench soak calibrate labels weights trials thresholds lofo eval-models outside results overlap adapt-runs eval-generalization eval-paper clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -142,6 +142,11 @@ eval-models: $(STAMP)
 # disagree; the tests run it). Repository tooling: not part of the installed package.
 results: $(STAMP)
 	$(BIN)/python tools/results.py
+
+# The committed results cheap enough to re-make here (about a minute each), re-made in a temporary folder and
+# compared figure by figure with the committed files (tools/verify_results.py; not yet in CI).
+verify-results: $(STAMP)
+	$(BIN)/python tools/verify_results.py --data $(DATA)
 
 # Leave-one-family-out: a detector trained without each interference family (runs/lofo/no-<family>),
 # then false alarms on every real clean frame in ../shared/data and each family on real L515 frames.
