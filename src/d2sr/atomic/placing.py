@@ -180,15 +180,19 @@ def _place_new(tmp: Path, path: Path) -> None:
         try:
             os.link(tmp, path)  # fails where anything is: the check and the placing are one step
         except FileExistsError:
-            raise OutputError(f"{path} appeared while this run wrote it: left as it is") from None
+            raise _appeared(path) from None
         except OSError:  # a file system without hard links: the checked rename below
             pass
         else:
             os.unlink(tmp)
             return
     if path.exists() or path.is_symlink():
-        raise OutputError(f"{path} appeared while this run wrote it: left as it is")
+        raise _appeared(path)
     os.rename(tmp, path)
+
+
+def _appeared(path: Path) -> OutputError:
+    return OutputError(f"{path} appeared while this run wrote it: left as it is")
 
 
 def _rename_noreplace(tmp: Path, path: Path) -> bool:
@@ -208,7 +212,7 @@ def _rename_noreplace(tmp: Path, path: Path) -> bool:
         return True
     err = ctypes.get_errno()
     if err == errno.EEXIST:
-        raise OutputError(f"{path} appeared while this run wrote it: left as it is")
+        raise _appeared(path)
     if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
         return False  # the file system or kernel cannot: the caller's fallback
     raise OSError(err, os.strerror(err), str(path))

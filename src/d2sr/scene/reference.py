@@ -58,9 +58,8 @@ class SceneReference:
     # quarter of its 9x9) is split too, though its few returns agreed.
     _gap: np.ndarray  # float32 m: the clean returns' widest gap (``stack_stats``), once warm
     _parted: np.ndarray  # bool, once warm
-    _split: np.ndarray  # bool: wide, or amid wide pixels; its returns are no evidence
-    _agree: np.ndarray  # bool: returning pixels that are not split
-    _steady: np.ndarray  # bool: pixels the scene is sure of (``trust_rate``, agreeing), once warm
+    _split: np.ndarray  # bool: parted, or amid parted pixels; their returns are no evidence
+    _steady: np.ndarray  # bool: pixels the scene is sure of (``trust_rate``, not split), once warm
     _shift_px: np.ndarray  # bool: pixels shifted windows are worked out over (``shift_rate``), once warm
     _far_lo: np.ndarray  # a return below this is far off, once warm (``_limits``)
     _far_hi: np.ndarray  # and above this
@@ -156,9 +155,10 @@ class SceneReference:
         if self.count < self.settings.warm or self._stored:
             return
         if self._stats is None:  # just warm: every stripe at once
-            ring = self._ring[: self.count]
-            gap = stack_stats(ring, ("gap",), self.settings.split_part)["gap"] / np.float32(self.scale)
-            self._start(frame.shape, _stats(ring, self.scale), gap)
+            ring = stack_stats(self._ring[: self.count], (*STAT_FIELDS, "gap"), self.settings.split_part)
+            full = _metres(ring, self.scale)  # one sort of the ring for both
+            gap = full.pop("gap")
+            self._start(frame.shape, CleanStats(frames=self.count, **full), gap)
             return
         stripes = self.settings.stripes
         rows = -(-frame.shape[0] // stripes)
@@ -181,7 +181,6 @@ class SceneReference:
         self._labeller = Labeller(self._stats, tolerance=(s.tol_abs, s.tol_rel))
         self._parted = np.zeros(shape, bool)
         self._split = np.zeros(shape, bool)
-        self._agree = np.zeros(shape, bool)
         self._steady = np.zeros(shape, bool)
         # At trust_rate the shifted windows' pixels are the steady ones: the same array, kept once.
         self._shift_px = self._steady if s.shift_rate == s.trust_rate else np.zeros(shape, bool)
@@ -204,10 +203,9 @@ class SceneReference:
         near = slice(max(start - 4, 0), None if rows.stop is None else rows.stop + 4)
         top = start - near.start
         parted = self._parted[near]
-        split = parted | (neighbours(parted) >= QUARTER)
-        split = split[top : top + (s.rate[rows].shape[0])]
+        split = (parted | (neighbours(parted) >= QUARTER))[top : top + len(median)]
         self._split[rows] = split
-        agree = self._agree[rows] = ~split & (s.nz_median[rows] > 0)
+        agree = ~split & (median > 0)
         self._steady[rows] = (s.rate[rows] >= cfg.trust_rate) & agree
         if self._shift_px is not self._steady:
             self._shift_px[rows] = (s.rate[rows] >= cfg.shift_rate) & agree
@@ -266,11 +264,9 @@ class SceneReference:
                 fresh = fresh | (mask & self._on_surface(metres))
             return fresh, dense(fresh & deviates, known)
 
-        if seen is not deviates:
-            near = neighbours(changed)
-        elif shift.any():
-            near = neighbours(mask)
-        self._before = _explains(metres, changed, near)
+        # Where nothing split or shifted, ``changed`` is ``deviates``: its neighbours are counted already.
+        alike = seen is deviates and not shift.any()
+        self._before = _explains(metres, changed, near if alike else neighbours(changed))
         self._keep_lasting(frame, changed)
         far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
         parts = Parts(cfg, explain, shift, off_px, far_off, before)
@@ -402,7 +398,7 @@ class SceneReference:
         keep = (m > 0) & ~ev.mask & (seldom | within)
         depth = np.where(where, s.nz_median, 0).astype(np.float32)
         if ev.shift_evident:
-            at, by = _offsets(ev, s, where, cfg, self._agree)
+            at, by = _offsets(ev, s, where, cfg, self._split)
             where, keep = where | at, keep & ~at
             depth[at] = m[at] - by[at]
         return SceneRepair(where, depth, keep)
@@ -433,16 +429,16 @@ def _explains(metres: np.ndarray, mask: np.ndarray, near: np.ndarray) -> np.ndar
 
 
 def _offsets(
-    ev: Evidence, s: CleanStats, filled: np.ndarray, cfg: SceneSettings, agree: np.ndarray
+    ev: Evidence, s: CleanStats, filled: np.ndarray, cfg: SceneSettings, split: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(bool: returns of a surface shifted as a whole, float32: their window's mean offset in metres). A
     window's mean over a hundred-odd pixels is known to a few millimetres where each pixel's own noise spans
     centimetres. A return amid such a surface (windows whose fresh shifted pixels are a quarter of the window
     and half of its returns) that reads off the same way, by at least half the mean, takes its own depth
     less the mean; where the scene's fill (``filled``) writes its median, only if the offsets agree (spread
-    within ``shift_m``) and are within ``offset_cap``; only where the clean depths ``agree``."""
+    within ``shift_m``) and are within ``offset_cap``; never where the scene is ``split``."""
     m = ev.metres
-    has = (m > 0) & (s.rate >= cfg.range_rate) & agree
+    has = (m > 0) & (s.rate >= cfg.range_rate) & (s.nz_median > 0) & ~split
     diff = np.subtract(m, s.nz_median, dtype=np.float32)
     diff *= has  # products, not np.where: a third of the time on scattered masks
     assert ev.parts is not None and ev.parts.shift is not None  # a shift-evident frame has shifted windows
@@ -474,7 +470,3 @@ def _quantile(values: deque[float], q: float) -> float:
 def _metres(part: dict[str, np.ndarray], scale: float) -> dict[str, np.ndarray]:
     """``stack_stats``' depths in metres (``rate`` is a share)."""
     return {k: v if k == "rate" else v / np.float32(scale) for k, v in part.items()}
-
-
-def _stats(ring: np.ndarray, scale: float) -> CleanStats:
-    return CleanStats(frames=ring.shape[0], **_metres(stack_stats(ring), scale))
