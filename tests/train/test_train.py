@@ -53,6 +53,8 @@ def test_config_rejects_what_cannot_work(tmp_path):
         _cfg(tmp_path, model="unet8", gate_previous=True)
     with pytest.raises(ConfigError, match="batch: Input should be less than or equal to 1024"):
         _cfg(tmp_path, batch=10**9)  # hung making a billion indices
+    with pytest.raises(ConfigError, match="teacher must be a recovery model's weights file"):
+        _cfg(tmp_path, teacher=tmp_path / "missing.safetensors")
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
@@ -308,6 +310,33 @@ def test_second_pass_inputs_are_what_recover_feeds_its_second_pass():
     assert np.array_equal(out.x[1], x[1])  # clean frames are trained on as delivered
     assert np.array_equal(out.x[:, 1], x[:, 1])  # an earlier frame is never rewritten
     assert out.y is b.y and out.m is b.m  # targets: the clean frame and the true mask, as before
+
+
+def test_a_teacher_gives_interfered_frames_its_repair_and_clean_ones_the_truth():
+    from d2sr.models.inference import TorchBackend
+    from d2sr.train.loop import taught
+
+    x = np.full((2, 1, 32, 48), 2.0, np.float32)  # a wall at 2 m
+    x[:, :, 10:14] = 1.0  # a too-short stripe
+    y = np.full((2, 1, 32, 48), 2.0, np.float32)
+    m = (x != y).astype(np.float32)
+    m[0, 0, 12:14] = 0  # the truth misses half the stripe in frame 0; the teacher does not
+    b = Batch(x, y, m, np.array([1, 0], np.float32))  # frame 1 is labelled clean
+    out = taught(TorchBackend(None, _Shorter(), mask_logit=0.0, passes=1), b)
+    assert out.taught is not None and out.m is b.m and out.y is b.y
+    tm, ty = out.taught
+    assert np.array_equal(tm[0, 0], x[0, 0] < 1.5)  # the teacher's (guarded) repair, the whole stripe
+    assert np.all(ty[0] == 2.0)  # its depth where it repairs, the frame's elsewhere
+    assert np.array_equal(tm[1], m[1]) and np.array_equal(ty[1], y[1])  # clean: the truth
+    # With a teacher weight the mask is pushed to flag the teacher's half of the stripe too.
+
+    def logit_grad(weight: float) -> torch.Tensor:
+        model = _Fixed(x.shape)
+        loss_fn(model, "recovery", out, torch.device("cpu"), dice=0.0, teacher_weight=weight).backward()
+        return model.logit.grad
+
+    extra = logit_grad(1.0) - logit_grad(0.0)
+    assert (extra[0, 0, 12:14] < 0).all() and (extra[0, 0, 14:] > 0).all()
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast

@@ -91,10 +91,12 @@ MaskLogit = Annotated[
     ),
 ]
 Passes = Annotated[
-    int,
+    int | None,
     typer.Option(
         help="Runs of the recovery model per frame: each run after the first sees the last one's repair "
-        "(finds more of a wide wrong surface; 1 is fastest). A run that repairs nothing ends it early."
+        "(finds more of a wide wrong surface; 1 is fastest). A run that repairs nothing ends it early. "
+        "[default: the model's own: 1 for unet8-fast, 2 for the others]",
+        show_default=False,
     ),
 ]
 Overwrite = Annotated[

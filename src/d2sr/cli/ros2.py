@@ -19,7 +19,6 @@ from d2sr.cli.common import (
     Threshold,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
-from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.errors import ConfigError
 from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
@@ -94,7 +93,7 @@ def ros2(
     models: ModelDir = WEIGHTS,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
-    passes: Passes = REPAIR_PASSES,
+    passes: Passes = None,
     seconds: Annotated[float | None, typer.Option(help="Stop after this long (default: at Ctrl-C).")] = None,
     scene: SceneOpt = True,
     scene_from: Annotated[

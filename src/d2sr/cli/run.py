@@ -30,7 +30,6 @@ from d2sr.cli.common import (
     TriggerOpt,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
-from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.settings import DEFAULT_ACTIVE, PRIME_FRAMES, LoopSettings, RunSettings
@@ -61,7 +60,7 @@ def run(
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
-    passes: Passes = REPAIR_PASSES,
+    passes: Passes = None,
     depth_scale: Scale = None,
     recording_scale_wrong: ScaleWrong = False,
     topic: Topic = None,

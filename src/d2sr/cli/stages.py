@@ -32,7 +32,6 @@ from d2sr.cli.common import (
     repair_of,
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
-from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.runtime.batch import Progress
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
@@ -102,7 +101,7 @@ def recover(
     model: ModelName = DEFAULT_MODEL,
     threshold: Threshold = None,
     mask_logit: MaskLogit = None,
-    passes: Passes = REPAIR_PASSES,
+    passes: Passes = None,
     topic: Topic = None,
     format: Annotated[
         str,

@@ -19,6 +19,7 @@ from d2sr.contract.catalog import (
     ALONE,
     AUTO_RECOVERY,
     AUTO_TEMPORAL_LOGIT,
+    CATALOG,
     DEFAULT_RECOVERY,
     DETECTOR,
     PAIR_INPUTS,
@@ -355,7 +356,9 @@ def open_backend(
 
 def _open(detector: str | None, model: str | None, s: RunSettings) -> Backend:
     """The models named (None: not that one) of ``s.models``, on ``s.backend``."""
-    backend, weights, int8, mask_logit, passes = s.backend, s.models, s.int8, s.mask_logit, s.passes
+    backend, weights, int8, mask_logit = s.backend, s.models, s.int8, s.mask_logit
+    own = CATALOG[model].passes if model in CATALOG else REPAIR_PASSES
+    passes = s.passes if s.passes is not None else own
     if not weights.is_dir():
         raise InputError(f"{weights}: no such models folder")
     names = ([detector] if detector else []) + ([model] if model else [])

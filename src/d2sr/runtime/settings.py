@@ -10,7 +10,6 @@ from pydantic import ConfigDict, Field, ValidationInfo, field_validator
 
 from d2sr.config import Settings
 from d2sr.contract.catalog import DEFAULT_MODEL, REPAIR_MODELS, WEIGHTS
-from d2sr.contract.repair import REPAIR_PASSES
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.scene import SceneSettings
@@ -41,7 +40,9 @@ class RunSettings(Settings):
     mask_logit: float | None = Field(
         None, description="The recovery mask's threshold, lower repairs more [the model's own]."
     )
-    passes: int = Field(REPAIR_PASSES, ge=1, le=8, description="Recovery model runs per frame [2].")
+    passes: int | None = Field(
+        None, ge=1, le=8, description="Recovery model runs per frame [the model's own]."
+    )
     scene: bool = Field(True, description="Judge frames against the still sensor's own scene too.")
     scene_repair: bool | None = Field(
         None,

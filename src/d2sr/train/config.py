@@ -99,6 +99,14 @@ class TrainConfig(Settings):
         description="recovery: share of interfered frames that also get a pattern confined to one shell of "
         "the scene's depth (sim.families.shell_interference): hit regions that follow the room's surfaces",
     )
+    teacher: Path | None = Field(
+        None,
+        description="recovery: weights of a recovery model whose repair, as recover makes it (its passes, "
+        "its own mask threshold), the model also learns from beside the truth (distillation)",
+    )
+    teacher_weight: float = Field(
+        1.0, ge=0, description="recovery: weight of the teacher's mask and depth beside the truth's"
+    )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
     validation: int = Field(
         VALIDATION_FRAMES,
@@ -155,6 +163,8 @@ class TrainConfig(Settings):
         augments = ("warp", "stack", "mirror", "shell")
         if self.task != "recovery" and any(getattr(self, f"{a}_interference") for a in augments):
             raise ValueError("the *_interference settings are for recovery models")
+        if self.teacher is not None and (self.task != "recovery" or not self.teacher.is_file()):
+            raise ValueError(f"teacher must be a recovery model's weights file, got {self.teacher}")
         if self.clean_previous and self.model != "detector-temporal":
             raise ValueError(f"clean_previous is for the temporal detector, not {self.model}")
         if self.gate_previous and self.model != TEMPORAL_RECOVERY:

@@ -33,6 +33,7 @@ class Batch:
     y: np.ndarray  # ground-truth depth (metres)
     m: np.ndarray  # true interference mask (float32 0/1)
     label: np.ndarray  # (N,) float32: frame interfered
+    taught: tuple[np.ndarray, np.ndarray] | None = None  # a teacher's (mask, depth) like m, y (distillation)
 
 
 @dataclass

@@ -20,10 +20,10 @@ from torch import nn
 
 from d2sr.atomic import atomic_file, atomic_write, record_manifest
 from d2sr.contract.metrics import RepairSums, threshold_curve
-from d2sr.contract.repair import REPAIR_PASSES, refill, repair_frame
+from d2sr.contract.repair import guard, refill, repair_frame
 from d2sr.errors import ConfigError, InputError
 from d2sr.models.inference import TorchBackend
-from d2sr.models.registry import build, describe
+from d2sr.models.registry import build, describe, own_passes
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
 from d2sr.sim.dataset import VERSION
 from d2sr.sim.rooms import SensorModel
@@ -73,6 +73,7 @@ def loss_fn(
     mask_weight: float = 3.0,
     dice: float = 1.0,
     error_weight: float = 0.0,
+    teacher_weight: float = 0.0,
 ) -> torch.Tensor:
     x = torch.from_numpy(b.x).to(device)
     if task == "detector":
@@ -91,6 +92,13 @@ def loss_fn(
     inside = (F.smooth_l1_loss(pred, y, beta=0.05, reduction="none") * mv).sum() / mv.sum().clamp(min=1)
     miss = _miss_cost(x, y, m, error_weight)
     mask = mask_weight * F.binary_cross_entropy_with_logits(logit, m, weight=miss)
+    if b.taught is not None and teacher_weight:
+        # The teacher's repair as a second target: what two passes of a larger model find, one pass learns.
+        tm, ty = (torch.from_numpy(t).to(device) for t in b.taught)
+        mask = mask + teacher_weight * mask_weight * F.binary_cross_entropy_with_logits(logit, tm)
+        tv = tm * (ty > 0).to(ty.dtype)
+        taught = (F.smooth_l1_loss(pred, ty, beta=0.05, reduction="none") * tv).sum() / tv.sum().clamp(min=1)
+        inside = inside + teacher_weight * taught
     if dice:
         # Soft F1 over the batch: BCE alone leaves zeros inside a pattern near 0.5 (a natural no-return
         # and a dropout look alike pixel by pixel); the F1 term pays for deciding them from the context.
@@ -130,6 +138,22 @@ def as_second_pass(
     for k, j in enumerate(pick):
         x[j, 0] = refill(x[j, 0], pred[k], lg[k] > logit)[0]
     return dataclasses.replace(b, x=x)
+
+
+def taught(teacher: TorchBackend, b: Batch) -> Batch:
+    """``b`` with its teacher's repair (``Batch.taught``): the mask and depth ``recover`` would write with the
+    teacher (its passes and guard; its depth where it repairs, the frame's elsewhere). Clean frames take
+    the truth, which a good teacher leaves them at (half the teacher's cost)."""
+    masks, depths = b.m.copy(), b.y.copy()
+    hit = np.flatnonzero(b.label > 0)
+    if hit.size:
+        pred, mask = teacher.recover(b.x[hit, 0])
+        for k, j in enumerate(hit):
+            x = b.x[j, 0]
+            p, kept = guard(x, pred[k], mask[k])
+            masks[j, 0] = kept
+            depths[j, 0] = np.where(kept, np.maximum(p, 0), x)
+    return dataclasses.replace(b, taught=(masks, depths))
 
 
 def load_checkpoint(path: Path) -> dict[str, Any]:
@@ -253,6 +277,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
         second = cfg.second_pass if cfg.task == "recovery" else 0.0
         # The second pass's inputs are made at the threshold the model starts with (its own, or 0).
         pass_logit = mask_logit(cfg.init) if cfg.init is not None else 0.0
+        teacher = TorchBackend(None, cfg.teacher) if cfg.teacher is not None else None
         t0, stopped, done = time.perf_counter(), False, start
         bar = progress_bar() if progress and rank == 0 else contextlib.nullcontext()
         with bar as pb:
@@ -262,7 +287,18 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
                 b = pool.batch(rng, cfg.batch, crop, share)
                 if second:
                     b = as_second_pass(core, b, second, pass_logit, rng, device)
-                loss = loss_fn(model, cfg.task, b, device, cfg.mask_weight, cfg.dice, cfg.mask_error_weight)
+                if teacher is not None:
+                    b = taught(teacher, b)
+                loss = loss_fn(
+                    model,
+                    cfg.task,
+                    b,
+                    device,
+                    cfg.mask_weight,
+                    cfg.dice,
+                    cfg.mask_error_weight,
+                    cfg.teacher_weight,
+                )
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
@@ -364,7 +400,7 @@ def recovered_sums(model: nn.Module, items: Items, logit: float) -> RepairSums:
     model at mask threshold ``logit``: its passes, its guard, rounded to the input's units."""
     was = model.training
     model.eval()
-    net, sums = TorchBackend(None, model, mask_logit=logit), RepairSums()
+    net, sums = TorchBackend(None, model, mask_logit=logit, passes=own_passes(model)), RepairSums()
     for ins, clean, scale in items:
         s = np.float32(scale)
         x = ins[0].astype(np.float32) / s
@@ -388,7 +424,7 @@ def pick_as_recovered(model: nn.Module, items: Items) -> tuple[float, str, list[
     while figures["clean_changed"] > MAX_CLEAN_CHANGED and k > 0:
         k -= 1
         figures = recovered_sums(model, items, MASK_LOGITS[k]).result()
-    return MASK_LOGITS[k], f"{rule}, as recover repairs ({REPAIR_PASSES} passes)", sums, figures
+    return MASK_LOGITS[k], f"{rule}, as recover repairs ({own_passes(model)} passes)", sums, figures
 
 
 def choose_mask_logit(

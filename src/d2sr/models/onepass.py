@@ -1,0 +1,120 @@
+"""A recovery model built for one pass at the camera's rate (``unet8-fast``).
+
+The same two heads as ``d2sr.models.unet.UNet`` (mask logits; depth as a fill of the trusted returns plus
+a correction), laid out so that almost nothing runs at full resolution:
+
+- each 8x8 block of pixels is folded into channels (ONNX ``SpaceToDepth``, one cheap kernel) and a 1x1 stem
+  mixes them down to ``width`` channels, so the trunk (three levels) runs at 1/8, 1/16 and 1/32;
+- the heads see the trunk and the block's own pixels and unfold back (``DepthToSpace``): every pixel still
+  decides for itself;
+- the fill trusts a return where the mask logit is below 0 (a hard cut: it only feeds the fill, whose
+  gradient is detached anyway) and pushes and pulls from the 1/8 grid, one upsampling to full resolution.
+
+It is distilled from the two-pass ``unet8`` (``TrainConfig.teacher``), so one pass does what two do.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from d2sr.contract.catalog import CATALOG, FAST_RECOVERY
+from d2sr.models.unet import FILL_LEVELS, _block
+
+__all__ = ["OnePassUNet", "block_fill", "fold"]
+
+
+def _fold(x: torch.Tensor, s: int) -> torch.Tensor:
+    n, c, h, w = x.shape
+    y = x.reshape(n, c, h // s, s, w // s, s).permute(0, 3, 5, 1, 2, 4)
+    return y.reshape(n, s * s * c, h // s, w // s)
+
+
+class _Fold(torch.autograd.Function):
+    """``_fold`` exported as one ONNX ``SpaceToDepth`` node (the same order), which onnxruntime runs in a
+    fraction of the 6-D transpose torch would export."""
+
+    @staticmethod
+    def forward(ctx: Any, x: torch.Tensor, s: int) -> torch.Tensor:
+        return _fold(x, s)
+
+    @staticmethod
+    def symbolic(g: Any, x: Any, s: int) -> Any:
+        return g.op("SpaceToDepth", x, blocksize_i=s)
+
+
+def fold(x: torch.Tensor, s: int) -> torch.Tensor:
+    """(N, C, H, W) -> (N, s*s*C, H/s, W/s), channel (i*s + j)*C + c holding channel c at (i, j) of a block
+    (ONNX's order, not ``pixel_unshuffle``'s)."""
+    if torch.onnx.is_in_onnx_export():
+        return _Fold.apply(x, s)
+    return _fold(x, s)
+
+
+def _bilinear(s: int) -> torch.Tensor:
+    """(s*s, 1, 3, 3): for each pixel (i, j) of a block, the weights of the 3x3 blocks around it that a
+    bilinear upsampling by ``s`` gives it (align_corners=False): an upsampling as a convolution on the
+    block grid, its output already folded."""
+    u = (torch.arange(s, dtype=torch.float32) + 0.5) / s - 0.5  # offset from the block's centre, in blocks
+    w = torch.stack([(-u).clamp(min=0), 1 - u.abs(), u.clamp(min=0)], dim=1)  # (s, 3): left, centre, right
+    return (w[:, None, :, None] * w[None, :, None, :]).reshape(s * s, 1, 3, 3)
+
+
+def block_fill(depth: torch.Tensor, trust: torch.Tensor, s: int, levels: int) -> torch.Tensor:
+    """Push-pull fill (``d2sr.models.unet.push_pull``) on the grid of ``s`` x ``s`` blocks, folded: ``depth``
+    and ``trust`` are (N, s*s, h, w) as ``fold`` lays out one channel; returns each pixel's fill in the same
+    layout, the block grid's estimate bilinearly upsampled (every pixel's, trusted or not: only masked ones
+    are used)."""
+    vs, ws = [(depth * trust).mean(dim=1, keepdim=True)], [trust.mean(dim=1, keepdim=True)]
+    for _ in range(levels):
+        vs.append(F.avg_pool2d(vs[-1], 2))
+        ws.append(F.avg_pool2d(ws[-1], 2))
+    total = ws[-1].sum(dim=(2, 3), keepdim=True)
+    mean = vs[-1].sum(dim=(2, 3), keepdim=True) / total.clamp(min=1e-6)  # for regions with no weight at all
+    est = torch.where(ws[-1] > 1e-6, vs[-1] / ws[-1].clamp(min=1e-6), mean)
+    for k in range(levels - 1, -1, -1):
+        est = vs[k] + (1 - ws[k]) * F.interpolate(est, scale_factor=2.0, mode="bilinear", align_corners=False)
+    return F.conv2d(F.pad(est, (1, 1, 1, 1), mode="replicate"), _bilinear(s).to(est.dtype))
+
+
+class OnePassUNet(nn.Module):
+    """Mask logits and depth (metres) of one frame, (N, 1, H, W) each; H and W divisible by ``stride``."""
+
+    levels = 3
+    s2d = 8
+    fill = True
+    frames = 1
+    passes = CATALOG[FAST_RECOVERY].passes
+
+    def __init__(self, width: int = 8, hidden: int = 32) -> None:
+        super().__init__()
+        self.width = width
+        self.stride = self.s2d * 2 ** (self.levels - 1)
+        k = self.s2d * self.s2d
+        widths = [width * 2**i for i in range(self.levels)]
+        self.stem = nn.Sequential(nn.Conv2d(2 * k, width, 1), nn.ReLU(inplace=True))
+        self.down = nn.ModuleList(_block(c, w) for c, w in zip([width, *widths[:-1]], widths, strict=True))
+        self.up = nn.ModuleList(_block(widths[i + 1] + widths[i], widths[i]) for i in range(self.levels - 1))
+        self.head = nn.Sequential(
+            nn.Conv2d(widths[0] + 2 * k, hidden, 1), nn.ReLU(inplace=True), nn.Conv2d(hidden, 2 * k, 1)
+        )
+
+    def forward(self, depth: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        k = self.s2d * self.s2d
+        d = fold(depth, self.s2d)  # pixel (i, j) of each block in channel i * s2d + j, as pixel_shuffle reads
+        returns = d > 0
+        x = torch.cat([d * 0.25, returns.to(d.dtype)], dim=1)
+        h = self.stem(x)
+        skips = []
+        for i, block in enumerate(self.down):
+            h = block(F.max_pool2d(h, 2) if i else h)
+            skips.append(h)
+        for i in range(self.levels - 2, -1, -1):
+            h = self.up[i](torch.cat([F.interpolate(h, scale_factor=2.0, mode="nearest"), skips[i]], dim=1))
+        logit, correction = self.head(torch.cat([h, x], dim=1)).split(k, dim=1)
+        trust = (returns & (logit.detach() < 0)).to(d.dtype)
+        pred = block_fill(d, trust, self.s2d, FILL_LEVELS - (self.s2d.bit_length() - 1)) + 4.0 * correction
+        return F.pixel_shuffle(logit, self.s2d), F.pixel_shuffle(pred, self.s2d)
