@@ -37,6 +37,8 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--warm", type=int, default=5)
     ap.add_argument("--passes", type=int, default=None, help="the node's --passes (default: its own)")
+    ap.add_argument("--model", default=None, help="the node's --model (default: its own)")
+    ap.add_argument("--models", type=Path, default=None, help="the node's --models (default: the shipped)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
@@ -49,9 +51,12 @@ def main() -> None:
     _, threads = repair_workers()
     decide, finish, total = [], [], []
     passes: list[float] = []
-    extra = {} if args.passes is None else {"passes": args.passes}
+    given = {"passes": args.passes, "model": args.model, "models": args.models}
+    extra = {k: v for k, v in given.items() if v is not None}
     with Pipeline(4000.0, threads=threads, **extra) as pipe:
-        raw = pipe.backend.temporal.raw if hasattr(pipe.backend, "temporal") else pipe.backend.raw
+        # The model that repairs: auto's temporal one, or the one model named.
+        repairer = getattr(pipe.backend, "temporal", pipe.backend)
+        raw = repairer.raw
 
         def timed(metres: np.ndarray, previous: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
             t = time.perf_counter()
@@ -61,8 +66,8 @@ def main() -> None:
 
         for k, frame in enumerate(sent):
             counted = k >= args.warm
-            if counted and hasattr(pipe.backend, "temporal"):
-                pipe.backend.temporal.raw = timed  # the instance's, so the passes are timed where they run
+            if counted:
+                repairer.raw = timed  # the instance's, so the passes are timed where they run
             t0 = time.perf_counter()
             d = pipe.decide(frame)
             t1 = time.perf_counter()
@@ -78,6 +83,7 @@ def main() -> None:
         "flagged": len(total),
         "onnxruntime_threads": threads or 1,
         "passes": args.passes or "the default",
+        "model": args.model or "the default",
         "median_ms": {
             "judged (decide)": _ms(decide),
             "repaired (finish)": _ms(finish),

@@ -84,7 +84,8 @@ def detection(cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Pa
     return out
 
 
-def measure(data: Path) -> dict:
+def measure(data: Path, model: list[str] | None = None) -> dict:
+    """``model``: recover's model options (``--model``, ``--models``) for every setting [its own]."""
     cam = data / "kinect2_multicam" / "cam0"
     ref, bad = _read(cam / "ref"), _read(cam / "interf")
     stack = np.stack(list(ref.values())).astype(np.float32)
@@ -103,8 +104,8 @@ def measure(data: Path) -> dict:
             "--repair all, stored scene": ["--repair", "all", "--scene-from", str(scene)],
         }
         for name, args in settings.items():
-            _recover(cam / "interf", root / "i", *args)
-            _recover(cam / "ref", root / "r", *args)
+            _recover(cam / "interf", root / "i", *args, *(model or []))
+            _recover(cam / "ref", root / "r", *args, *(model or []))
             fixed, alone = _read(root / "i"), _read(root / "r")
             moved = back = worse = flagged = 0
             se_in = se_out = n_px = 0.0
@@ -144,8 +145,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--model", default=None, help="recover's --model (default: its own)")
+    ap.add_argument("--models", type=Path, default=None, help="recover's --models (default: the shipped)")
     args = ap.parse_args()
-    result = {"data": "kinect2_multicam/cam0: 50 interfered frames, 6 alone", "settings": measure(args.data)}
+    model = (["--model", args.model] if args.model else []) + (
+        ["--models", str(args.models)] if args.models else []
+    )
+    result = {
+        "data": "kinect2_multicam/cam0: 50 interfered frames, 6 alone",
+        "settings": measure(args.data, model),
+    }
     text = json.dumps(result, indent=1)
     print(text)
     if args.json:

@@ -38,7 +38,7 @@ from d2sr.runtime.stats import median_p99_ms
 from lab.held_out import outside_interference
 
 TOPIC = "/camera/depth/image_rect_raw"
-EXTRA: list[str] = []  # the node's own options (--passes)
+EXTRA: list[str] = []  # the node's own options (--passes, --model, --models)
 
 
 def frames(data: Path, n: int) -> list[tuple[np.ndarray, np.ndarray, bool]]:
@@ -133,11 +133,17 @@ def main() -> None:
     ap.add_argument("--every", action="store_true", help="the 30 Hz run: every frame interfered (worst case)")
     ap.add_argument("--cameras", type=int, default=0, help="N cameras at 15 Hz each instead of the rate run")
     ap.add_argument("--passes", type=int, default=None, help="the node's --passes (default: its own)")
+    ap.add_argument("--model", default=None, help="the node's --model (default: its own)")
+    ap.add_argument("--models", type=Path, default=None, help="the node's --models (default: the shipped)")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
     if args.passes is not None:
         EXTRA.extend(["--passes", str(args.passes)])
+    if args.model is not None:
+        EXTRA.extend(["--model", args.model])
+    if args.models is not None:
+        EXTRA.extend(["--models", str(args.models)])
     result: dict = {
         "data": "L515 dev1 (real captures), every other frame with outside interference (lab/held_out.py)",
     }

@@ -166,21 +166,23 @@ def _weights_with_onnx(names: list[str], tmp: str) -> tuple[Path, dict[str, str]
 
 
 def bench_models(
-    models: tuple[str, ...] = ("unet8", "unet16", "unet32", "paper-unet8"),
+    models: tuple[str, ...] = ("unet8", "unet8-fast", "unet16", "unet32", "paper-unet8"),
     repeats: int = 30,
     threads: int = 2,
     outside: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> dict:
     """Frames per second at 640x480, batch 1, of the detector, each UNet (one forward pass, and ``recover``
-    with its passes on an interfered frame), and detect + repair (every frame repaired), for torch and
-    onnxruntime; and ``d2sr recover --repair all`` timed from outside the process (60 frames minus 10 frames,
-    so start-up and model loading cancel out)."""
+    with its own passes on an interfered frame), and detect + repair (every frame repaired), for torch and
+    onnxruntime; each UNet's one pass on one onnxruntime thread beside unet8's (the models alternate, so a
+    busy machine slows all alike); and ``d2sr recover --repair all`` timed from outside the process (60
+    frames minus 10 frames, so start-up and model loading cancel out)."""
     import tempfile
 
     import torch
 
-    from d2sr.contract.repair import REPAIR_PASSES, repair_frame
+    from d2sr.contract.catalog import CATALOG
+    from d2sr.contract.repair import repair_frame
     from d2sr.models.inference import TorchBackend
     from d2sr.runtime.backends import Backend, OnnxBackend
 
@@ -188,17 +190,18 @@ def bench_models(
     frame = frame_4000(1_000_001, interfered=True)
     metres = (frame.astype(np.float32) / np.float32(4000))[None]
     out: dict = {"resolution": "640x480", "batch": 1, "threads": threads, "repeats": repeats, "fps": {}}
-    out["recovery_passes"] = REPAIR_PASSES  # at most, in "<model> recover" and "detect+<model>"
+    # at most, in "<model> recover" and "detect+<model>": each model's own
+    out["recovery_passes"] = {m: CATALOG[m].passes for m in models}
     with tempfile.TemporaryDirectory() as tmp:
         wdir, out["weights"] = _weights_with_onnx(["detector", "paper-detector", *models], tmp)
 
         def load(backend: str, detector: str, model: str | None) -> Backend:
+            passes = CATALOG[model].passes if model else 1
             if backend == "onnxruntime":
                 rec = wdir / f"{model}.onnx" if model else None
-                return OnnxBackend(wdir / f"{detector}.onnx", rec, threads)
-            return TorchBackend(
-                wdir / f"{detector}.safetensors", wdir / f"{model}.safetensors" if model else None
-            )
+                return OnnxBackend(wdir / f"{detector}.onnx", rec, threads, passes=passes)
+            rec_weights = wdir / f"{model}.safetensors" if model else None
+            return TorchBackend(wdir / f"{detector}.safetensors", rec_weights, passes=passes)
 
         def fps_of(fn: Callable[[], object]) -> float:
             return round(1000 / _median_ms(fn, repeats), 1)
@@ -221,6 +224,7 @@ def bench_models(
                 fps[m] = fps_of(functools.partial(net.raw, metres))  # one forward pass (paper Table III)
                 fps[f"{m} recover"] = fps_of(functools.partial(net.recover, metres))  # its passes included
                 fps[f"detect+{m}"] = fps_of(both)
+        out["one_thread"] = _one_thread(wdir, models, metres, repeats)
         if outside:
             if progress:
                 progress("d2sr recover --repair all, from outside")
@@ -240,6 +244,27 @@ def bench_models(
                 [frame],
             )
     out["bars"] = {"detector_fps": 300, "detect+unet8_fps": 30}
+    return out
+
+
+def _one_thread(wdir: Path, models: tuple[str, ...], metres: np.ndarray, repeats: int) -> dict:
+    """Each recovery model's one pass on one onnxruntime thread (ms, median), the models taking turns, and
+    its share of unet8's (issue 78's bar for unet8-fast: at most 0.25)."""
+    from d2sr.runtime.backends import OnnxBackend
+
+    nets = {m: OnnxBackend(None, wdir / f"{m}.onnx", 1) for m in models}
+    for net in nets.values():
+        net.raw(metres)
+    times: dict[str, list[float]] = {m: [] for m in models}
+    for _ in range(repeats):
+        for m, net in nets.items():
+            t = time.perf_counter()
+            net.raw(metres)
+            times[m].append(1000 * (time.perf_counter() - t))
+    ms = {m: round(statistics.median(t), 2) for m, t in times.items()}
+    out: dict = {"ms_one_pass": ms}
+    if "unet8" in ms:
+        out["share_of_unet8"] = {m: round(v / ms["unet8"], 3) for m, v in ms.items()}
     return out
 
 
@@ -436,11 +461,14 @@ def bench_typical(
     return out
 
 
-def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> dict:
+def bench_worst(
+    frames: list[np.ndarray], depth_scale: float, runs: int = 5, model: str | None = None
+) -> dict:
     """The worst case (issue 44) against its floor, in one run: ``d2sr recover --repair all`` from outside the
     process, timed on all the frames and on 10 (start-up cancels out), and the floor any whole-process tool
     pays: the same frames read and written as 16-bit PNGs by OpenCV alone (its loop timed in its own
-    process). The two alternate so that a shared machine slows both alike."""
+    process). The two alternate so that a shared machine slows both alike. ``model``: recover's --model
+    [its default]."""
     import subprocess
     import sys
     import tempfile
@@ -459,6 +487,8 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         "print(time.perf_counter() - t)\n"
     )
     recover = ["-m", "d2sr", "recover", "--repair", "all", "--no-report", "--depth-scale", f"{depth_scale:g}"]
+    recover += ["--model", model] if model is not None else []
+    chosen = f" --model {model}" if model is not None else ""
     recover.append("--out")
 
     def run(args: list[str]) -> tuple[float, str]:
@@ -494,8 +524,8 @@ def bench_worst(frames: list[np.ndarray], depth_scale: float, runs: int = 5) -> 
         )
     png = statistics.median(times["floor loop"]) / n
     return {
-        "measured": f"d2sr recover IN --repair all --out OUT from outside, {n} frames vs 10; the floor: "
-        f"OpenCV reading and writing the {n} PNGs",
+        "measured": f"d2sr recover IN --repair all{chosen} --out OUT from outside, {n} frames vs 10; the "
+        f"floor: OpenCV reading and writing the {n} PNGs",
         "frames": n,
         "size": f"{frames[0].shape[1]}x{frames[0].shape[0]}",
         "runs": done,
