@@ -26,7 +26,7 @@ from d2sr.runtime.sources import RoomTrigger
 from d2sr.runtime.stats import RunStats
 from d2sr.sim.dataset import TEST_SEED
 from d2sr.sim.room import SimRoom
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import make_rig
 from harness import check_output, output_args
 
@@ -47,7 +47,7 @@ def main() -> None:
         for flag in (0, 1)
     }
     sensors = 3
-    cfg = TimingConfig(active_frames=10)
+    cfg = TimingSettings(active_frames=10)
     seconds = args.frames / (sensors * cfg.active_frames) + 1
     room = SimRoom(make_rig(0, sensors=sensors), cfg, seed=0, seconds=2.0, render=False)
     net = open_backend(RunSettings(model="unet8", backend="onnx", threads=1))

@@ -1,4 +1,4 @@
-"""Benchmark: a temporal detector scored against its own last clean frame (``TrainConfig.clean_previous``)
+"""Benchmark: a temporal detector scored against its own last clean frame (``TrainSettings.clean_previous``)
 beside the shipped detector as the runtime scores it now, in process, each sequence in order.
 
 * ``shipped``: the runtime's way (``FastDetector.forward``): the frame with the frame delivered before it

@@ -21,7 +21,7 @@ from d2sr.frames.base import Intrinsics
 from d2sr.runtime.session import odometry, rig_intrinsics
 from d2sr.sim.room import SimRoom
 from d2sr.sim.rooms import Room
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import make_rig
 from d2sr.synth.warp import Pose
 
@@ -44,7 +44,7 @@ def sequences(which: str) -> Iterator[list[Shot]]:
 
     for seed in SEEDS[which]:
         rig = make_rig(seed, sensors=1, moving_robot=True)
-        room = SimRoom(rig, TimingConfig.make(active_frames=30), seed=seed, seconds=SECONDS, render=True)
+        room = SimRoom(rig, TimingSettings.make(active_frames=30), seed=seed, seconds=SECONDS, render=True)
         k, scale = rig_intrinsics(rig), float(room.model.depth_scale)
         rng = np.random.default_rng(7000 + seed)
         other = _other_camera(rng, rig.room) if which == "j" else None

@@ -28,7 +28,7 @@ import numpy as np
 from d2sr.desync import CONTROLLERS
 from d2sr.desync.robust import RobustController
 from d2sr.sim.passing import passing_rooms
-from d2sr.sim.timing import TimingConfig, simulate
+from d2sr.sim.timing import TimingSettings, simulate
 
 
 def _halves(flags: list[bool], n: int) -> tuple[int, int]:
@@ -131,7 +131,7 @@ VARIANTS = {c.name: c for c in (QuietDamped, Squeeze, Pinned, Trial, Nudge)}
 def ring(controller: str, rooms: int = 60, seconds: float = 120.0) -> dict[str, float]:
     """Steady interfered shares of the robot's frames and of the fixed sensors' on the ring."""
     graph = passing_rooms("ring", 5, seconds, rooms)
-    run = simulate(graph, controller, TimingConfig.make(active_frames=6), seconds, seed=0)
+    run = simulate(graph, controller, TimingSettings.make(active_frames=6), seconds, seed=0)
     robot = np.arange(graph.n) % 5 == 0
     half = run.periods // 2
     return {

@@ -24,7 +24,7 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.assumptions import settings
 from d2sr.eval.speed import write_result
 from d2sr.sim.passing import WORLDS, passing_rooms
-from d2sr.sim.timing import TimingConfig, simulate
+from d2sr.sim.timing import TimingSettings, simulate
 
 
 def cell(job: tuple[str, int, int, int, str, int, float]) -> dict[str, Any]:
@@ -32,7 +32,7 @@ def cell(job: tuple[str, int, int, int, str, int, float]) -> dict[str, Any]:
     world, n, fps, k, controller, rooms, seconds = job
     seed = 1000 + k
     graph = passing_rooms(world, n, seconds, rooms, seed)
-    cfg = TimingConfig.make(active_frames=fps, **settings(12)[k])
+    cfg = TimingSettings.make(active_frames=fps, **settings(12)[k])
     run = simulate(graph, controller, cfg, seconds, seed=seed)
     room = np.arange(graph.n) // n
     half = run.periods // 2

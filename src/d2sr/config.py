@@ -49,7 +49,7 @@ class Settings(BaseModel):
 
 
 def one_line(exc: ValidationError, what: str) -> str:
-    """'TimingConfig: recall: Input should be less than or equal to 1 (got 1.5); ...'."""
+    """'TimingSettings: recall: Input should be less than or equal to 1 (got 1.5); ...'."""
     parts = []
     for err in exc.errors():
         field = ".".join(str(p) for p in err["loc"]) or "value"

@@ -23,7 +23,7 @@ from d2sr.runtime.session import Recording, run_recording, run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.room import SimRoom, Start
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import make_rig
 from helpers import FakeNet, d2sr
 
@@ -204,7 +204,7 @@ def test_loop_takes_float_metres_only_at_scale_1_and_refuses_a_bad_repair_mode()
 
 def test_room_interference_follows_the_windows_the_triggers_set():
     rig = make_rig(0, sensors=2)
-    cfg = TimingConfig(active_frames=6, drift_ppm=0, hit_prob=1.0, setup=2)
+    cfg = TimingSettings(active_frames=6, drift_ppm=0, hit_prob=1.0, setup=2)
     graph = OverlapGraph.complete(2)
 
     def overlapped(offsets: list[int]) -> float:

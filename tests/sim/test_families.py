@@ -21,7 +21,7 @@ from d2sr.contract.repair import (
 )
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Intrinsics
-from d2sr.sim.families import FAMILIES, WideConfig, shape, wide_interference
+from d2sr.sim.families import FAMILIES, WideSettings, shape, wide_interference
 from d2sr.sim.rooms import Pose, Renderer, make_room
 from d2sr.sim.sensors import SENSOR_KINDS, observe
 
@@ -38,10 +38,10 @@ def _clean(scale: float = 1000.0) -> np.ndarray:
 @pytest.mark.parametrize("family", FAMILIES)
 def test_each_family_marks_exactly_the_changed_pixels(family):
     clean = _clean()
-    frame, mask, drawn = wide_interference(clean, 1000.0, 5, WideConfig(families=(family,)))
+    frame, mask, drawn = wide_interference(clean, 1000.0, 5, WideSettings(families=(family,)))
     assert drawn == [family]
     assert np.array_equal(mask, frame != clean) and mask.any()
-    again, _, _ = wide_interference(clean, 1000.0, 5, WideConfig(families=(family,)))
+    again, _, _ = wide_interference(clean, 1000.0, 5, WideSettings(families=(family,)))
     assert np.array_equal(frame, again)  # a pure function of the seed
 
 
@@ -60,7 +60,7 @@ def test_shapes_aim_at_their_coverage():
 
 def test_bad_config_and_input_are_refused():
     with pytest.raises(ConfigError, match="families"):  # built directly: d2sr's own error too
-        WideConfig(families=("rainbow",))
+        WideSettings(families=("rainbow",))
     with pytest.raises(InputError, match="uint16"):
         wide_interference(np.zeros((8, 8), np.float32), 1000.0, 0)
 

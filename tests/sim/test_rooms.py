@@ -9,7 +9,7 @@ import pytest
 
 from d2sr.errors import InputError
 from d2sr.frames import Intrinsics
-from d2sr.sim.interference import InterferenceConfig, Interferer, corrupt, interfere
+from d2sr.sim.interference import InterferenceSettings, Interferer, corrupt, interfere
 from d2sr.sim.rooms import L515, Box, Person, Pose, Renderer, Room, SensorNoise, make_room
 from d2sr.sim.world import lit_region, make_rig, overlap_graph
 
@@ -167,7 +167,7 @@ def test_interference_rejects_bad_frames_and_config():
     with pytest.raises(InputError, match="uint16"):
         interfere(np.zeros((4, 4), np.float32), 4000.0, [], 0, 0)
     with pytest.raises(Exception, match="dropout"):
-        InterferenceConfig.make(dropout=0.8, short=0.5)
+        InterferenceSettings.make(dropout=0.8, short=0.5)
     _, m = corrupt(_frame(), 4000.0, np.zeros((120, 160), bool), np.random.default_rng(0))
     assert not m.any()
 

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from d2sr.desync import make_controller
-from d2sr.sim import OverlapGraph, TimingConfig, simulate
+from d2sr.sim import OverlapGraph, TimingSettings, simulate
 from d2sr.sim.room import SimRoom, Start
 from d2sr.sim.world import make_rig
 
 SECONDS = 20.0
 
 
-def _room_frames(ctrl_name: str, n: int, cfg: TimingConfig, seed: int, graph: OverlapGraph) -> np.ndarray:
+def _room_frames(ctrl_name: str, n: int, cfg: TimingSettings, seed: int, graph: OverlapGraph) -> np.ndarray:
     """The room's frames (1 clean, 2 interfered) with each sensor's controller fed its period's flags."""
     total = cfg.total_frames
     ctrls = [
@@ -46,7 +46,7 @@ def _room_frames(ctrl_name: str, n: int, cfg: TimingConfig, seed: int, graph: Ov
 )
 @pytest.mark.parametrize("seed", [0, 1])
 def test_sweep_world_and_runtime_room_interfere_the_same_frames(ctrl_name, n, active, drift_ppm, setup, seed):
-    cfg = TimingConfig.make(
+    cfg = TimingSettings.make(
         active_frames=active, drift_ppm=drift_ppm, setup=setup, recall=1.0, false_alarm=0.0, hit_prob=0.9
     )
     graph = OverlapGraph.complete(n)

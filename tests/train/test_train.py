@@ -16,13 +16,13 @@ from safetensors.torch import load_file
 from d2sr.errors import ConfigError
 from d2sr.models.store import mask_logit, read_card, write_card
 from d2sr.sim.dataset import synth_frame
-from d2sr.train.config import TrainConfig
+from d2sr.train.config import TrainSettings
 from d2sr.train.data import Augment, Batch, Pool, Source, mirror_pattern, synth_set, warp_interference
 from d2sr.train.loop import MASK_LOGITS, MAX_CLEAN_CHANGED, as_second_pass, lineage, loss_fn, train
 from helpers import d2sr
 
 
-def _cfg(tmp: Path, **kw) -> TrainConfig:
+def _cfg(tmp: Path, **kw) -> TrainSettings:
     base = dict(
         task="recovery",
         model="unet8",
@@ -34,7 +34,7 @@ def _cfg(tmp: Path, **kw) -> TrainConfig:
         checkpoint_every=2,
         validation=4,
     )
-    return TrainConfig.make(**(base | kw))
+    return TrainSettings.make(**(base | kw))
 
 
 @pytest.mark.slow  # a subprocess, training or several processes: not in make test-fast
@@ -135,7 +135,7 @@ def test_clean_previous_detector_sees_its_last_clean_frame_or_itself():
     # Otherwise the clean wall, unhit: never an interfered previous frame.
     assert (b.x[hit & ~itself, 1] == b.y[hit & ~itself, 0]).all()
     with pytest.raises(ValueError, match="clean_previous is for the temporal detector"):
-        TrainConfig(task="detector", model="detector", clean_previous=True)
+        TrainSettings(task="detector", model="detector", clean_previous=True)
 
 
 def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
@@ -162,7 +162,7 @@ def test_warped_interference_bends_the_pattern_and_keeps_the_scene():
     assert np.array_equal(warped.m > 0, warped.x != warped.y)
     assert not any(same(warped))  # at share 1 every interfered frame is warped
     with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
-        TrainConfig(task="detector", model="detector", warp_interference=0.5)
+        TrainSettings(task="detector", model="detector", warp_interference=0.5)
 
 
 def test_stacked_interference_lays_another_frames_pattern_over_the_scene():
@@ -207,7 +207,7 @@ def test_mirrored_interference_reads_too_far_by_the_factor_it_read_too_short():
     assert np.array_equal(b.m > 0, b.x != b.y)
     assert np.array_equal(b.x[~hit], b.y[~hit])  # clean frames untouched
     with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
-        TrainConfig(task="detector", model="detector", mirror_interference=0.5)
+        TrainSettings(task="detector", model="detector", mirror_interference=0.5)
 
 
 def test_shell_interference_follows_the_scenes_depth_not_a_shape():
@@ -232,7 +232,7 @@ def test_shell_interference_follows_the_scenes_depth_not_a_shape():
     assert (b.m.sum(axis=(1, 2, 3)) > 32).mean() > 0.5  # most frames gain a shell's pixels
     assert (np.round(b.x / np.maximum(b.y, 1e-6), 2) == 0.5).any()  # the own pattern (0.5x) survives
     with pytest.raises(ValueError, match=r"the \*_interference settings are for recovery"):
-        TrainConfig(task="detector", model="detector", shell_interference=0.5)
+        TrainSettings(task="detector", model="detector", shell_interference=0.5)
 
 
 class _Fixed(torch.nn.Module):
@@ -282,7 +282,7 @@ def test_mask_error_weight_pushes_hardest_on_the_costliest_misses():
     assert abs(extra[:3].sum()) < 1e-6  # the interfered pixels' total weight stays
     assert extra[3] == 0  # the clean pixel is untouched
     with pytest.raises(ValueError, match="mask_error_weight"):
-        TrainConfig(task="recovery", model="unet8", mask_error_weight=-1)
+        TrainSettings(task="recovery", model="unet8", mask_error_weight=-1)
 
 
 class _Shorter(torch.nn.Module):

@@ -208,7 +208,7 @@ def _with_flag(exc: D2SRError) -> str:
         {n for n in (*RunSettings.model_fields, *LoopSettings.model_fields) if "_" in n} - _NO_FLAG
     )
     # A settings object's own one line ("RunSettings: repair: unknown ...") names its flag, not itself.
-    text = re.sub(r"^\w+(?:Settings|Config): (\w+): ", lambda m: f"{_flag(m.group(1))}: ", str(exc))
+    text = re.sub(r"^\w+Settings: (\w+): ", lambda m: f"{_flag(m.group(1))}: ", str(exc))
     text = re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: _flag(m.group(1)), text)
     name = exc.setting
     if name is None or name in _NO_FLAG or not name.isidentifier() or _flag(name) in text:

@@ -16,7 +16,7 @@ from d2sr.config import load_toml
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.provenance import stamp
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.ui import console, progress_bar
 
 __all__ = ["grid", "report", "run", "sweep"]
@@ -40,7 +40,7 @@ def run(
     rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
     controllers: Controllers = "",
     config: Annotated[
-        Path | None, typer.Option(help="TOML with timing-world settings (TimingConfig).")
+        Path | None, typer.Option(help="TOML with timing-world settings (TimingSettings).")
     ] = None,
     recall: Annotated[float | None, typer.Option(help="Detector recall.")] = None,
     false_alarm: Annotated[float | None, typer.Option(help="Detector false-alarm rate.")] = None,
@@ -66,7 +66,7 @@ def run(
     names = split_list(controllers, "controllers", tuple(CONTROLLERS)) if controllers else list(ev.COMPARED)
     if sensors < 1 or rooms < 2:
         raise ConfigError("need --sensors >= 1 and --rooms >= 2")
-    base = load_toml(TimingConfig, config).model_dump() if config else {}
+    base = load_toml(TimingSettings, config).model_dump() if config else {}
     flags = {
         "recall": recall,
         "false_alarm": false_alarm,
@@ -76,7 +76,7 @@ def run(
         "setup": setup,
     }
     values = {**base, **{k: v for k, v in flags.items() if v is not None}, "active_frames": fps}
-    timing = TimingConfig.make(**values)
+    timing = TimingSettings.make(**values)
     check_out(out, is_dir=True, overwrite=overwrite)
     if json_out:
         check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")

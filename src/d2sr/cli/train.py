@@ -22,7 +22,7 @@ __all__ = ["adapt", "export", "threshold", "train"]
 def train(
     task: Annotated[str, typer.Argument(help="detector or recovery.", metavar="TASK")],
     out: Annotated[Path, typer.Option(help="Run folder: checkpoint.pt, <model>.safetensors and its card.")],
-    config: Annotated[Path | None, typer.Option(help="TOML file of TrainConfig settings.")] = None,
+    config: Annotated[Path | None, typer.Option(help="TOML file of TrainSettings settings.")] = None,
     model: Annotated[str | None, typer.Option(help="Model name (overrides the config).")] = None,
     steps: Annotated[int | None, typer.Option(help="Training steps (overrides the config).")] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides the config).")] = None,
@@ -39,7 +39,7 @@ def train(
     Example: d2sr train recovery --config configs/unet8.toml --out runs/unet8
     """
     from d2sr.config import read_toml
-    from d2sr.train.config import TrainConfig
+    from d2sr.train.config import TrainSettings
     from d2sr.train.loop import train as run
 
     if task not in ("detector", "recovery"):
@@ -58,7 +58,7 @@ def train(
             values[key] = v
     if leave_out is not None:
         values["leave_out"] = tuple(split_list(leave_out, "leave-out"))
-    cfg = TrainConfig.make(**values)
+    cfg = TrainSettings.make(**values)
     inputs = [p for f in cfg.folders for p in (f.input, f.target)]
     check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs, resume=True)
     command = "d2sr " + " ".join(shlex.quote(a) for a in sys.argv[1:])

@@ -20,7 +20,7 @@ import numpy as np
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.eval.desync import Cell, run_cell
 from d2sr.frames.overlap import MAX_WORKERS, processes
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 
 __all__ = [
     "AXES",
@@ -100,7 +100,7 @@ class GridResult:
 
 def _run(job: tuple[int, int, int, dict[str, float], str, int, float]) -> GridResult:
     n, fps, k, setting, controller, replicas, seconds = job
-    cfg = TimingConfig.make(active_frames=fps, **setting)
+    cfg = TimingSettings.make(active_frames=fps, **setting)
     cell = Cell("stationary", fps, n, controller, "grid", replicas, seconds, seed=1000 + k)
     r = run_cell(cell, cfg)
     return GridResult(n, fps, k, controller, r.whole, r.steady, r.converged_median, r.per_replica)

@@ -14,7 +14,7 @@ from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval import desync as ev
 from d2sr.eval import plots
 from d2sr.provenance import stamp
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 
 __all__ = ["NOTES", "compare", "comparison_rows", "sweep_report"]
 
@@ -25,7 +25,7 @@ def compare(
     folder: Path,
     rooms: ev.Cell,
     controllers: list[str],
-    config: TimingConfig,
+    config: TimingSettings,
     progress: Callable[[], None] | None = None,
 ) -> list[ev.CellResult]:
     """Each controller on the same rooms (``rooms``: the scenario, sensors, rooms as replicas, seconds and

@@ -32,7 +32,7 @@ from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.record import MAX_SECONDS
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 
 __all__ = ["CAPTION", "DEMO_CONTROLLERS", "HEADERS", "markdown_table", "read_log", "run_demo", "table_rows"]
 
@@ -94,7 +94,7 @@ def run_demo(
     """Run each controller's closed loop; write runs, plots, ``results.json`` and ``report.md``."""
     if not (positive_finite(seconds) and seconds <= MAX_SECONDS):  # inf overflowed, 1e9 ran for ever
         raise ConfigError(f"seconds must be in (0, {MAX_SECONDS:g}] for the demo, got {seconds}", "seconds")
-    periods = round(seconds * TimingConfig().fps / TOTAL_FRAMES)
+    periods = round(seconds * TimingSettings().fps / TOTAL_FRAMES)
     results: dict[str, dict] = {}
     examples: list[tuple[int, Result]] = []
 

@@ -31,7 +31,7 @@ from d2sr.errors import InputError
 from d2sr.frames.overlap import processes
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.passing import WORLDS, passing_rooms
-from d2sr.sim.timing import TimingConfig, TimingRun, simulate
+from d2sr.sim.timing import TimingRun, TimingSettings, simulate
 from d2sr.version import __version__
 
 __all__ = [
@@ -142,17 +142,17 @@ def _graph(cell: Cell) -> OverlapGraph:
     raise ValueError(f"unknown scenario {cell.scenario!r}")
 
 
-def run_cell(cell: Cell, config: TimingConfig | None = None, **overrides: float) -> CellResult:
+def run_cell(cell: Cell, config: TimingSettings | None = None, **overrides: float) -> CellResult:
     """Simulate one cell and summarize it. ``config`` replaces the profile (its fps is the cell's)."""
     return summarize(cell, *simulate_cell(cell, config, False, **overrides))[0]
 
 
 def simulate_cell(
-    cell: Cell, config: TimingConfig | None = None, record_frames: bool = False, **overrides: float
-) -> tuple[TimingConfig, OverlapGraph, TimingRun]:
+    cell: Cell, config: TimingSettings | None = None, record_frames: bool = False, **overrides: float
+) -> tuple[TimingSettings, OverlapGraph, TimingRun]:
     """The cell's rooms in one timing world, run with the cell's controller."""
     if config is None:
-        config = TimingConfig.make(active_frames=cell.fps, **{**PROFILES[cell.profile], **overrides})
+        config = TimingSettings.make(active_frames=cell.fps, **{**PROFILES[cell.profile], **overrides})
     graph = _graph(cell)
     run = simulate(
         graph, cell.controller, config, cell.duration_s, seed=cell.seed, record_frames=record_frames
@@ -161,7 +161,7 @@ def simulate_cell(
 
 
 def summarize(
-    cell: Cell, cfg: TimingConfig, graph: OverlapGraph, run: TimingRun
+    cell: Cell, cfg: TimingSettings, graph: OverlapGraph, run: TimingRun
 ) -> tuple[CellResult, np.ndarray]:
     """The cell's metrics, and each room's per-period interference ratio (rooms x periods)."""
     per_room = graph.n // cell.replicas

@@ -28,7 +28,7 @@ from d2sr.errors import InputError
 from d2sr.frames import open_frames
 from d2sr.frames.base import to_metres
 from d2sr.runtime.backends import Backend
-from d2sr.sim.families import FAMILIES, WideConfig, wide_interference
+from d2sr.sim.families import FAMILIES, WideSettings, wide_interference
 
 __all__ = ["FAMILY_SEED", "RealSet", "family_rows", "real_clean_sets", "real_rows"]
 
@@ -155,7 +155,7 @@ def _family_frames(sets: list[RealSet], family: str) -> Iterator[tuple[np.ndarra
             if k % 2:
                 yield f, f, s.scale
                 continue
-            bad, _, _ = wide_interference(f, s.scale, FAMILY_SEED + k, WideConfig(families=(family,)))
+            bad, _, _ = wide_interference(f, s.scale, FAMILY_SEED + k, WideSettings(families=(family,)))
             yield bad, f, s.scale
 
 

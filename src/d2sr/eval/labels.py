@@ -16,7 +16,7 @@ import numpy as np
 from d2sr.frames import open_frames
 from d2sr.scene import METHODS, THRESHOLDS, Labeller, clean_stats, f1
 from d2sr.sim.calibrate import static_camera
-from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
+from d2sr.sim.interference import InterferenceSettings, Interferer, interfere
 from d2sr.sim.rooms import L515, SensorNoise
 
 __all__ = ["drifting_interference", "evaluate", "real_case", "sim_case"]
@@ -30,7 +30,7 @@ def drifting_interference(
     """The simulator's interference on a real sequence: two persistent interferers that drift over it;
     frame ``t`` takes the first ``count(t)`` of them (0: left clean). Returns (frames, true masks)."""
     shape = frames[0].shape
-    its = [Interferer.draw(shape, seed * 100 + k, InterferenceConfig()) for k in range(2)]
+    its = [Interferer.draw(shape, seed * 100 + k, InterferenceSettings()) for k in range(2)]
     out, masks = [], []
     for t, f in enumerate(frames):
         n = count(t)

@@ -138,12 +138,12 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
     ``every``-th frame of the robot, rendered and interfered by the simulator (a held-out room: training
     frames come from other seeds' rigs)."""
     from d2sr.sim.room import SimRoom
-    from d2sr.sim.timing import TimingConfig
+    from d2sr.sim.timing import TimingSettings
     from d2sr.sim.world import make_rig
 
     rig = make_rig(TEST_SEED_ROOMS + seed, sensors=4, moving_robot=True)
     robot = rig.n - 1
-    cfg = TimingConfig(active_frames=TOTAL_FRAMES, setup=0, hit_prob=1.0)  # always on
+    cfg = TimingSettings(active_frames=TOTAL_FRAMES, setup=0, hit_prob=1.0)  # always on
     room = SimRoom(rig, cfg, seed=TEST_SEED_ROOMS + seed, seconds=seconds, render=[robot])
     frames, clean = [], []
     for ev in room.slots(seconds):

@@ -52,10 +52,10 @@ def fig3(sensors: tuple[int, ...] = (1, 3, 5), seconds: float = 4.0, rooms: int 
     """Sensor 0's depth error against the simulator's clean frames with N sensors always on together
     (the paper's Fig. 3b: RMSE grows with the number of interfering LiDARs)."""
     from d2sr.sim.room import SimRoom
-    from d2sr.sim.timing import TimingConfig
+    from d2sr.sim.timing import TimingSettings
     from d2sr.sim.world import make_rig
 
-    cfg = TimingConfig(active_frames=TOTAL_FRAMES, setup=0)  # always on
+    cfg = TimingSettings(active_frames=TOTAL_FRAMES, setup=0)  # always on
     out = {}
     for n in sensors:
         se, count, bad, frames = 0.0, 0, 0, 0

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from d2sr.sim.interference import KINDS, InterferenceConfig, Interferer, interfere
+from d2sr.sim.interference import KINDS, InterferenceSettings, Interferer, interfere
 from d2sr.sim.rooms import L515, Renderer, SensorNoise
 from d2sr.sim.world import direct_view, make_rig
 
@@ -33,7 +33,7 @@ def gallery_figure(seed: int = 0) -> Figure:
     cam = Renderer(rig.room, rig.intr, rig.poses[0])
     src = Renderer(rig.room, rig.intr, rig.poses[1])
     noise = SensorNoise(L515, (rig.intr.height, rig.intr.width), seed)
-    cfg = InterferenceConfig()
+    cfg = InterferenceSettings()
     shape = (rig.intr.height, rig.intr.width)
     scene = cam.render(0.0)
     rows: list[tuple[str, list[Interferer]]] = [

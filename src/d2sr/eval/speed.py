@@ -19,7 +19,7 @@ from d2sr.errors import D2SRError
 from d2sr.provenance import cpu, stamp
 from d2sr.runtime.settings import RunSettings
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.timing import TimingConfig, simulate
+from d2sr.sim.timing import TimingSettings, simulate
 
 __all__ = [
     "bench_models",
@@ -72,7 +72,7 @@ def bench_timing(
     t = time.perf_counter()
     graph = OverlapGraph.warehouse(sensors, seconds, seed=seed, neighbours=3.0)
     build_s = time.perf_counter() - t
-    cfg = TimingConfig(active_frames=fps)
+    cfg = TimingSettings(active_frames=fps)
     times, ratio = [], 0.0
     for r in range(repeats):
         t = time.perf_counter()

@@ -10,7 +10,7 @@ a correction), laid out so that almost nothing runs at full resolution:
 - the fill trusts a return where the mask logit is below 0 (a hard cut: it only feeds the fill, whose
   gradient is detached anyway) and pushes and pulls from the 1/8 grid, one upsampling to full resolution.
 
-It is distilled from the two-pass ``unet8`` (``TrainConfig.teacher``), so one pass does what two do.
+It is distilled from the two-pass ``unet8`` (``TrainSettings.teacher``), so one pass does what two do.
 """
 
 from __future__ import annotations

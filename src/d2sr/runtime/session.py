@@ -25,7 +25,7 @@ from d2sr.runtime.sources import RoomTrigger, run_room
 from d2sr.runtime.stats import RunStats
 from d2sr.sim.record import EPOCH_NS
 from d2sr.sim.room import SimRoom, SlotEnd
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import Rig, make_rig
 from d2sr.synth import Filler, Pose
 from d2sr.synth.gaps import interleave
@@ -41,7 +41,7 @@ def run_sim(
     settings: RunSettings | None = None,
     loop_settings: LoopSettings | None = None,
     *,
-    timing: TimingConfig | None = None,
+    timing: TimingSettings | None = None,
     render: bool = True,
     progress: Progress | None = None,
     on_result: Callable[[int, Result], None] | None = None,
@@ -58,7 +58,9 @@ def run_sim(
     seed, moving, fill, repair, threshold = ls.seed, ls.moving, ls.fill, s.repair, s.threshold
     if fill and (out is None or not render):
         raise ConfigError("fill writes synthesized frames into a run folder: it needs out and rendering")
-    cfg = TimingConfig.make(**((timing or TimingConfig()).model_dump() | {"active_frames": active_frames}))
+    cfg = TimingSettings.make(
+        **((timing or TimingSettings()).model_dump() | {"active_frames": active_frames})
+    )
     rig = make_rig(seed, sensors=sensors, moving_robot=moving)
     room = SimRoom(rig, cfg, seed=seed, seconds=seconds, render=render)
     logged = {

@@ -22,7 +22,7 @@ from d2sr.atomic import atomic_dir
 from d2sr.errors import InputError
 from d2sr.frames.overlap import processes
 from d2sr.sim.calibrate import static_camera
-from d2sr.sim.families import WideConfig, wide_interference
+from d2sr.sim.families import WideSettings, wide_interference
 from d2sr.sim.rooms import L515, Pose, Renderer, SensorModel, SensorNoise, make_room
 from d2sr.sim.sensors import SENSOR_KINDS, observe, randomized_l515
 from d2sr.sim.world import make_rig
@@ -44,7 +44,7 @@ KIND_WEIGHTS = (0.4, 0.25, 0.2, 0.15)  # l515, stereo, tof, structured: the L515
 
 
 def synth_frame(
-    seed: int, interfered: bool, config: WideConfig | None = None
+    seed: int, interfered: bool, config: WideSettings | None = None
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """(frame, clean, depth scale), 480x640 uint16; frame == clean when not interfered."""
     s = synth_sequence_frame(seed, interfered, config, previous=False)
@@ -93,7 +93,7 @@ class Synth(NamedTuple):
 def synth_sequence_frame(
     seed: int,
     interfered: bool,
-    config: WideConfig | None = None,
+    config: WideSettings | None = None,
     previous: bool = True,
     sensor: SensorModel | None = None,
 ) -> Synth:
@@ -123,7 +123,7 @@ def synth_sequence_frame(
     return Synth(frame, clean, prev, scale, kind, families)
 
 
-def _chunk(args: tuple[Path, int, int, int, bool, WideConfig | None, SensorModel | None]) -> list[dict]:
+def _chunk(args: tuple[Path, int, int, int, bool, WideSettings | None, SensorModel | None]) -> list[dict]:
     root, start, stop, seed, previous, config, sensor = args
     frames = np.load(root / "frames.npy", mmap_mode="r+")
     clean = np.load(root / "clean.npy", mmap_mode="r+")
@@ -149,7 +149,7 @@ def generate(
     workers: int = 2,
     progress: Callable[[int], None] | None = None,
     previous: bool = False,
-    config: WideConfig | None = None,
+    config: WideSettings | None = None,
     sensor: SensorModel | None = None,
 ) -> Path:
     """Write ``count`` frames (odd indices interfered) as ``frames.npy``, ``clean.npy`` (uint16 memory
@@ -173,7 +173,7 @@ def generate(
             "seed": seed,
             "count": count,
             "version": VERSION,
-            "families": list((config or WideConfig()).families),
+            "families": list((config or WideSettings()).families),
             "sensor": (sensor or L515).model_dump(),
             "scales": [r["scale"] for r in rows],
             "mask_share": [r["share"] for r in rows],

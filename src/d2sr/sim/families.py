@@ -32,12 +32,12 @@ from d2sr.errors import InputError
 from d2sr.frames.base import to_units
 from d2sr.sim.interference import Interferer
 
-__all__ = ["FAMILIES", "WideConfig", "shape", "shell_interference", "wide_interference"]
+__all__ = ["FAMILIES", "WideSettings", "shape", "shell_interference", "wide_interference"]
 
 FAMILIES = ("band", "streak", "bar", "blob", "speckle", "region", "grating", "physical")
 
 
-class WideConfig(Settings):
+class WideSettings(Settings):
     """What the wide generator draws from. ``families`` is what leave-one-family-out changes."""
 
     families: tuple[str, ...] = Field(FAMILIES, description="shape families drawn from, uniformly")
@@ -46,7 +46,7 @@ class WideConfig(Settings):
     confine: float = Field(0.5, ge=0, le=1, description="chance a pattern is confined to an overlap region")
 
     @model_validator(mode="after")
-    def _known(self) -> WideConfig:
+    def _known(self) -> WideSettings:
         bad = set(self.families) - set(FAMILIES)
         if bad or not self.families:
             raise ValueError(f"families must be among {FAMILIES}, got {sorted(bad) or 'none'}")
@@ -260,13 +260,13 @@ def shell_interference(d: np.ndarray, rng: np.random.Generator) -> tuple[np.ndar
 
 
 def wide_interference(
-    depth: np.ndarray, depth_scale: float, seed: int, config: WideConfig | None = None
+    depth: np.ndarray, depth_scale: float, seed: int, config: WideSettings | None = None
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(interfered uint16 frame, mask of changed pixels, the families drawn). Draws until at least one
     pixel changes."""
     if depth.dtype != np.uint16 or depth.ndim != 2:
         raise InputError(f"interference works on uint16 depth images, got {depth.dtype} {depth.shape}")
-    cfg = config or WideConfig()
+    cfg = config or WideSettings()
     rng = np.random.default_rng([seed, 0x3D1E])
     h, w = depth.shape
     d = depth.astype(np.float32) / np.float32(depth_scale)

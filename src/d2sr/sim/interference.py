@@ -25,12 +25,12 @@ from d2sr.config import Settings
 from d2sr.errors import InputError
 from d2sr.frames.base import to_units
 
-__all__ = ["KINDS", "InterferenceConfig", "Interferer", "corrupt", "interfere"]
+__all__ = ["KINDS", "InterferenceSettings", "Interferer", "corrupt", "interfere"]
 
 KINDS = ("band", "wave", "bar", "cluster")
 
 
-class InterferenceConfig(Settings):
+class InterferenceSettings(Settings):
     """How interference looks. Defaults match the descriptions in the module docstring."""
 
     kinds: tuple[str, ...] = Field(KINDS, description="pattern kinds drawn from, uniformly")
@@ -48,7 +48,7 @@ class InterferenceConfig(Settings):
     far_add: tuple[float, float] = Field((0.5, 3.0), description="metres a far return adds")
 
     @model_validator(mode="after")
-    def _consistent(self) -> InterferenceConfig:
+    def _consistent(self) -> InterferenceSettings:
         bad = set(self.kinds) - set(KINDS)
         if bad or not self.kinds:
             raise ValueError(f"kinds must be among {KINDS}")
@@ -76,11 +76,11 @@ class Interferer:
         cls,
         shape: tuple[int, int],
         seed: int,
-        config: InterferenceConfig | None = None,
+        config: InterferenceSettings | None = None,
         direct_at: tuple[float, float] | None = None,
         region: np.ndarray | None = None,
     ) -> Interferer:
-        cfg = config or InterferenceConfig()
+        cfg = config or InterferenceSettings()
         rng = np.random.default_rng([seed, 0x1F])
         kind = "direct" if direct_at is not None else str(rng.choice(cfg.kinds))
         return cls(
@@ -147,10 +147,10 @@ def corrupt(
     depth_scale: float,
     where: np.ndarray,
     rng: np.random.Generator,
-    config: InterferenceConfig | None = None,
+    config: InterferenceSettings | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Corrupt the pixels of ``where`` in a uint16 frame; returns (frame, mask of pixels that changed)."""
-    cfg = config or InterferenceConfig()
+    cfg = config or InterferenceSettings()
     h, w = depth.shape
     d = depth.astype(np.float32) / np.float32(depth_scale)
     u = rng.random((h, w), dtype=np.float32)
@@ -180,7 +180,7 @@ def interfere(
     t: int,
     seed: int,
     region: np.ndarray | None = None,
-    config: InterferenceConfig | None = None,
+    config: InterferenceSettings | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Frame ``t`` of a sequence under the given interferers, each limited to its own region, and all to
     ``region`` (where the views overlap; everywhere when None).

@@ -24,10 +24,10 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
 from d2sr.frames.overlap import MAX_WORKERS, processes
-from d2sr.sim.interference import InterferenceConfig
+from d2sr.sim.interference import InterferenceSettings
 from d2sr.sim.room import Camera
 from d2sr.sim.rooms import L515, SensorModel
-from d2sr.sim.timing import TimingConfig, TimingRun, simulate
+from d2sr.sim.timing import TimingRun, TimingSettings, simulate
 from d2sr.sim.world import Rig, overlap_graph
 
 __all__ = [
@@ -47,7 +47,7 @@ def render_frames(
     run: TimingRun,
     seed: int,
     model: SensorModel,
-    cfg: InterferenceConfig,
+    cfg: InterferenceSettings,
 ) -> list[tuple[str, int, np.ndarray, np.ndarray, np.ndarray, list[int]]]:
     """Frames of one sensor at the given slots: (name, timestamp, depth, clean, mask, interferers)."""
     tau = (1.0 + run.drifts[sensor]) / run.config.fps
@@ -112,8 +112,8 @@ def record(
     seconds, active_frames, controller, seed, workers = (
         rs.seconds, rs.active_frames, rs.controller, rs.seed, rs.workers
     )  # fmt: skip
-    cfg = InterferenceConfig()
-    tcfg = TimingConfig(fps=30.0, active_frames=active_frames)
+    cfg = InterferenceSettings()
+    tcfg = TimingSettings(fps=30.0, active_frames=active_frames)
     graph = overlap_graph(rig, seconds)
     run = simulate(graph, controller, tcfg, duration_s=seconds, seed=seed, record_frames=True)
     assert run.frames is not None

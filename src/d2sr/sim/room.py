@@ -22,10 +22,10 @@ import numpy as np
 
 from d2sr.errors import ConfigError
 from d2sr.sim.counter_rng import uniform
-from d2sr.sim.interference import InterferenceConfig, Interferer, interfere
+from d2sr.sim.interference import InterferenceSettings, Interferer, interfere
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.rooms import L515, Renderer, SensorModel, SensorNoise
-from d2sr.sim.timing import TimingConfig
+from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import Rig, direct_view, lit_region, overlap_graph
 
 __all__ = ["Camera", "RoomFrame", "SimRoom", "SlotEnd"]
@@ -38,7 +38,7 @@ class Camera:
     instead of jumping between frames."""
 
     def __init__(
-        self, rig: Rig, sensor: int, seed: int, model: SensorModel, cfg: InterferenceConfig, noise_seed: int
+        self, rig: Rig, sensor: int, seed: int, model: SensorModel, cfg: InterferenceSettings, noise_seed: int
     ) -> None:
         self.rig, self.sensor, self.seed, self.model, self.cfg = rig, sensor, seed, model, cfg
         self.cam = Renderer(rig.room, rig.intr)
@@ -126,17 +126,17 @@ class SimRoom:
     def __init__(
         self,
         rig: Rig,
-        timing: TimingConfig | None = None,
+        timing: TimingSettings | None = None,
         seed: int = 0,
         model: SensorModel = L515,
-        interference: InterferenceConfig | None = None,
+        interference: InterferenceSettings | None = None,
         start: Start | None = None,
         seconds: float = 60.0,
         render: bool | Sequence[int] = True,
     ) -> None:
         graph, offsets, phases = start if start is not None else Start()
         self.rig, self.seed, self.model = rig, seed, model
-        self.cfg = timing or TimingConfig()
+        self.cfg = timing or TimingSettings()
         self.n = rig.n
         self.graph = graph if graph is not None else overlap_graph(rig, seconds)
         if self.graph.n != self.n:
@@ -153,7 +153,7 @@ class SimRoom:
         if len(first) != self.n:
             raise ConfigError(f"{len(first)} offsets for {self.n} sensors")
         self._offsets: list[dict[int, int]] = [{0: int(o) % self.cfg.total_frames} for o in first]
-        icfg = interference or InterferenceConfig()
+        icfg = interference or InterferenceSettings()
         shown = set(range(self.n)) if render is True else set() if render is False else set(render)
         self.cameras = [
             Camera(rig, i, seed, model, icfg, seed * 1_000_003 + i * 10_007) if i in shown else None

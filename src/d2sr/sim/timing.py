@@ -34,10 +34,10 @@ from d2sr.errors import ConfigError
 from d2sr.sim.counter_rng import uniform
 from d2sr.sim.overlap import OverlapGraph
 
-__all__ = ["TimingConfig", "TimingRun", "simulate"]
+__all__ = ["TimingRun", "TimingSettings", "simulate"]
 
 
-class TimingConfig(Settings):
+class TimingSettings(Settings):
     """Settings of the timing world (defaults: an L515 at 30 fps running half its frames)."""
 
     total_frames: int = Field(TOTAL_FRAMES, gt=0, description="slots per observation period")
@@ -53,7 +53,7 @@ class TimingConfig(Settings):
     substeps: int = Field(8, ge=1, le=64, description="time steps per slot")
 
     @model_validator(mode="after")
-    def _window_fits(self) -> TimingConfig:
+    def _window_fits(self) -> TimingSettings:
         if self.active_frames > self.total_frames:
             raise ValueError(f"active_frames ({self.active_frames}) > total_frames ({self.total_frames})")
         if self.setup >= self.total_frames:
@@ -65,7 +65,7 @@ class TimingConfig(Settings):
 class TimingRun:
     """Per sensor and period: frames captured, truly interfered, flagged; the offset used."""
 
-    config: TimingConfig
+    config: TimingSettings
     graph: OverlapGraph
     captured: np.ndarray
     interfered: np.ndarray
@@ -92,7 +92,7 @@ class TimingRun:
 
 
 def _controllers(
-    controllers: str | Sequence[Controller], n: int, cfg: TimingConfig, seed: int
+    controllers: str | Sequence[Controller], n: int, cfg: TimingSettings, seed: int
 ) -> list[Controller]:
     if isinstance(controllers, str):
         return [
@@ -135,7 +135,7 @@ class Clocks(NamedTuple):
 def simulate(
     graph: OverlapGraph,
     controllers: str | Sequence[Controller],
-    config: TimingConfig | None = None,
+    config: TimingSettings | None = None,
     duration_s: float = 60.0,
     seed: int = 0,
     clocks: Clocks | None = None,
@@ -148,7 +148,7 @@ def simulate(
     controller per sensor. ``clocks``: each sensor's phase and drift [random draws from ``seed``].
     """
     phases, drifts = clocks if clocks is not None else Clocks()
-    cfg = config or TimingConfig()
+    cfg = config or TimingSettings()
     if duration_s <= 0 or not np.isfinite(duration_s):
         raise ConfigError(f"duration_s must be positive, got {duration_s}")
     n_sens, total, setup, k_sub = graph.n, cfg.total_frames, cfg.setup, cfg.substeps
@@ -310,7 +310,7 @@ class _Windows:
     active: np.ndarray
     laser: np.ndarray
     offsets: np.ndarray
-    cfg: TimingConfig
+    cfg: TimingSettings
 
 
 def _end_period(

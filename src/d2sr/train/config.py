@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 
 VALIDATION_FRAMES = 100  # generated frames that choose a recovery model's mask threshold
 
-__all__ = ["Folders", "TrainConfig"]
+__all__ = ["Folders", "TrainSettings"]
 
 
 class Folders(Settings):
@@ -30,7 +30,7 @@ class Folders(Settings):
 MAX_BATCH = 1024  # frames a step: beyond any machine's memory at 640x480 (a billion hung making its indices)
 
 
-class TrainConfig(Settings):
+class TrainSettings(Settings):
     task: Literal["detector", "recovery"]
     model: str = Field("detector", description="a name from d2sr.models.MODELS")
     seed: int = 0
@@ -140,7 +140,7 @@ class TrainConfig(Settings):
         return fitted_model(self.sensor) if self.sensor is not None else None
 
     @model_validator(mode="after")
-    def _check(self) -> TrainConfig:
+    def _check(self) -> TrainSettings:
         from d2sr.contract.catalog import DETECTOR_NAMES, PAD, RECOVERY_NAMES, TEMPORAL_RECOVERY
 
         if self.model not in DETECTOR_NAMES + RECOVERY_NAMES:

@@ -19,7 +19,7 @@ from d2sr.frames.base import Frame, check_depth, probe, to_units
 from d2sr.sim.dataset import VERSION, SynthSet, generate
 from d2sr.sim.families import shell_interference
 from d2sr.sim.rooms import L515, SensorModel
-from d2sr.train.config import TrainConfig
+from d2sr.train.config import TrainSettings
 from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "Source", "synth_set"]
@@ -57,7 +57,7 @@ def synth_set(
 ) -> SynthSet:
     """The generated set for (seed, count), made on first use and kept under ``cache``; ``previous``: with
     each frame's last clean frame (a separate, slower set); ``sensor``: an L515 fit other than the shipped
-    one (``TrainConfig.sensor``), kept apart by its hash."""
+    one (``TrainSettings.sensor``), kept apart by its hash."""
     fit = ""
     if sensor is not None and sensor != L515:
         fit = "-fit" + hashlib.sha256(sensor.model_dump_json().encode()).hexdigest()[:8]
@@ -75,7 +75,7 @@ def synth_set(
     return SynthSet(root)
 
 
-def _folders(cfg: TrainConfig) -> list[Source]:
+def _folders(cfg: TrainSettings) -> list[Source]:
     out = []
     for f in cfg.folders:
         src, tgt = open_frames(f.input, f.topic), open_frames(f.target, f.topic)
@@ -161,7 +161,7 @@ def warp_interference(
 
 @dataclass(frozen=True)
 class Augment:
-    """How a pool varies its frames beyond the data (``TrainConfig``'s fields of the same meaning):
+    """How a pool varies its frames beyond the data (``TrainSettings``'s fields of the same meaning):
     ``gate_previous`` (``gate_previous``), the shares of frames whose interference is warped (``warp``),
     stacked (``stack``), mirrored (``mirror``) or shelled (``shell``), and a temporal detector scored
     against its own last clean frame (``clean_previous``)."""
@@ -205,7 +205,7 @@ class Pool:
         self.labels = np.array([sources[s].labels[i] for s, i in self.index])
 
     @classmethod
-    def from_config(cls, cfg: TrainConfig, progress: bool = True, frames: int = 1) -> Pool:
+    def from_config(cls, cfg: TrainSettings, progress: bool = True, frames: int = 1) -> Pool:
         sources = []
         if cfg.synthetic:
             ss = synth_set(cfg.cache, cfg.synthetic, cfg.seed, progress, frames > 1, cfg.sensor_model())

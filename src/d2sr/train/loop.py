@@ -27,7 +27,7 @@ from d2sr.models.registry import build, describe, own_passes
 from d2sr.models.store import mask_logit, read_card, save_model, torch_device, warm_start, write_card
 from d2sr.sim.dataset import VERSION
 from d2sr.sim.rooms import SensorModel
-from d2sr.train.config import VALIDATION_FRAMES, TrainConfig
+from d2sr.train.config import VALIDATION_FRAMES, TrainSettings
 from d2sr.train.data import Batch, Pool
 from d2sr.ui import console, progress_bar
 
@@ -107,7 +107,7 @@ def loss_fn(
 
 
 def _miss_cost(x: torch.Tensor, y: torch.Tensor, m: torch.Tensor, k: float) -> torch.Tensor | None:
-    """Per-pixel weights of the mask's BCE (``TrainConfig.mask_error_weight``): an interfered pixel weighs
+    """Per-pixel weights of the mask's BCE (``TrainSettings.mask_error_weight``): an interfered pixel weighs
     1 + ``k`` x its depth error (metres, where the truth returns; capped), rescaled so that the interfered
     pixels of the batch weigh 1 on average; clean pixels weigh 1. A missed pixel costs RMSE by its error,
     so the mask learns first to catch what costs the most; the mean keeps the clean/interfered balance of
@@ -187,7 +187,7 @@ def _save_checkpoint(
     opt: torch.optim.Optimizer,
     sched: torch.optim.lr_scheduler.LRScheduler,
     rng: np.random.Generator,
-    cfg: TrainConfig,
+    cfg: TrainSettings,
     done: _Done,
 ) -> None:
     step, minutes, losses = done
@@ -213,7 +213,7 @@ def deterministic(seed: int) -> None:
     torch.manual_seed(seed)
 
 
-def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True) -> dict:
+def train(cfg: TrainSettings, out: Path, command: str = "", progress: bool = True) -> dict:
     """Train, checkpoint to ``out/checkpoint.pt`` (resumed when present and of the same config), and write
     ``out/<model>.safetensors`` with its model card. Returns the training summary."""
     with _distributed() as (rank, world):
@@ -354,7 +354,7 @@ def train(cfg: TrainConfig, out: Path, command: str = "", progress: bool = True)
 NOT_TRAINING = ("validation", "time_limit_min", "checkpoint_every")
 
 
-def _same_run(saved: dict, cfg: TrainConfig) -> bool:
+def _same_run(saved: dict, cfg: TrainSettings) -> bool:
     now = cfg.model_dump(mode="json")
     return all(saved.get(k) == v for k, v in now.items() if k not in NOT_TRAINING)
 
@@ -441,8 +441,8 @@ def choose_mask_logit(
     repair ``recover`` writes keeps that (``pick_as_recovered``). The mask head errs towards missing
     dropouts (a dropout and a natural no-return look alike), and each missed one costs metres. The
     ``rmse_cm`` and ``clean_changed`` curves are of one pass. ``gate_previous``: only the frames whose last
-    clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainConfig.gate_previous``).
-    ``sensor``: the L515 fit the validation frames are drawn around (``TrainConfig.sensor``)."""
+    clean frame lines up (those ``--model auto`` gives a temporal model; ``TrainSettings.gate_previous``).
+    ``sensor``: the L515 fit the validation frames are drawn around (``TrainSettings.sensor``)."""
     from d2sr.sim.dataset import VALIDATION_SEED
     from d2sr.train.data import lines_up, synth_set
 
@@ -487,7 +487,7 @@ def lineage(init: Path) -> dict:
     return {"weights": str(init)} | {k: v for k, v in found.items() if v is not None}
 
 
-def _data_line(cfg: TrainConfig, frames: int = 1) -> str:
+def _data_line(cfg: TrainSettings, frames: int = 1) -> str:
     parts = []
     if cfg.synthetic:
         parts.append(
