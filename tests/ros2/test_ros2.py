@@ -247,13 +247,17 @@ def test_node_synthesizes_the_frames_a_duty_cycled_laser_skips():
         assert sure.mean() > 0.5 and np.abs(d[sure].astype(int) - 3000).max() <= 45
 
 
-def test_node_takes_the_scene_option():
-    """``d2sr ros2 --scene``: the node's loop judges frames against the still sensor's scene."""
+@pytest.mark.parametrize("scene", [True, False])
+def test_node_takes_the_scene_option(scene):
+    """``d2sr ros2 --scene``: the node's loop judges frames against the still sensor's scene once it has
+    held still (``Repaired.scene`` True); without it the detector decides alone (None)."""
     from d2sr.ros2 import Ros2Node, Wire
 
-    node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), scene=True)
+    node = Ros2Node("/cam/depth", 4000.0, Wire(domain=random.randint(100, 200)), scene=scene)
     try:
-        assert node.cameras[0].pipeline.loop.settings.scene
+        wall = room(0)
+        weighed = [node.cameras[0].pipeline.process(wall.copy()).scene for _ in range(40)]
+        assert weighed[-1] is (True if scene else None)
     finally:
         node.close()
 
