@@ -42,7 +42,7 @@ def _recording(folder: Path, frames: int, seed: int, size: tuple[int, int] = (96
     for i in range(frames):
         d = room + rng.normal(0, 0.003, room.shape)
         if i % 2:
-            d[20:50, 30:70] -= 0.4
+            d[20:50, 30:70] *= np.where(rng.random((30, 40)) < 0.4, 0.6, 1.0)  # speckle read too near
         cv2.imwrite(str(folder / f"{i:04d}.png"), np.rint(d * 4000).astype(np.uint16))
     return folder
 
@@ -71,6 +71,13 @@ def test_a_fleet_writes_what_recover_writes_names_a_broken_recording_and_a_rerun
     assert s.frames == 21 and [o.frames for o in s.outcomes[:2]] == [12, 9]
     assert seen and seen[-1].remaining == 0 and seen[-1].failed == 1
     for rec, name in zip(recs, ("robot1__cam0", "robot2__cam0"), strict=True):
+        for f in sorted(rec.glob("*.png")):  # what any repair must do, known without running d2sr's code
+            before, after = (cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in (f, out / name / f.name))
+            changed = before != after
+            assert not changed[:20].any() and not changed[50:].any() and not changed[:, :30].any()
+            assert not changed[:, 70:].any()  # nothing outside the speckled patch
+            # clean frames untouched; in interfered ones most of the too-near returns moved
+            assert changed.mean() == 0 if int(f.stem) % 2 == 0 else changed[20:50, 30:70].mean() > 0.25
         alone = tmp_path / f"alone_{name}"
         recover_recording(rec, alone, SETTINGS)
         assert _files(out / name) == _files(alone)  # byte for byte, report.html and meta.json included
