@@ -6,9 +6,8 @@ a correction), laid out so that almost nothing runs at full resolution:
 - each 8x8 block of pixels is folded into channels (ONNX ``SpaceToDepth``, one cheap kernel) and a 1x1 stem
   mixes them down to ``width`` channels, so the trunk (three levels) runs at 1/8, 1/16 and 1/32;
 - the heads (``RowHead``) see the trunk's context and, per row of a block, the row's own pixels, and unfold
-  back (``DepthToSpace``): every pixel still decides for itself. One small head shared by a whole 8x8 block
-  (32 units for 64 pixels) could not: trained so, the model flagged almost nothing right (mask F1 0.11 on
-  the validation frames at a quarter of its training, against 0.61 for unet8);
+  back (``DepthToSpace``): every pixel still decides for itself, with units that see it and its row (a
+  few units shared by a whole block cannot decide per pixel; lab/notes/decisions.md);
 - the fill trusts a return where the mask logit is below 0 (a hard cut: it only feeds the fill, whose
   gradient is detached anyway) and pushes and pulls from the 1/8 grid, one upsampling to full resolution.
 
