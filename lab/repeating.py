@@ -62,8 +62,10 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore")  # the depth-scale doubts of single frames
     result: dict[str, dict[str, int]] = {}
+    read: list[Path] = []
     for view in ("dev0", "dev1"):
         files = sorted((args.data / "l515" / view).glob("*.png"))[60:105]
+        read += files
         for every in (2, 3):
             for kind, metres in CASES:
                 name = f"{view}, 1 in {every} clean, {kind} {metres:+g} m"
@@ -73,8 +75,10 @@ def main() -> None:
         if args.json.exists() and not args.overwrite:
             raise SystemExit(f"{args.json} exists; pass --overwrite")
         from d2sr.eval.speed import write_result
+        from d2sr.provenance import data_read
 
-        write_result(result, args.json, data="l515/dev0, l515/dev1: frames 60-104")
+        data = data_read("l515/dev0, l515/dev1: frames 60-104", read, args.data)
+        write_result(result, args.json, data=data)
 
 
 if __name__ == "__main__":

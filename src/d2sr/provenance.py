@@ -28,6 +28,7 @@ __all__ = [
     "command_as",
     "command_line",
     "cpu",
+    "data_read",
     "git_commit",
     "model_hashes",
     "record",
@@ -130,6 +131,20 @@ def model_hashes(models: Iterable[str | Path], folder: Path | None = None) -> di
         path = Path(m) if Path(m).suffix else (folder or WEIGHTS) / f"{m}.safetensors"
         out[str(m)] = _sha256(path) if path.is_file() else None
     return out
+
+
+def data_read(name: str, files: Iterable[Path], root: Path) -> dict:
+    """What a result read, so that one made on other data is told apart: ``name`` (the set in words), the
+    files (paths under ``root``, in order), their count and bytes, and one SHA-256 over their names and
+    contents."""
+    digest, names, size = hashlib.sha256(), [], 0
+    for f in files:
+        rel = Path(f).relative_to(root).as_posix()
+        body = Path(f).read_bytes()
+        digest.update(rel.encode() + b"\0" + len(body).to_bytes(8, "little") + body)
+        names.append(rel)
+        size += len(body)
+    return {"name": name, "files": names, "count": len(names), "bytes": size, "sha256": digest.hexdigest()}
 
 
 def record(
