@@ -171,7 +171,8 @@ def main() -> None:
 
         cam = args.data / "kinect2_multicam" / "cam0"
         read = sorted((cam / "ref").glob("*.png")) + sorted((cam / "interf").glob("*.png"))
-        write_result(result, args.json, data=data_read("kinect2_multicam/cam0", read, args.data))
+        what = "kinect2_multicam/cam0: 50 interfered frames, 6 alone"
+        write_result(result, args.json, data=data_read(what, read, args.data))
 
 
 if __name__ == "__main__":
