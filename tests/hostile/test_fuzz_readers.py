@@ -233,3 +233,58 @@ def test_a_bag_whose_depth_message_has_no_width_is_one_line(tmp_path, weights):
         code, _, err = d2sr_inprocess(cmd[0], str(bag), "--out", str(out), *cmd[1:])
         assert code == 2 and "no pixels" in err and len(err.strip().splitlines()) == 1, (cmd, err)
         assert not out.exists() and not list(tmp_path.glob(f".{out.name}*"))
+
+
+# What the readers and the API must take: a reader that refused everything would pass the tests above.
+
+
+@FUZZ
+@given(st.integers(1, 48), st.integers(1, 48), st.integers(0, 2**31 - 1))
+def test_any_valid_depth_png_is_taken_as_written(h, w, seed):
+    from d2sr.frames.png import encode_png
+
+    img = np.random.default_rng(seed).integers(0, 65536, (h, w), dtype=np.uint16)
+    assert np.array_equal(decode_png(encode_png(img, "f.png"), "f.png"), img)
+
+
+@FUZZ
+@given(st.floats(0.5, 1e5, allow_nan=False), st.lists(st.integers(0, 2**62), min_size=3, max_size=3))
+def test_any_valid_meta_json_is_taken(folder, scale, stamps):
+    from d2sr.frames.png import write_meta
+
+    names = sorted(p.stem for p in folder.glob("*.png"))
+    write_meta(
+        folder, scale, None, [{"name": n, "timestamp_ns": t} for n, t in zip(names, stamps, strict=True)]
+    )
+    assert read_meta(folder)["depth_scale"] == scale
+    with open_frames(folder) as reader:
+        assert [f.timestamp_ns for f in reader] == stamps
+
+
+@FUZZ
+@given(st.lists(st.text("abcXYZ019_-.", min_size=1, max_size=10), min_size=1, max_size=4, unique=True))
+def test_any_valid_npz_names_are_taken_in_order(tmp_path, names):
+    from d2sr.frames.npz import NpzReader
+
+    if any(n in (".", "..") for n in names):
+        return  # names that climb are refused (test_npz_names_that_repeat_or_climb_are_refused)
+    path = tmp_path / "rec.npz"
+    np.savez(path, depth=np.ones((len(names), 6, 8), np.uint16), names=np.array(names))
+    assert [f.name for f in NpzReader(path)] == names
+
+
+@FUZZ
+@given(
+    st.integers(24, 80), st.integers(24, 120), st.integers(0, 2**31 - 1), st.sampled_from(["all", "flagged"])
+)
+def test_the_api_takes_any_valid_frame(weights, h, w, seed, repair):
+    import warnings
+
+    import d2sr
+
+    depth = np.random.default_rng(seed).integers(0, 20000, (h, w), dtype=np.uint16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # doubts about an odd frame's scale are warnings, not errors
+        r = d2sr.repair(depth, depth_scale=4000, models=weights, model="unet8", repair=repair)
+    assert r.depth.dtype == np.uint16 and r.depth.shape == (h, w)
+    assert np.array_equal(r.depth[~r.mask], depth[~r.mask])  # every pixel outside the mask as it came
