@@ -38,11 +38,34 @@ def _leftovers(root: Path, name: str) -> list[str]:
     return sorted(p.name for p in root.iterdir() if p.name.startswith(f".{name}."))
 
 
-def _kill_at_random(args: list[str], seconds: float, rng: random.Random) -> None:
+def _writing(p: subprocess.Popen, root: Path, name: str) -> float:
+    """Wait until ``p`` has its temporary beside ``root / name`` (it is writing); the time that took."""
+    t0, deadline = time.monotonic(), time.monotonic() + 120
+    while not _leftovers(root, name) and p.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    return time.monotonic() - t0
+
+
+def _timed(args: list[str], root: Path, name: str) -> float:
+    """Run the command to its end; the seconds it spent writing (from its temporary's appearance)."""
     p = _start(*args)
-    time.sleep(rng.uniform(0.3, seconds))
+    _writing(p, root, name)
+    t0 = time.monotonic()
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == 0, err
+    return time.monotonic() - t0
+
+
+def _kill_while_writing(args: list[str], root: Path, name: str, seconds: float, rng: random.Random) -> None:
+    """SIGKILL at a random moment while the command writes (its temporary there, the command running):
+    each kill lands mid-write, not during start-up or after the end."""
+    p = _start(*args)
+    _writing(p, root, name)
+    time.sleep(rng.uniform(0, seconds))
+    landed = p.poll() is None and bool(_leftovers(root, name))
     p.send_signal(signal.SIGKILL)
     p.wait(timeout=60)
+    assert landed, "the kill came before the command wrote or after it ended"
 
 
 @pytest.mark.slow
@@ -54,9 +77,7 @@ def test_recover_killed_at_random_moments_loses_nothing(tmp_path, weights):
     out = tmp_path / "out"
     args = ["recover", str(src), "--out", str(out), "--depth-scale", "4000", "--models", str(weights),
             "--model", "unet8", "--overwrite"]  # fmt: skip
-    t0 = time.monotonic()
-    _finish(*args)
-    whole = time.monotonic() - t0
+    writing = _timed(args, tmp_path, "out")
     mine = {"notes.txt": "mine", "sub/deeper.txt": "mine too"}
     for name, text in mine.items():
         (out / name).parent.mkdir(exist_ok=True)
@@ -64,7 +85,7 @@ def test_recover_killed_at_random_moments_loses_nothing(tmp_path, weights):
     (out / "empty").mkdir()
     rng = random.Random(63)
     for _ in range(KILLS):
-        _kill_at_random(args, whole * 1.2, rng)
+        _kill_while_writing(args, tmp_path, "out", writing * 0.7, rng)
         _finish(*args)
         assert all((out / n).read_text() == t for n, t in mine.items()) and (out / "empty").is_dir()
         assert len(list(out.glob("*.png"))) == 24 and len(list((out / "masks").glob("*.png"))) == 24
@@ -94,13 +115,12 @@ def test_a_bag_write_killed_at_random_moments_leaves_nothing_behind(tmp_path, we
         "unet8",
         "--overwrite",
     ]
-    t0 = time.monotonic()
     _finish(*args)
-    whole = time.monotonic() - t0
+    writing = _timed(args, tmp_path, "out")  # over an output of its own, as each kill below finds it
     (out / "notes.txt").write_text("mine")
     rng = random.Random(64)
     for _ in range(KILLS):
-        _kill_at_random(args, whole * 1.2, rng)
+        _kill_while_writing(args, tmp_path, "out", writing * 0.7, rng)
         _finish(*args)
         assert (out / "notes.txt").read_text() == "mine"
         assert sorted(p.name for p in out.iterdir()) == [
