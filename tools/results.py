@@ -214,7 +214,8 @@ README_ROWS = (
         "`python -m lab.scene_reference`",
     ),
     Row(
-        "real Kinect v2 interference (development), scene stored from 3 clean frames, truth the other 3: put back (> 2 cm), "
+        "real Kinect v2 interference (development), scene stored from 3 clean frames, truth the other 3: "
+        "put back (> 2 cm), "
         "`recover` / `--repair all`; frames worse; `detect` recall; without the stored scene",
         "—",
         "docs/results/kinect2_cam0.json",
