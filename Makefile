@@ -146,7 +146,7 @@ results: $(STAMP)
 	$(BIN)/python tools/results.py
 
 # The committed results cheap enough to re-make here (about a minute each), re-made in a temporary folder and
-# compared figure by figure with the committed files (tools/verify_results.py; not yet in CI).
+# compared figure by figure with the committed files (tools/verify_results.py; CI runs it).
 verify-results: $(STAMP)
 	$(BIN)/python tools/verify_results.py --data $(DATA)
 
