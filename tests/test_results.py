@@ -114,3 +114,12 @@ def test_a_missing_source_is_one_line(copy):
     (root / "docs/results/ros2_loopback.json").unlink()
     with pytest.raises(InputError, match=r"ros2_loopback\.json: cannot read it"):
         results.check(root, weights)
+
+
+def test_figures_quoted_in_the_readme_prose_come_from_their_results():
+    readme = (results.ROOT / "README.md").read_text()
+    assert all(f"<!--fig:{name}-->" in readme for name in results.INLINE)
+    edited = readme.replace("<!--fig:d435-flagged-->none of", "<!--fig:d435-flagged-->2 of", 1)
+    assert edited != readme and results._with_inline(edited, results.ROOT) == readme  # put back from the file
+    with pytest.raises(InputError, match="no figure named 'nope'"):
+        results._with_inline("<!--fig:nope-->1<!--/fig-->", results.ROOT)

@@ -294,7 +294,41 @@ def _with_table(readme: str, table: str) -> str:
     if START not in readme or END not in readme:
         raise InputError(f"README.md: no results table markers ({START!r} ... {END!r})")
     head, rest = readme.split(START, 1)
-    return head + table + rest.split(END, 1)[1]
+    return _with_inline(head + table + rest.split(END, 1)[1], ROOT)
+
+
+def _none_of(flagged: int, frames: int) -> str:
+    return f"{'none' if flagged == 0 else flagged} of {frames}"
+
+
+def _pixels_changed(others: dict) -> str:
+    worst = max(v.get("changed_worst", v.get("changed", 0.0)) for v in others.values())
+    return "changed no pixel" if worst == 0 else f"changed at most {worst:.2%} of a frame's pixels"
+
+
+# Figures quoted in the README's prose, between <!--fig:NAME--> and <!--/fig-->, written from results as the
+# table's rows are: (the result, what it gives).
+INLINE: dict[str, tuple[str, Callable[[dict], str]]] = {
+    "repair-all-worse": ("docs/results/outside/h-auto.json", lambda d: str(d["l515"]["frames_worse"])),
+    "d435-flagged": (
+        "docs/results/library_bars.json",
+        lambda d: _none_of(d["other_sensors"]["d435"]["flagged"], d["other_sensors"]["d435"]["frames"]),
+    ),
+    "others-changed": ("docs/results/library_bars.json", lambda d: _pixels_changed(d["other_sensors"])),
+}
+_FIG = re.compile(r"<!--fig:([\w-]+)-->(.*?)<!--/fig-->", re.S)
+
+
+def _with_inline(readme: str, root: Path) -> str:
+    """``readme`` with each quoted figure (``INLINE``) as its result gives it; an unknown name is an error."""
+
+    def figure(m: re.Match[str]) -> str:
+        if m.group(1) not in INLINE:
+            raise InputError(f"README.md: no figure named {m.group(1)!r} (tools/results.py INLINE)")
+        rel, give = INLINE[m.group(1)]
+        return f"<!--fig:{m.group(1)}-->{give(json.loads((root / rel).read_text()))}<!--/fig-->"
+
+    return _FIG.sub(figure, readme)
 
 
 # ---- the models' cards ----
