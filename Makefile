@@ -86,6 +86,7 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
 	# unet8-fast (issue 78; not shipped yet): one pass, distilled from the shipped unet8 (lab/notes/decisions.md).
 	$(BIN)/d2sr train recovery --config configs/unet8-fast.toml --out runs/unet8-fast
+	$(BIN)/d2sr train recovery --config configs/unet8-fast-stage2.toml --out runs/unet8-fast-stage2
 	# The shipped unet16 (since 2026-11-26): that unet8 widened to unet16 (models.widen), trained on.
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
 	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (lab/notes/decisions.md).
