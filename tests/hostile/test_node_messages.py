@@ -130,7 +130,7 @@ def test_settings_are_checked_at_start(weights):
     from d2sr.ros2 import Ros2Node, Wire
 
     for scale in (-1, 0, float("nan"), "abc"):
-        with pytest.raises(ConfigError, match="depth-scale"):
+        with pytest.raises(ConfigError, match="depth_scale"):
             Ros2Node("/hostile/depth", scale, Wire(domain=178), models=weights, model="unet8")
 
 

@@ -130,7 +130,7 @@ def test_adapt_writes_a_model_folder_that_detect_and_recover_take(tmp_path):
     code, _, err = d2sr_inprocess(
         "adapt", "--clean", str(clean), "--depth-scale", "1000", "--out", str(models), "--minutes", "2"
     )
-    assert code == 2 and "another --minutes" in err and err.count("\n") == 1
+    assert code == 2 and "another budget (minutes)" in err and err.count("\n") == 1
 
 
 @pytest.mark.slow

@@ -323,7 +323,7 @@ def test_orbbec_without_a_device_is_a_one_line_error(tmp_path):
             ["sim", "--trigger", "serial:/dev/ttyACM0"],
             "needs a live camera (realsense[:SERIAL] or orbbec[:SERIAL]) (set by --trigger)",
         ),
-        (["realsense", "--trigger", "orbbec"], "--trigger orbbec drives its own camera kind"),
+        (["realsense", "--trigger", "orbbec"], "trigger orbbec drives its own camera kind"),
         (["orbbec", "--trigger", "laser"], "unknown trigger 'laser'"),
         (["realsense", "--trigger", "serial:/nonexistent/tty"], "serial:/nonexistent/tty: cannot open"),
     ],

@@ -68,8 +68,9 @@ def check_out(
             return path
         if not overwrite:
             raise OutputError(
-                f"{option} {out} exists and is not empty; pass --overwrite to replace what d2sr wrote there "
-                "(other files are kept), or name a new folder"
+                f"{option} {out} exists and is not empty; allow overwrite to replace what d2sr wrote there "
+                "(other files are kept), or name a new folder",
+                "overwrite",
             )
         _check_writable(path.parent, option, out)
         return path
@@ -78,7 +79,7 @@ def check_out(
     if not made_by_d2sr(path):
         raise OutputError(f"{option} {out} exists and d2sr did not write it; name a new file")
     if not overwrite:
-        raise OutputError(f"{option} {out} exists; pass --overwrite to replace it")
+        raise OutputError(f"{option} {out} exists; allow overwrite to replace it", "overwrite")
     _check_writable(path.parent, option, out)
     return path
 

@@ -130,7 +130,7 @@ def agreement(metres: np.ndarray, previous: np.ndarray | None) -> float:
 
 def check_passes(passes: int) -> int:
     if not 1 <= passes <= 8:
-        raise ConfigError(f"--passes must be in 1..8, got {passes}")
+        raise ConfigError(f"passes must be in 1..8, got {passes}", "passes")
     return passes
 
 

@@ -111,7 +111,10 @@ def _resolve(address: str) -> str:
     except (ConnectionError, RuntimeError, ValueError) as exc:
         raise ConfigError(f"address auto: {_first(exc)}", "address") from None
     if not found:
-        raise ConfigError("address auto: no Ray cluster runs on this machine (ray start --head)", "address")
+        raise ConfigError(
+            "address auto: no Ray cluster runs on this machine (start a head node with Ray's own command)",
+            "address",
+        )
     return str(found)
 
 

@@ -90,7 +90,7 @@ class Ledger(BaseModel):
         except (OSError, UnicodeError, ValueError, RecursionError, ValidationError) as exc:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise OutputError(
-                f"{path}: not a d2sr fleet's record ({reason}); name a new --out or remove it"
+                f"{path}: not a d2sr fleet's record ({reason}); name a new output folder or remove it", "out"
             ) from None
 
     def settled(self) -> dict[str, Outcome]:

@@ -92,7 +92,7 @@ def recover_fleet(
     if s.repair == "none":
         raise ConfigError("a fleet repairs frames: repair must be flagged or all", "repair")
     if wr.rerun is not None:
-        raise ConfigError("rerun: view a fleet's recordings one by one (d2sr recover --rerun)", "rerun")
+        raise ConfigError("rerun: view a fleet's recordings one by one (recover each with rerun)", "rerun")
     if s.threads is None:  # one core a task: recordings run side by side, not frames
         s = s.model_copy(update={"threads": 1})
     paths = [Path(r) for r in recordings]
@@ -103,7 +103,8 @@ def recover_fleet(
     done = {} if ledger is None or wr.overwrite else ledger.settled()
     if done and ledger is not None and ledger.settings != wanted:  # what is done was done otherwise
         raise ConfigError(f"{root} was repaired with other settings ({_changed(ledger.settings, wanted)}); "
-                          "pass --overwrite to redo it, or name a new --out")  # fmt: skip
+                          "allow overwrite to redo it, or name a new output folder",
+            "overwrite",)  # fmt: skip
     where = dict(zip(names, paths, strict=True))
     kept = {n: o for n, o in done.items() if n in where and _still(o, root / n, where[n])}
     outcomes: dict[str, Outcome] = dict(kept)
@@ -251,7 +252,7 @@ def _open_folder(out: Path, inputs: list[Path]) -> Path:
     roots = [*inputs, *(bag_root(p) for p in inputs)]
     root = check_out(out, is_dir=True, inputs=roots, resume=True)
     if root.exists() and any(root.iterdir()) and not (root / LEDGER).is_file():
-        raise OutputError(f"--out {out} is a d2sr output but not a fleet's (no {LEDGER}); name a new folder")
+        raise OutputError(f"{out} is a d2sr output but not a fleet's (no {LEDGER}); name a new folder", "out")
     return root
 
 

@@ -103,7 +103,7 @@ def open_frames(path: Path, topic: str | None = None, format: str | None = None)
         raise InputError(f"unknown format {fmt!r}; known: {', '.join(FORMATS)}")
     spec = FORMATS[fmt]
     if topic is not None and not spec.takes_topic:
-        raise InputError(f"{path}: --topic applies to ROS bags, not {fmt} recordings")
+        raise InputError(f"{path}: a topic applies to ROS bags, not {fmt} recordings", "topic")
     cls = spec.load("reader")
     reader = cls(Path(path), topic) if spec.takes_topic else cls(Path(path))
     assert isinstance(reader, Reader)

@@ -124,7 +124,8 @@ class BagReader(Reader):
             depthy = [t for t in images if "depth" in t.lower()] or list(images)
             if len(depthy) > 1:
                 raise InputError(
-                    f"{self.path}: several image topics ({', '.join(sorted(depthy))}); pick one with --topic"
+                    f"{self.path}: several image topics ({', '.join(sorted(depthy))}); pick one (topic)",
+                    "topic",
                 )
             topic = depthy[0]
         self.topic, self.msgtype = topic, topics[topic]

@@ -42,10 +42,12 @@ def cameras_of(topic: str | Camera | Sequence[str | Camera], colour_topic: str |
     given = [topic] if isinstance(topic, str | Camera) else list(topic)
     cams = [Camera(c) if isinstance(c, str) else c for c in given]
     if not cams or len(cams) > MAX_CAMERAS or not all(isinstance(c, Camera) for c in cams):
-        raise ConfigError(f"--topic: give 1 to {MAX_CAMERAS} depth topics, got {len(cams)}")
+        raise ConfigError(f"give 1 to {MAX_CAMERAS} depth topics, got {len(cams)}", "topic")
     if colour_topic is not None:
         if len(cams) > 1:
-            raise ConfigError("--colour-topic: with several cameras give one per --topic, in order")
+            raise ConfigError(
+                "with several cameras give one colour topic per topic, in order", "colour_topic"
+            )
         cams = [Camera(cams[0].topic, colour_topic, cams[0].trigger, cams[0].scene_from)]
     return cams
 
@@ -58,10 +60,12 @@ def cameras_from(
 ) -> list[Camera]:
     """Cameras from what a command line or a parameters file repeats: colour topics, triggers and stored
     scenes are each given once per topic, in order, or not at all."""
-    given = {"colour-topic": colour_topics, "trigger": triggers, "scene-from": scene_froms}
-    for flag, values in given.items():
+    given = {"colour_topic": colour_topics, "trigger": triggers, "scene_from": scene_froms}
+    for name, values in given.items():
         if values and len(values) != len(topics):
-            raise ConfigError(f"--{flag}: give one per --topic ({len(topics)}), in order; got {len(values)}")
+            raise ConfigError(
+                f"{name}: give one per topic ({len(topics)}), in order; got {len(values)}", name
+            )
     return [
         Camera(
             topic,
@@ -95,11 +99,11 @@ class Ros2Node:
             isinstance(depth_scale, int | float) and np.isfinite(depth_scale) and depth_scale > 0
         ):
             raise ConfigError(
-                f"--depth-scale must be a positive number of units per metre, got {depth_scale}"
+                f"depth_scale must be a positive number of units per metre, got {depth_scale}", "depth_scale"
             )
         names = [w.resolve(c.topic) for c in cams]  # a bad name or rule fails here, before DDS starts
         if len(set(names)) < len(names):
-            raise ConfigError("--topic: a camera is named twice")
+            raise ConfigError("a camera is named twice", "topic")
         _check_wiring(cams, w)
         from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline, settings_of
@@ -176,7 +180,7 @@ class Ros2Node:
     def spin(self, seconds: float | None = None) -> dict[str, Stats]:
         """Take, repair and publish until ``stop`` (or for ``seconds``); each camera's figures by topic."""
         if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
-            raise ConfigError(f"--seconds must be a positive number, got {seconds}")
+            raise ConfigError(f"seconds must be a positive number, got {seconds}", "seconds")
         end = None if seconds is None else time.monotonic() + seconds
         while not self._stop.is_set() and (end is None or time.monotonic() < end):
             busy = any(c.running for c in self.cameras)
@@ -259,6 +263,7 @@ def _check_wiring(cams: list[Camera], wire: Wire) -> None:
     for name, topic in writes.items():
         if name in reads:
             raise ConfigError(
-                f"--remap: {name} would be both written (camera {topic}) and read (camera {reads[name]}): "
-                "the node would repair its own output"
+                f"remap: {name} would be both written (camera {topic}) and read (camera {reads[name]}): "
+                "the node would repair its own output",
+                "remap",
             )

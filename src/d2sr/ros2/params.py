@@ -84,19 +84,19 @@ def read_params(path: Path, node_name: str) -> dict[str, Any]:
     try:
         if path.stat().st_size > MAX_BYTES:
             raise InputError(
-                f"--params-file {path}: larger than {MAX_BYTES // 1024} KiB; not a parameters file"
+                f"{path}: larger than {MAX_BYTES // 1024} KiB; not a parameters file", "params_file"
             )
         data = YAML(typ="safe", pure=True).load(path.read_text(errors="strict"))
     except (OSError, UnicodeError) as exc:
         raise InputError(
-            f"--params-file {path}: cannot read it ({getattr(exc, 'strerror', None) or exc})"
+            f"{path}: cannot read it ({getattr(exc, 'strerror', None) or exc})", "params_file"
         ) from None
     except (YAMLError, ValueError, RecursionError) as exc:  # a 5,000-digit number, nesting 30,000 deep
         text = str(exc).strip()
         first = text.splitlines()[0][:200] if text else type(exc).__name__
-        raise InputError(f"--params-file {path}: not YAML d2sr reads ({first})") from None
+        raise InputError(f"{path}: not YAML d2sr reads ({first})", "params_file") from None
     if not isinstance(data, dict):
-        raise InputError(f"--params-file {path}: not a ROS 2 parameters file (node: ros__parameters: ...)")
+        raise InputError(f"{path}: not a ROS 2 parameters file (node: ros__parameters: ...)", "params_file")
     merged: dict[str, Any] = {}
     for key in ("/**", node_name, "/" + node_name):
         section = data.get(key)
@@ -104,7 +104,7 @@ def read_params(path: Path, node_name: str) -> dict[str, Any]:
             continue
         params = section.get("ros__parameters") if isinstance(section, dict) else None
         if not isinstance(params, dict):
-            raise InputError(f"--params-file {path}: {key}: has no ros__parameters mapping")
+            raise InputError(f"{path}: {key}: has no ros__parameters mapping", "params_file")
         merged |= params
     try:
         checked = NodeParams.model_validate(merged)
@@ -113,7 +113,7 @@ def read_params(path: Path, node_name: str) -> dict[str, Any]:
         key = str(e["loc"][0]) if e["loc"] else "?"
         if len(exc.errors()) > 1 and all(x["loc"][:1] == e["loc"][:1] for x in exc.errors()):
             # a key that takes one value or a list of them (topic, trigger, ...) fitted neither
-            raise ConfigError(f"--params-file {path}: {key}: expected one value or a list of them") from None
+            raise ConfigError(f"{path}: {key}: expected one value or a list of them", "params_file") from None
         where = ".".join(str(p) for p in e["loc"]) or "?"
-        raise ConfigError(f"--params-file {path}: {where}: {e['msg']}") from None
+        raise ConfigError(f"{path}: {where}: {e['msg']}", "params_file") from None
     return checked.model_dump(exclude_unset=True)

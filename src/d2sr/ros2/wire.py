@@ -32,16 +32,21 @@ _NODE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 def dds_topic(name: str) -> str:
     """ROS 2 topic ``/a/b`` (or ``a/b``) -> DDS topic ``rt/a/b``, or a ConfigError for a name ROS refuses."""
-    _check_name(name, "--topic")
+    _check_name(name, "topic")
     return "rt/" + name.lstrip("/")
 
 
-def _check_name(name: str, flag: str) -> None:
-    """A ConfigError for a name ROS 2 refuses: its characters (checked only within the length), its length."""
+def _check_name(name: str, setting: str) -> None:
+    """A ConfigError for a name ROS 2 refuses: its characters (checked only within the length), its length;
+    ``setting``: what gave the name (the CLI says its flag)."""
     if len("/" + name.lstrip("/")) > MAX_NAME:
-        raise ConfigError(f"{flag}: a topic name of {len(name)} characters; ROS 2 takes at most {MAX_NAME}")
+        raise ConfigError(
+            f"{setting}: a topic name of {len(name)} characters; ROS 2 takes at most {MAX_NAME}", setting
+        )
     if not _NAME.match(name):
-        raise ConfigError(f"{flag}: {name[:80]!r} is not a ROS 2 topic name (letters, digits, _ and /)")
+        raise ConfigError(
+            f"{setting}: {name[:80]!r} is not a ROS 2 topic name (letters, digits, _ and /)", setting
+        )
 
 
 def domain_id() -> int:
@@ -70,9 +75,11 @@ class Wire:
 
     def __post_init__(self) -> None:
         if self.qos not in QOS:
-            raise ConfigError(f"--qos must be one of {', '.join(QOS)}, got {self.qos!r}")
+            raise ConfigError(f"qos must be one of {', '.join(QOS)}, got {self.qos!r}", "qos")
         if self.transport not in TRANSPORTS:
-            raise ConfigError(f"--transport must be one of {', '.join(TRANSPORTS)}, got {self.transport!r}")
+            raise ConfigError(
+                f"transport must be one of {', '.join(TRANSPORTS)}, got {self.transport!r}", "transport"
+            )
         for stream, profile in self.streams:
             if stream not in STREAMS_IN + STREAMS_OUT or profile not in PROFILES:
                 raise ConfigError(f"{stream}_qos: {profile!r} is not one of {', '.join(PROFILES)}")
@@ -85,19 +92,19 @@ class Wire:
         for rule in self.remaps:
             src, sep, dst = rule.partition(":=")
             if not sep or not src or not dst:
-                raise ConfigError(f"--remap: {rule!r} is not a rule FROM:=TO")
+                raise ConfigError(f"remap: {rule!r} is not a rule FROM:=TO", "remap")
             if src == "__node":
                 node = dst
             elif src == "__ns":
                 ns = dst
         if not _NODE.match(node):
-            raise ConfigError(f"--node-name: {node!r} is not a ROS 2 node name (letters, digits and _)")
+            raise ConfigError(f"{node!r} is not a ROS 2 node name (letters, digits and _)", "node_name")
         if not ns.startswith("/") or (ns != "/" and not _NAME.match(ns)):
-            raise ConfigError(f"--namespace: {ns!r} is not a ROS 2 namespace (/ or /a/b)")
+            raise ConfigError(f"{ns!r} is not a ROS 2 namespace (/ or /a/b)", "namespace")
         for rule in self.remaps:
             src, _, dst = rule.partition(":=")
             if src not in ("__node", "__ns"):
-                topics[_resolve(src, ns, "--remap")] = _resolve(dst, ns, "--remap")
+                topics[_resolve(src, ns, "remap")] = _resolve(dst, ns, "remap")
         return node, ns, topics
 
     @property
@@ -113,7 +120,7 @@ class Wire:
     def resolve(self, topic: str) -> str:
         """A topic's full ROS 2 name: a relative one under the node's namespace, then remapped."""
         _, ns, topics = self._rules
-        full = _resolve(topic, ns, "--topic")
+        full = _resolve(topic, ns, "topic")
         return topics.get(full, full)
 
     def profile(self, stream: str) -> tuple[bool, int]:
@@ -127,9 +134,9 @@ class Wire:
         return PROFILES["SYSTEM_DEFAULT" if self.qos == "reliable" else "SENSOR_DATA"]
 
 
-def _resolve(topic: str, namespace: str, flag: str) -> str:
+def _resolve(topic: str, namespace: str, setting: str) -> str:
     """``topic`` as ROS 2 resolves it in ``namespace`` (no ``~``: the node has no private topics)."""
-    _check_name(topic, flag)
+    _check_name(topic, setting)
     full = topic if topic.startswith("/") else namespace.rstrip("/") + "/" + topic
-    _check_name(full, flag)
+    _check_name(full, setting)
     return full

@@ -170,7 +170,8 @@ class _BagFiller:
     def real(self, depth: np.ndarray, colour: np.ndarray | None) -> None:
         if depth.dtype != np.uint16:
             raise InputError(
-                "--colour-topic: frames are synthesized into 16-bit depth topics; this one is 32FC1"
+                "colour_topic: frames are synthesized into 16-bit depth topics; this one is 32FC1",
+                "colour_topic",
             )
         self.filler.real(to_metres(depth, self.scale), colour)
         self.started = True

@@ -43,13 +43,14 @@ def check_camera(source: str, trigger: str | None, fill: bool = False) -> tuple[
         raise ConfigError(f"unknown camera {camera!r}; choose from {', '.join(CAMERAS)}")
     if fill and camera != "realsense":
         raise ConfigError(
-            "--fill on a live camera: a RealSense for now (an Orbbec: d2sr ros2 --colour-topic)"
+            "fill on a live camera: a RealSense for now (an Orbbec: the ROS 2 node with its colour topic)",
+            "fill",
         )
     if trigger is not None:
         kind = parse_trigger(trigger)[0]
         own = {"orbbec": "orbbec", "realsense-emitter": "realsense"}.get(kind, camera)
         if own != camera:
-            raise ConfigError(f"--trigger {kind} drives its own camera kind, not a {camera} camera")
+            raise ConfigError(f"trigger {kind} drives its own camera kind, not a {camera} camera", "trigger")
     return camera, serial or None
 
 

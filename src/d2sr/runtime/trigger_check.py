@@ -40,7 +40,7 @@ def check_trigger(spec: str, active_frames: int = 6, seconds: float = 3.0, pings
     if kind not in ("serial", "gpio"):
         raise ConfigError(f"trigger check drives serial: and gpio: lines; {kind} needs its camera (d2sr run)")
     if not seconds > 0 or pings < 0:
-        raise ConfigError("need --seconds > 0 and --pings >= 0")
+        raise ConfigError("need seconds > 0 and pings >= 0")
     with open_trigger(spec, active_frames) as act:
         trips = act.round_trips(pings) if kind == "serial" and pings else None  # type: ignore[attr-defined]
         act.set_offset(0, 0)

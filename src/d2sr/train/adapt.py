@@ -227,7 +227,10 @@ def check_resumable(out: Path, plan: Plan) -> None:
     resumed, the result would be neither run."""
     ckpt = out / f"recovery-{CHECKPOINT}"
     if ckpt.is_file() and load_checkpoint(ckpt).get("plan") != plan.key():
-        raise InputError(f"{out} holds an adapt run of another --minutes, frames or version; use a new --out")
+        raise InputError(
+            f"{out} holds an adapt run of another budget (minutes), frames or version; name a new folder",
+            "out",
+        )
 
 
 def split(recordings: list[list[np.ndarray]]) -> tuple[int, int]:
@@ -395,7 +398,8 @@ def _fit(
         state = load_checkpoint(ckpt)
         if state.get("plan") != phase.plan:  # resumed, it would be neither run
             raise InputError(
-                f"{out} holds an adapt run of another --minutes, frames or version; use a new --out"
+                f"{out} holds an adapt run of another budget (minutes), frames or version; name a new folder",
+                "out",
             )
         try:
             model.load_state_dict(state["model"])
@@ -404,7 +408,7 @@ def _fit(
             spent, steps, losses = float(state["seconds"]), int(state["steps"]), list(state["losses"])
         except (KeyError, RuntimeError, ValueError, TypeError) as exc:
             raise InputError(
-                f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); use a new --out"
+                f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); name a new output folder", "out"
             ) from None
     model.train()
     t0, last = time.perf_counter(), time.perf_counter()

@@ -259,7 +259,8 @@ def train(cfg: TrainSettings, out: Path, command: str = "", progress: bool = Tru
                     start = int(state["step"])
                 except (KeyError, RuntimeError, ValueError, TypeError) as exc:
                     raise InputError(
-                        f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); use a new --out"
+                        f"{ckpt}: a damaged checkpoint ({type(exc).__name__}); name a new output folder",
+                        "out",
                     ) from None
                 kept_minutes, kept_losses = state.get("minutes"), state.get("losses")
                 if kept_minutes is None or kept_losses is None:  # a checkpoint from before these were kept

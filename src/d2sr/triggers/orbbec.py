@@ -48,7 +48,8 @@ def import_ob() -> Any:
         pyorbbecsdk.Context.set_logger_to_console(pyorbbecsdk.OBLogLevel.NONE)
     except ImportError:
         raise InputError(
-            "Orbbec cameras need pyorbbecsdk2: pip install --no-deps 'pyorbbecsdk2>=2.1' (docs/hardware.md)"
+            "Orbbec cameras need pyorbbecsdk2: install 'pyorbbecsdk2>=2.1' without its dependencies "
+            "(docs/hardware.md)"
         ) from None
     return pyorbbecsdk
 
