@@ -95,7 +95,7 @@ class RowHead(nn.Module):
         self.out = nn.Conv2d(s * hidden, 2 * s * s, 1, groups=s)
 
     def forward(self, h: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
-        return self.out(F.relu(self.context(h) + self.own(x)))  # type: ignore[no-any-return]
+        return self.out(F.relu(self.context(h) + self.own(x)))
 
 
 class OnePassUNet(nn.Module):
