@@ -123,3 +123,13 @@ def test_figures_quoted_in_the_readme_prose_come_from_their_results():
     assert edited != readme and results._with_inline(edited, results.ROOT) == readme  # put back from the file
     with pytest.raises(InputError, match="no figure named 'nope'"):
         results._with_inline("<!--fig:nope-->1<!--/fig-->", results.ROOT)
+
+
+def test_a_result_made_before_its_script_changed_is_listed_as_stale():
+    assert results._script_of("python -m lab.kinect2_cam0 --data x", results.ROOT).name == "kinect2_cam0.py"
+    assert results._script_of("python bench/models.py --json x", results.ROOT).name == "models.py"
+    assert results._script_of("d2sr eval recovery --real x", results.ROOT) is None
+    listed = results.stale()
+    assert all(": " in line and "changed since" in line for line in listed)
+    # a result re-made at a commit after its script's last change is not listed
+    assert not any(line.startswith("docs/results/kinect2_cam0.json") for line in listed)

@@ -72,6 +72,44 @@ def untraceable(root: Path = ROOT) -> tuple[list[str], int]:
     return sorted(bad), len(files)
 
 
+def _script_of(command: str, root: Path) -> Path | None:
+    """The lab, bench or tools script a result's command ran (``python -m lab.x``, ``python bench/x.py``)."""
+    m = re.search(r"python3? (?:-m ((?:lab|bench|tools)\.\w+)|((?:lab|bench|tools)/\w+\.py))", command)
+    if m is None:
+        return None
+    rel = m.group(1).replace(".", "/") + ".py" if m.group(1) else m.group(2)
+    return root / rel if (root / rel).is_file() else None
+
+
+def stale(root: Path = ROOT) -> list[str]:
+    """Results made before the last commit that changed the script that makes them (its command's lab,
+    bench or tools module): re-make them before they are quoted again. The product's own code changes too
+    often to count here; ``make verify-results`` re-makes the cheap results against it."""
+    import subprocess
+
+    out = []
+    for f in sorted((root / "docs" / "results").rglob("*.json")):
+        try:
+            data = json.loads(f.read_text())
+        except (OSError, ValueError):
+            continue
+        if not isinstance(data, dict) or not isinstance(data.get("commit"), str):
+            continue
+        script = _script_of(str(data.get("command", "")), root)
+        commit = data["commit"].removesuffix("+changes")
+        if script is None or not commit:
+            continue
+        done = subprocess.run(
+            ["git", "-C", str(root), "log", "-1", "--format=%h", f"{commit}..HEAD", "--", str(script)],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        if done.returncode == 0 and done.stdout.strip():
+            out.append(
+                f"{f.relative_to(root)}: {script.relative_to(root)} changed since (at {done.stdout.strip()})"
+            )
+    return out
+
+
 def _in_history(root: Path, commits: set[str]) -> set[str] | None:
     """The ones of ``commits`` that name a commit of the repository (``root``'s, else the checkout d2sr runs
     from); None where there is no repository to ask."""
@@ -521,6 +559,10 @@ def main(argv: list[str] | None = None) -> int:
             f"README and cards agree with docs/results; {total - len(bad)} of {total} results record their "
             f"command and commit ({len(bad)} listed in {PENDING})"
         )
+        old = stale()
+        for line in old:
+            print(f"stale: {line}")
+        print(f"{len(old)} results were made before their script last changed")
         return 0
     changed = write()
     print("Rewrote " + ", ".join(changed) if changed else "Nothing to change")
