@@ -114,12 +114,31 @@ def main() -> None:
             "ms_median": round(1000 * statistics.median(secs[5:]), 2),
         }
     result["other_sensors"] = other_sensors(args.data)
-    print(write_result(result, args.json))
+    from d2sr.provenance import data_read
+
+    singles = [path for path, _ in _singles(args.data).values()]
+    files = (
+        sorted((args.data / "l515" / "dev1").glob("*.png"))[: len(frames)]
+        + sorted((args.data / "d435").glob("depth*.png"))
+        + singles
+    )
+    what = "l515/dev1 (the first frames, outside interference), d435, azure_kinect, open3d_rgbd"
+    print(write_result(result, args.json, data=data_read(what, files, args.data)))
 
 
 def _changed(before: np.ndarray, after: np.ndarray) -> float:
     valid = before > 0
     return float((after != before)[valid].mean()) if valid.any() else 0.0
+
+
+def _singles(data: Path) -> dict[str, tuple[Path, int]]:
+    """The single frames of other sensors: name -> (file, units per metre)."""
+    return {
+        "azure_kinect_640x576": (data / "azure_kinect" / "depth_640x576_mm.png", 1000),
+        "azure_kinect_crop": (data / "azure_kinect" / "depth_640x480_centercrop_mm.png", 1000),
+        "tum": (data / "open3d_rgbd" / "TUM_depth.png", 5000),
+        "open3d_unknown": (data / "open3d_rgbd" / "unknown_origin_depth.png", 1000),
+    }
 
 
 def other_sensors(data: Path) -> dict:
@@ -134,13 +153,7 @@ def other_sensors(data: Path) -> dict:
         shares.append(_changed(frame, r.depth))
     out["d435"] = {"frames": len(d435), "flagged": flagged, "changed_mean": round(float(np.mean(shares)), 6),
                    "changed_worst": round(max(shares), 6)}  # fmt: skip
-    singles = {
-        "azure_kinect_640x576": (data / "azure_kinect" / "depth_640x576_mm.png", 1000),
-        "azure_kinect_crop": (data / "azure_kinect" / "depth_640x480_centercrop_mm.png", 1000),
-        "tum": (data / "open3d_rgbd" / "TUM_depth.png", 5000),
-        "open3d_unknown": (data / "open3d_rgbd" / "unknown_origin_depth.png", 1000),
-    }
-    for name, (path, scale) in singles.items():
+    for name, (path, scale) in _singles(data).items():
         frame = read(path)
         r = d2sr.repair(frame, depth_scale=scale)
         out[name] = {
