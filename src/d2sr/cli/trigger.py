@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from d2sr.cli.common import Overwrite, out_dir
+from d2sr.desync.base import DEFAULT_ACTIVE
 from d2sr.ui import print_line
 
 __all__ = ["check", "firmware"]
@@ -18,7 +19,9 @@ def check(
     spec: Annotated[
         str, typer.Argument(help="serial:PORT[@INPUT] or gpio:CHIP:LINE[@INPUT].", metavar="SPEC")
     ],
-    active_frames: Annotated[int, typer.Option(help="Window length the clock runs (slots of 30).")] = 6,
+    active_frames: Annotated[
+        int, typer.Option(help="Window length the clock runs (slots of 30).")
+    ] = DEFAULT_ACTIVE,
     seconds: Annotated[float, typer.Option(help="How long to run the clock.")] = 3.0,
     pings: Annotated[int, typer.Option(help="Round trips to time (serial).")] = 100,
 ) -> None:

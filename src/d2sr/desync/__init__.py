@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from d2sr.desync.base import TOTAL_FRAMES, Controller, check_window
+from d2sr.desync.base import DEFAULT_ACTIVE, TOTAL_FRAMES, Controller, check_window
 from d2sr.desync.damped import DampedController
 from d2sr.desync.oracle import OracleController
 from d2sr.desync.paper import PaperController
@@ -20,7 +20,14 @@ from d2sr.desync.robust import RobustController
 from d2sr.desync.static import StaticController
 from d2sr.errors import ConfigError
 
-__all__ = ["CONTROLLERS", "DEFAULT_CONTROLLER", "TOTAL_FRAMES", "Controller", "make_controller"]
+__all__ = [
+    "CONTROLLERS",
+    "DEFAULT_ACTIVE",
+    "DEFAULT_CONTROLLER",
+    "TOTAL_FRAMES",
+    "Controller",
+    "make_controller",
+]
 
 #: Every controller by name. "oracle" needs the timing world (global knowledge); the rest are decentralized.
 CONTROLLERS: dict[str, type[Controller]] = {

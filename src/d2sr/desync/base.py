@@ -16,9 +16,18 @@ import numpy as np
 
 from d2sr.errors import ConfigError
 
-__all__ = ["TOTAL_FRAMES", "Controller", "EscapingController", "check_flags", "check_window"]
+__all__ = [
+    "DEFAULT_ACTIVE",
+    "TOTAL_FRAMES",
+    "Controller",
+    "EscapingController",
+    "check_flags",
+    "check_window",
+]
 
 TOTAL_FRAMES = 30  # slots of one 1 s observation period: a 30 fps sensor's frames
+# Frames a period a sensor runs unless told (the paper's 20%): run, the node, the triggers, the demo.
+DEFAULT_ACTIVE = 6
 
 
 def check_window(total_frames: int, active_frames: int) -> None:

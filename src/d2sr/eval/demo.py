@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt
 from d2sr.atomic import atomic_dir
 from d2sr.contract.catalog import DEFAULT_MODEL
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
+from d2sr.desync.base import DEFAULT_ACTIVE
 from d2sr.errors import ConfigError
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.frames.base import positive_finite
@@ -87,7 +88,7 @@ def run_demo(
     out: Path,
     seconds: float = 20.0,
     sensors: int = 3,
-    active_frames: int = 6,
+    active_frames: int = DEFAULT_ACTIVE,
     seed: int = 0,
     progress: Callable[[str, float], None] | None = None,
 ) -> dict:

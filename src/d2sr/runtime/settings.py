@@ -10,7 +10,7 @@ from pydantic import ConfigDict, Field, ValidationInfo, field_validator
 
 from d2sr.config import Settings
 from d2sr.contract.catalog import DEFAULT_MODEL, REPAIR_MODELS, WEIGHTS
-from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES
+from d2sr.desync import CONTROLLERS, DEFAULT_ACTIVE, DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.scene import SceneSettings
 
@@ -21,7 +21,6 @@ BACKENDS = ("auto", "onnx", "torch")
 # Frames a recording's loop judges ahead of its first to warm the scene (``SensorLoop.primed``): twice the
 # scene's ring, so that with every other frame interfered its 16 clean frames are all judged warm.
 PRIME_FRAMES = 32
-DEFAULT_ACTIVE = 6  # frames per 1 s period that `d2sr run` and a Pipeline run by default (the paper's 20%)
 
 
 class RunSettings(Settings):

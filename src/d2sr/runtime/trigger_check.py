@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from d2sr.desync.base import DEFAULT_ACTIVE
 from d2sr.errors import ConfigError
 from d2sr.runtime.stats import median_p99_ms
 from d2sr.triggers import open_trigger, parse_trigger
@@ -33,7 +34,9 @@ class TriggerCheck:
         return out
 
 
-def check_trigger(spec: str, active_frames: int = 6, seconds: float = 3.0, pings: int = 100) -> TriggerCheck:
+def check_trigger(
+    spec: str, active_frames: int = DEFAULT_ACTIVE, seconds: float = 3.0, pings: int = 100
+) -> TriggerCheck:
     """Open ``spec`` (``serial:`` or ``gpio:``), time ``pings`` round trips (serial), then run the clock with
     a window of ``active_frames`` slots for ``seconds`` and count what it reported."""
     kind = parse_trigger(spec)[0]
