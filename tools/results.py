@@ -81,14 +81,16 @@ def _script_of(command: str, root: Path) -> Path | None:
     return root / rel if (root / rel).is_file() else None
 
 
-def stale(root: Path = ROOT) -> list[str]:
+def stale(root: Path = ROOT, only: list[str] | None = None) -> list[str]:
     """Results made before the last commit that changed the script that makes them (its command's lab,
     bench or tools module): re-make them before they are quoted again. The product's own code changes too
-    often to count here; ``make verify-results`` re-makes the cheap results against it."""
+    often to count here; ``make verify-results`` re-makes the cheap results against it. ``only``: these
+    results (paths under ``root``) and no others."""
     import subprocess
 
     out = []
-    for f in sorted((root / "docs" / "results").rglob("*.json")):
+    files = sorted((root / "docs" / "results").rglob("*.json")) if only is None else [root / f for f in only]
+    for f in files:
         try:
             data = json.loads(f.read_text())
         except (OSError, ValueError):

@@ -120,8 +120,7 @@ def test_a_bag_write_killed_at_random_moments_leaves_nothing_behind(tmp_path, we
         "unet8",
         "--overwrite",
     ]
-    _finish(*args)
-    writing = _timed(args, tmp_path, "out")  # over an output of its own, as each kill below finds it
+    writing = _timed(args, tmp_path, "out")
     (out / "notes.txt").write_text("mine")
     rng = random.Random(64)
     for _ in range(KILLS):

@@ -13,8 +13,7 @@ from rich.table import Table
 from d2sr.atomic import check_out
 from d2sr.cli.common import Overwrite, int_list, out_dir, renamed, split_list
 from d2sr.config import load_toml
-from d2sr.desync import TOTAL_FRAMES
-from d2sr.desync.base import DEFAULT_ACTIVE
+from d2sr.desync import DEFAULT_ACTIVE, TOTAL_FRAMES
 from d2sr.errors import ConfigError
 from d2sr.provenance import stamp
 from d2sr.sim.timing import TimingSettings
@@ -35,9 +34,7 @@ def run(
         ),
     ] = "stationary",
     sensors: Annotated[int, typer.Option(help="Sensors, robots included.")] = 3,
-    active_frames: Annotated[
-        int, typer.Option(help="Frames per 1 s period (30 = always on).")
-    ] = DEFAULT_ACTIVE,
+    active_frames: Annotated[int, typer.Option(help="Frames a 1 s period (30: always on).")] = DEFAULT_ACTIVE,
     fps: Annotated[int | None, typer.Option(hidden=True, help="Deprecated: --active-frames.")] = None,
     seconds: Annotated[float, typer.Option(help="Simulated seconds.")] = 60.0,
     rooms: Annotated[int, typer.Option(help="Independent rooms averaged.")] = 20,
