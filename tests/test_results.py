@@ -130,6 +130,6 @@ def test_a_result_made_before_its_script_changed_is_listed_as_stale():
     assert results._script_of("python bench/models.py --json x", results.ROOT).name == "models.py"
     assert results._script_of("d2sr eval recovery --real x", results.ROOT) is None
     listed = results.stale(only=["docs/results/kinect2_cam0.json", "docs/results/ros2_loopback.json"])
-    # made at 09dd71e, after lab/kinect2_cam0.py last changed: not listed; ros2_loopback.json was made
+    # made at 1e3e99f, after lab/kinect2_cam0.py last changed: not listed; ros2_loopback.json was made
     # before lab/ros2_loopback.py took --model: listed
     assert len(listed) == 1 and listed[0].startswith("docs/results/ros2_loopback.json: lab/ros2_loopback.py")
