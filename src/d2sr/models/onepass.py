@@ -24,7 +24,7 @@ from torch import nn
 
 from d2sr.contract.catalog import CATALOG, FAST_RECOVERY
 from d2sr.models.detector import features
-from d2sr.models.unet import FILL_LEVELS, _block
+from d2sr.models.unet import FILL_LEVELS, _block, pyramid_fill
 
 __all__ = ["OnePassUNet", "RowHead", "block_fill", "fold"]
 
@@ -70,15 +70,7 @@ def block_fill(depth: torch.Tensor, trust: torch.Tensor, s: int, levels: int) ->
     and ``trust`` are (N, s*s, h, w) as ``fold`` lays out one channel; returns each pixel's fill in the same
     layout, the block grid's estimate bilinearly upsampled (every pixel's, trusted or not: only masked ones
     are used)."""
-    vs, ws = [(depth * trust).mean(dim=1, keepdim=True)], [trust.mean(dim=1, keepdim=True)]
-    for _ in range(levels):
-        vs.append(F.avg_pool2d(vs[-1], 2))
-        ws.append(F.avg_pool2d(ws[-1], 2))
-    total = ws[-1].sum(dim=(2, 3), keepdim=True)
-    mean = vs[-1].sum(dim=(2, 3), keepdim=True) / total.clamp(min=1e-6)  # for regions with no weight at all
-    est = torch.where(ws[-1] > 1e-6, vs[-1] / ws[-1].clamp(min=1e-6), mean)
-    for k in range(levels - 1, -1, -1):
-        est = vs[k] + (1 - ws[k]) * F.interpolate(est, scale_factor=2.0, mode="bilinear", align_corners=False)
+    est = pyramid_fill((depth * trust).mean(dim=1, keepdim=True), trust.mean(dim=1, keepdim=True), levels)
     return F.conv2d(F.pad(est, (1, 1, 1, 1), mode="replicate"), _bilinear(s).to(est.dtype))
 
 

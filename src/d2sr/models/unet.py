@@ -27,7 +27,7 @@ from torch import nn
 
 from d2sr.models.detector import features
 
-__all__ = ["UNet", "push_pull", "space_to_depth"]
+__all__ = ["UNet", "push_pull", "pyramid_fill", "space_to_depth"]
 
 FILL_LEVELS = 5  # push-pull pyramid depth: 1/32 resolution, what every model's stride already divides
 
@@ -36,7 +36,12 @@ def push_pull(depth: torch.Tensor, weight: torch.Tensor, levels: int = FILL_LEVE
     """Fill low-weight pixels from the weighted average of their surroundings, coarse to fine (Gortler et
     al.'s push-pull): each level keeps its own estimate in proportion to how much trusted weight it holds
     and takes the rest from the level below. Pixels of weight 1 come out as they went in."""
-    vs, ws = [depth * weight], [weight]
+    return pyramid_fill(depth * weight, weight, levels)
+
+
+def pyramid_fill(value: torch.Tensor, weight: torch.Tensor, levels: int) -> torch.Tensor:
+    """``push_pull``'s pyramid from its finest level: ``value`` (depth x weight) and ``weight``."""
+    vs, ws = [value], [weight]
     for _ in range(levels):
         vs.append(F.avg_pool2d(vs[-1], 2))
         ws.append(F.avg_pool2d(ws[-1], 2))
