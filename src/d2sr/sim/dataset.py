@@ -188,6 +188,7 @@ class SynthSet:
     """A generated data set on disk: frames, clean frames, labels (interfered = any pixel changed)."""
 
     def __init__(self, root: Path) -> None:
+        self.root = root
         try:
             self.meta = json.loads((root / "meta.json").read_text())
             self.frames = np.load(root / "frames.npy", mmap_mode="r")

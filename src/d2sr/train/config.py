@@ -108,6 +108,12 @@ class TrainSettings(Settings):
         1.0, ge=0, description="recovery: weight of the teacher's mask and depth beside the truth's"
     )
     synthetic: int = Field(4000, ge=0, description="generated frames (0: only folders)")
+    cw_tof: int = Field(
+        0,
+        ge=0,
+        description="frames of continuous-wave ToF interference (sim.cwtof) made from the generated set's "
+        "first clean frames, trained on beside it",
+    )
     validation: int = Field(
         VALIDATION_FRAMES,
         ge=2,

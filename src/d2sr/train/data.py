@@ -20,6 +20,7 @@ from d2sr.sim.dataset import VERSION, SynthSet, generate
 from d2sr.sim.families import shell_interference
 from d2sr.sim.rooms import L515, SensorModel
 from d2sr.train.config import TrainSettings
+from d2sr.train.cwtof import cw_tof_frames, moved
 from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "Source", "synth_set"]
@@ -73,6 +74,23 @@ def synth_set(
         else:
             generate(root, count, seed, previous=previous, sensor=sensor)
     return SynthSet(root)
+
+
+def _cw_tof(ss: SynthSet, count: int, progress: bool) -> Source:
+    """The CW-ToF source (``TrainSettings.cw_tof``): each frame with its clean and last clean frame from
+    ``ss``; every kept frame interfered."""
+    if progress:
+        from d2sr.ui import progress_bar
+
+        with progress_bar() as bar:
+            task = bar.add_task(f"CW-ToF interference on {count} frames", total=count)
+            frames, used = cw_tof_frames(ss, count, lambda n: bar.advance(task, n))
+    else:
+        frames, used = cw_tof_frames(ss, count)
+    previous = [ss.previous[i] for i in range(count)] if ss.previous is not None else None
+    clean = [ss.clean[i] for i in range(count)]
+    masks = [moved(frames[i], clean[i], float(ss.scales[i])) for i in range(count)]
+    return Source(frames, clean, masks, ss.scales[:count], used.copy(), previous, ~used)
 
 
 def _folders(cfg: TrainSettings) -> list[Source]:
@@ -215,6 +233,8 @@ class Pool:
                 shares = np.asarray(ss.meta["mask_share"])
                 skip |= ss.labels & (shares < cfg.min_share)
             sources.append(Source(ss.frames, ss.clean, None, ss.scales, ss.labels, ss.previous, skip))
+            if cfg.cw_tof:
+                sources.append(_cw_tof(ss, cfg.cw_tof, progress))
         return cls(
             sources + _folders(cfg),
             frames,
@@ -337,7 +357,8 @@ class Pool:
             xs.append(x)
             ys.append(y)
             ms.append(m.astype(np.float32))
-            ls.append(float(src.labels[i]))
+            # With masks, a crop that holds none of the frame's masked pixels shows a clean frame.
+            ls.append(float(src.labels[i] and (src.masks is None or bool(m.any()))))
         return Batch(
             np.ascontiguousarray(np.stack(xs)),
             np.ascontiguousarray(np.stack(ys)[:, None]),
