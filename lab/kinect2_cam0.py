@@ -4,7 +4,8 @@ alone (``d2sr scene learn``, ``--scene-from``). Truth: the per-pixel median of t
 the scene's). Per setting: of the
 pixels the interference moved by more than 2 cm (valid in both), the share put back within 2 cm; interfered
 frames whose RMSE against the truth got worse; frames flagged; and the frames alone run through the same
-setting: pixels changed. Detection (``d2sr detect``, without and with the stored scene): of the interfered
+setting: pixels changed. Detection (``d2sr detect``: the detector alone, ``--no-scene``; with the scene it
+learns on the way, as shipped; with the stored scene): of the interfered
 frames with more than 100 valid pixels moved by more than 2 cm, the share flagged (recall), and the frames
 alone flagged.
 
@@ -65,8 +66,11 @@ def _flags(src: Path, csv: Path, *args: str) -> dict[str, bool]:
         return {Path(r["frame"]).stem: r["interfered"] in ("1", "True", "true") for r in csvlib.DictReader(f)}
 
 
-def detection(cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Path, scene: Path) -> dict:
-    """Recall on the frames with more than 100 valid pixels moved by more than 2 cm; frames alone flagged."""
+def detection(
+    cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Path, scene: Path, models: list[str]
+) -> dict:
+    """Recall on the frames with more than 100 valid pixels moved by more than 2 cm; frames alone flagged:
+    the detector alone (``--no-scene``), with the scene learned on the way, with the stored scene."""
     hit = []
     for f, x in bad.items():
         x32 = x.astype(np.float32)
@@ -74,9 +78,14 @@ def detection(cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Pa
         if int(moved.sum()) > 100:
             hit.append(Path(f).stem)
     out = {"frames_over_100_moved": len(hit)}
-    for name, args in {"detect": [], "detect, stored scene": ["--scene-from", str(scene)]}.items():
-        flags = _flags(cam / "interf", root / "i.csv", *args)
-        alone = _flags(cam / "ref", root / "r.csv", *args)
+    settings = {
+        "detect --no-scene": ["--no-scene"],
+        "detect": [],
+        "detect, stored scene": ["--scene-from", str(scene)],
+    }
+    for name, args in settings.items():
+        flags = _flags(cam / "interf", root / "i.csv", *args, *models)
+        alone = _flags(cam / "ref", root / "r.csv", *args, *models)
         out[name] = {
             "recall": round(sum(flags[h] for h in hit) / max(len(hit), 1), 4),
             "flagged_of_50": sum(flags.values()),
@@ -85,8 +94,9 @@ def detection(cam: Path, truth: np.ndarray, bad: dict[str, np.ndarray], root: Pa
     return out
 
 
-def measure(data: Path, model: list[str] | None = None) -> dict:
-    """``model``: recover's model options (``--model``, ``--models``) for every setting [its own]."""
+def measure(data: Path, model: list[str] | None = None, models: list[str] | None = None) -> dict:
+    """``model``: recover's model options (``--model``, ``--models``) for every setting [its own];
+    ``models``: detect's (``--models``)."""
     cam = data / "kinect2_multicam" / "cam0"
     ref, bad = _read(cam / "ref"), _read(cam / "interf")
     # Disjoint frames alone: every other one is the truth (a pixel with at least two returns of three: their
@@ -106,6 +116,7 @@ def measure(data: Path, model: list[str] | None = None) -> dict:
         cmd = [sys.executable, "-m", "d2sr", "scene", "learn", str(learn), "--depth-scale", "1000"]
         subprocess.run([*cmd, "--out", str(scene)], check=True, capture_output=True)
         settings = {
+            "--no-scene": ["--no-scene"],
             "as shipped": [],
             "as shipped, stored scene": ["--scene-from", str(scene)],
             "--repair all": ["--repair", "all"],
@@ -145,7 +156,7 @@ def measure(data: Path, model: list[str] | None = None) -> dict:
             }
             for p in (root / "i", root / "r"):
                 subprocess.run(["rm", "-rf", str(p)], check=True)
-        out["detection"] = detection(cam, truth, bad, root, scene)
+        out["detection"] = detection(cam, truth, bad, root, scene, models or [])
     return out
 
 
@@ -156,12 +167,11 @@ def main() -> None:
     ap.add_argument("--model", default=None, help="recover's --model (default: its own)")
     ap.add_argument("--models", type=Path, default=None, help="recover's --models (default: the shipped)")
     args = ap.parse_args()
-    model = (["--model", args.model] if args.model else []) + (
-        ["--models", str(args.models)] if args.models else []
-    )
+    folder = ["--models", str(args.models)] if args.models else []
+    model = (["--model", args.model] if args.model else []) + folder
     result = {
         "data": "kinect2_multicam/cam0: 50 interfered frames, 6 alone",
-        "settings": measure(args.data, model),
+        "settings": measure(args.data, model, folder),
     }
     text = json.dumps(result, indent=1)
     print(text)

@@ -17,13 +17,15 @@ a few ppm apart average each other out over a capture (``sinc``); both change fr
 Published parameters: Kinect v2 modulates at 80, 16 and 120 MHz and unwraps to 18.75 m (Sell and
 O'Connor, IEEE Micro 34(2), 2014; the same values in libfreenect2 and in Jaremo Lawin et al., ECCV 2016,
 arXiv:1608.05209); its depth field of view is 70.6 x 60 degrees. Azure Kinect / Orbbec Femto (the same
-Microsoft sensor): modulation up to 320 MHz (Bamji et al., ISSCC 2018), several frequencies, NFOV
-75 x 65 degrees, operating range to 3.86 m (Azure Kinect DK hardware specification); its exact
-frequencies are not published, so ``AZURE`` assumes a triple in that band. Assumed, not published: the
-capture lengths, the oscillators' tolerance, the beam profile and the unwrapping's rejection rules.
+Microsoft sensor): modulation up to 320 MHz (Bamji et al., ISSCC 2018), NFOV 75 x 65 degrees, laser
+captures of about 125 us (Azure Kinect DK documentation, multi-device synchronization); its frequency
+plan is not published, so ``AZURE`` assumes the Kinect v2's at twice its frequencies (160, 32, 240 MHz:
+the same 2:3 pair and low tone, a 9.4 m range). Assumed, not published: the Kinect v2's capture lengths,
+the oscillators' tolerance, the beam profile and the unwrapping's rejection rules.
 
 Pixels without a return stay without one (a camera whose background is dark sees no other camera's light
-there either). Pure numpy and OpenCV, a pure function of the seed; no torch.
+there either), and so do depths beyond the camera's range (another sensor's values it could not report).
+Pure numpy and OpenCV, a pure function of the seed; no torch.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ class CwTofCamera:
 
 
 KINECT2 = CwTofCamera("kinect2", (80_000_000, 16_000_000, 120_000_000), (70.6, 60.0), (0.5, 2.0))
-AZURE = CwTofCamera("azure", (200_000_000, 190_000_000, 20_000_000), (75.0, 65.0), (0.5, 2.0))
+AZURE = CwTofCamera("azure", (160_000_000, 32_000_000, 240_000_000), (75.0, 65.0), (0.1, 0.15))
 CAMERAS = {c.name: c for c in (KINECT2, AZURE)}
 
 PPM = (2e-6, 100e-6)  # two cameras' oscillators differ by this much, log-uniform (assumed)
@@ -218,7 +220,7 @@ def cw_tof_interference(
         return depth.copy(), np.zeros(depth.shape, bool)
     z, valid = _phasors(d, camera, rng)
     strength = np.abs(z).max(axis=0)
-    hit = valid & (strength > FAINT)
+    hit = valid & (strength > FAINT) & (d < camera.unwrap_m)
     out = d.astype(np.float64)
     if hit.any():
         new = _unwrap(d[hit].astype(np.float64), z[:, hit], camera)

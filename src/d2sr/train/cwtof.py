@@ -18,7 +18,7 @@ from d2sr.sim.dataset import SynthSet
 
 __all__ = ["MIN_MOVED", "VERSION", "cw_tof_frames", "moved"]
 
-VERSION = 1  # of this source's frames: sets made by another version are made again under a new name
+VERSION = 2  # of this source's frames: sets made by another version are made again under a new name
 MIN_MOVED = 100  # a frame counts when more than this many pixels moved more than 2 cm (issue 80's bar)
 TRIES = 6  # seeds tried per clean frame before it is left out (the other cameras spared it)
 
