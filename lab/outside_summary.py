@@ -17,7 +17,7 @@ from bench.harness import check_output, output_args
 from tools.results import OUTSIDE
 
 from d2sr.eval.plots import plt, save  # Agg, set there
-from d2sr.eval.speed import write_result
+from d2sr.provenance import write_result
 from lab.held_out import open_sets
 
 ROOT = Path(__file__).resolve().parent.parent

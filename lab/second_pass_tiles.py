@@ -19,8 +19,8 @@ from bench.harness import check_output, output_args
 
 from d2sr.contract.catalog import padded
 from d2sr.contract.repair import refill
-from d2sr.eval.speed import write_result
 from d2sr.frames.base import to_metres
+from d2sr.provenance import write_result
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
 from lab.held_out import worst_case

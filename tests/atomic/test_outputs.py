@@ -236,8 +236,7 @@ def test_a_result_records_the_run_that_made_it(tmp_path):
     import hashlib
 
     from d2sr.contract.catalog import WEIGHTS
-    from d2sr.eval.speed import write_result
-    from d2sr.provenance import ROOT, command_line
+    from d2sr.provenance import ROOT, command_line, write_result
 
     assert command_line(["bench/x.py", "--json", "r j.json"]) == "python bench/x.py --json 'r j.json'"
     assert command_line([".venv/bin/d2sr", "eval", "labels"]) == "d2sr eval labels"

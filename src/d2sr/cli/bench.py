@@ -58,8 +58,8 @@ def bench(
         bench_timing,
         bench_typical,
         bench_worst,
-        write_result,
     )
+    from d2sr.provenance import write_result
 
     names = split_list(what, "what", WHAT)
     if sensors < 1 or seconds <= 0 or repeats < 1:

@@ -1,14 +1,13 @@
 """``d2sr bench``: speed and memory benchmarks (timed in the process; machines are shared, so report
-medians of repeats), and ``write_result``, which stamps a result with its provenance."""
+medians of repeats)."""
 
 from __future__ import annotations
 
 import functools
-import json
 import platform
 import statistics
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +15,7 @@ import numpy as np
 
 from d2sr.desync import DEFAULT_CONTROLLER, TOTAL_FRAMES
 from d2sr.errors import D2SRError
-from d2sr.provenance import cpu, stamp
+from d2sr.provenance import cpu
 from d2sr.runtime.settings import RunSettings
 from d2sr.sim.overlap import OverlapGraph
 from d2sr.sim.timing import TimingSettings, simulate
@@ -29,7 +28,6 @@ __all__ = [
     "bench_typical",
     "bench_worst",
     "cpu",
-    "write_result",
 ]
 
 
@@ -39,25 +37,6 @@ def frame_4000(seed: int, interfered: bool) -> np.ndarray:
 
     frame, _, scale = synth_frame(seed, interfered)
     return np.clip(np.rint(frame.astype(np.float64) * (4000 / scale)), 0, 65535).astype(np.uint16)
-
-
-def write_result(
-    result: dict,
-    path: Path | None,
-    *,
-    models: Iterable[str | Path] = (),
-    folder: Path | None = None,
-    data: str | dict | None = None,
-) -> str:
-    """The result as JSON text, stamped with its provenance (``d2sr.provenance.record``: this process's
-    command, commit, version, ``models`` hashed in ``folder``, ``data``, CPU, date); also written atomically
-    to ``path`` when given."""
-    from d2sr.atomic import atomic_write
-
-    text = json.dumps(stamp(result, models=models, folder=folder, data=data), indent=1)
-    if path is not None:
-        atomic_write(path, text + "\n")
-    return text
 
 
 def bench_timing(
