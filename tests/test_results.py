@@ -133,3 +133,10 @@ def test_a_result_made_before_its_script_changed_is_listed_as_stale():
     # made at 1e3e99f, after lab/kinect2_cam0.py last changed: not listed; ros2_loopback.json was made
     # before lab/ros2_loopback.py took --model: listed
     assert len(listed) == 1 and listed[0].startswith("docs/results/ros2_loopback.json: lab/ros2_loopback.py")
+
+
+def test_a_script_whose_imports_alone_changed_leaves_its_results_fresh():
+    log = "@@ abc1234\n@@ -1 +1 @@\n-from d2sr.eval.speed import x\n+from d2sr.provenance import x\n"
+    assert results._last_change(log) is None
+    log = "@@ def5678\n@@ -9 +9 @@\n-    x = 1\n+    x = 2\n" + log
+    assert results._last_change(log) == "def5678"

@@ -102,14 +102,28 @@ def stale(root: Path = ROOT, only: list[str] | None = None) -> list[str]:
         if script is None or not commit:
             continue
         done = subprocess.run(
-            ["git", "-C", str(root), "log", "-1", "--format=%h", f"{commit}..HEAD", "--", str(script)],
+            ["git", "-C", str(root), "log", "--format=@@ %h", "-p", "--unified=0", f"{commit}..HEAD", "--",
+             str(script)],
             capture_output=True, text=True, check=False,
         )  # fmt: skip
-        if done.returncode == 0 and done.stdout.strip():
-            out.append(
-                f"{f.relative_to(root)}: {script.relative_to(root)} changed since (at {done.stdout.strip()})"
-            )
+        at = _last_change(done.stdout) if done.returncode == 0 else None
+        if at:
+            out.append(f"{f.relative_to(root)}: {script.relative_to(root)} changed since (at {at})")
     return out
+
+
+def _last_change(log: str) -> str | None:
+    """The newest commit of a ``git log -p`` (commits marked ``@@ <hash>``) that changed more than imports:
+    a module that moved leaves the figures its script makes as they were."""
+    commit = None
+    for line in log.splitlines():
+        if line.startswith("@@ ") and not line.startswith("@@ -"):
+            commit = line[3:].strip()
+        elif line[:1] in "+-" and not line.startswith(("+++", "---")):
+            text = line[1:].strip()
+            if text and not text.startswith(("import ", "from ")):
+                return commit
+    return None
 
 
 def _in_history(root: Path, commits: set[str]) -> set[str] | None:
