@@ -20,9 +20,9 @@ from pathlib import Path
 
 import cv2
 
+from d2sr.atomic import write_result
 from d2sr.eval.speed import frame_4000
 from d2sr.fleet import Cluster, FleetProgress, recover_fleet
-from d2sr.provenance import write_result
 from d2sr.runtime.settings import RunSettings
 from harness import check_output, output_args
 

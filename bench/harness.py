@@ -1,5 +1,5 @@
 """What the benchmark scripts share: their --json / --plot / --overwrite options, checked before they run
-(the output policy of every d2sr command). Results are written with ``d2sr.provenance.write_result``."""
+(the output policy of every d2sr command). Results are written with ``d2sr.atomic.write_result``."""
 
 from __future__ import annotations
 

@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 import onnxruntime as ort
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import WEIGHTS
 from d2sr.models.onnx.quantize import quantize
-from d2sr.provenance import write_result
 from harness import check_output, output_args
 
 SIZE = (480, 640)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from d2sr.atomic import write_result
 from d2sr.eval.speed import bench_pipeline
-from d2sr.provenance import write_result
 from harness import check_output, output_args
 
 

@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import WEIGHTS, model_files
 from d2sr.contract.repair import repair_frame
 from d2sr.eval.models import detector_metrics, generated_set, recovery_metrics
 from d2sr.models.onnx.quantize import int8_path, quantize
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
 from harness import check_output, output_args

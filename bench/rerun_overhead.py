@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Result
 from d2sr.runtime.session import run_sim

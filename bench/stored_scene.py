@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from d2sr.atomic import write_result
 from d2sr.desync import make_controller
 from d2sr.eval.speed import frame_4000
 from d2sr.frames import Frame
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import RunSettings

@@ -10,8 +10,8 @@ import argparse
 
 from rich.progress import Progress, TimeElapsedColumn
 
+from d2sr.atomic import write_result
 from d2sr.eval.speed import bench_timing
-from d2sr.provenance import write_result
 from harness import check_output, output_args
 
 

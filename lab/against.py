@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from lab.held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]

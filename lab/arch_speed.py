@@ -24,9 +24,9 @@ import onnxruntime as ort
 import torch
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.models.onnx.export import _onnx
 from d2sr.models.unet import UNet
-from d2sr.provenance import write_result
 
 # name: UNet's keywords (fill=True; s2d=4 unless given: the shipped layout). The first is unet8 as shipped.
 # Issue 44's widths; issue 78's folds of 8x8 blocks (the trunk at 80x60), toward a quarter of unet8's pass.

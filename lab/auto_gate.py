@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from lab.held_out import SETS, d2sr, every_other, moved_5cm, outside_set, scored
 
 MODELS = ("unet8", "unet8-temporal", "auto")

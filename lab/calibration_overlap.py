@@ -17,12 +17,12 @@ from pathlib import Path
 
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import THRESHOLD, WEIGHTS
 from d2sr.errors import D2SRError
 from d2sr.eval.learned import detector_scores, repair_fn
 from d2sr.eval.models import TestSet, detector_metrics, l515_set, recovery_metrics
 from d2sr.models.inference import TorchBackend
-from d2sr.provenance import write_result
 
 VIEWS = ("dev0", "dev1")
 RECIPES = ("detector", "unet8-stage1", "unet8")

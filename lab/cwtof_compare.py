@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import data_read, write_result
+from d2sr.atomic import write_result
+from d2sr.provenance import data_read
 from d2sr.sim.cwtof import KINECT2, cw_tof_interference
 from lab.kinect2_stats import _read, describe, truth_of
 

@@ -25,13 +25,13 @@ import numpy as np
 import torch
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import THRESHOLD, WEIGHTS, padded
 from d2sr.contract.repair import LINES_UP, agreement
 from d2sr.errors import D2SRError
 from d2sr.eval.generalization import real_clean_sets
 from d2sr.frames import open_frames
 from d2sr.models.store import load_model
-from d2sr.provenance import write_result
 from lab.held_out import every_other, open_sets, outside_set
 
 Score = Callable[[list[np.ndarray], float], np.ndarray]

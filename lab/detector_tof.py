@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import padded
 from d2sr.eval.generalization import real_clean_sets
 from d2sr.frames.base import to_metres
-from d2sr.provenance import data_read, write_result
+from d2sr.provenance import data_read
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
 from lab.kinect2_stats import BIG_PATCH, MOVED_MM, _read, truth_of

@@ -26,8 +26,8 @@ from bench.harness import check_output, output_args
 from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
+from d2sr.atomic import write_result
 from d2sr.desync import TOTAL_FRAMES
-from d2sr.provenance import write_result
 from d2sr.synth import FillSettings, fill_recording
 from lab.fill_d435 import read
 from lab.fill_eval import PooledError

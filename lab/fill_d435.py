@@ -28,7 +28,8 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import command_line, write_result
+from d2sr.atomic import write_result
+from d2sr.provenance import command_line
 from d2sr.synth import FillSettings, fill_recording
 from lab.fill_eval import PooledError, plot_curves
 

@@ -21,9 +21,10 @@ import argparse
 
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.eval.fill import fig11, moving_robot_fill
 from d2sr.eval.plots import save
-from d2sr.provenance import command_line, write_result
+from d2sr.provenance import command_line
 
 
 def main() -> None:

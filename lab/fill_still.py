@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.synth import Filler, FillSettings, fill_recording
 from lab.fill_eval import PooledError
 

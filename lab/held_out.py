@@ -65,8 +65,8 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import AUTO_RECOVERY, DEFAULT_RECOVERY, DETECTOR, TEMPORAL_RECOVERY
-from d2sr.provenance import write_result
 
 SEED = 5_000_000
 # Each set's stream of random numbers.

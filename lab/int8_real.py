@@ -16,9 +16,9 @@ from pathlib import Path
 import cv2
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import WEIGHTS, model_files
 from d2sr.models.onnx.quantize import TOLERANCE, agreement, quantize, within_tolerance
-from d2sr.provenance import write_result
 from lab.held_out import outside_interference
 
 

@@ -176,7 +176,8 @@ def main() -> None:
     text = json.dumps(result, indent=1)
     print(text)
     if args.json:
-        from d2sr.provenance import data_read, write_result
+        from d2sr.atomic import write_result
+        from d2sr.provenance import data_read
 
         cam = args.data / "kinect2_multicam" / "cam0"
         read = sorted((cam / "ref").glob("*.png")) + sorted((cam / "interf").glob("*.png"))

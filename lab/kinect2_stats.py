@@ -19,7 +19,8 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import data_read, write_result
+from d2sr.atomic import write_result
+from d2sr.provenance import data_read
 
 MOVED_MM = 20  # a pixel moved: more than 2 cm off the truth (as lab.kinect2_cam0 counts)
 BIG_PATCH = 100  # pixels: a patch the detector's bar counts (issue 80: frames with > 100 pixels moved)

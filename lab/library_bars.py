@@ -30,7 +30,7 @@ import numpy as np
 from bench.harness import check_output, output_args
 
 import d2sr
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.runtime.loop import PRIME_FRAMES
 from lab.held_out import worst_case
 

@@ -16,7 +16,7 @@ from bench.harness import check_output, output_args
 
 import d2sr
 from d2sr import contract
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from lab.held_out import outside_set, used_models
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from lab.against import HERE, _recover, fps, write_inputs
 from lab.held_out import worst_case
 

@@ -13,10 +13,10 @@ import argparse
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.assumptions import settings
 from d2sr.eval.desync import Cell, run_cell
-from d2sr.provenance import write_result
 
 
 def main() -> None:

@@ -19,10 +19,10 @@ import onnxruntime as ort
 import torch
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import FAST_RECOVERY, padded
 from d2sr.models.onnx.export import _onnx
 from d2sr.models.registry import build
-from d2sr.provenance import write_result
 
 LEVELS = {
     "basic": ort.GraphOptimizationLevel.ORT_ENABLE_BASIC,

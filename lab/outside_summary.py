@@ -16,8 +16,8 @@ from pathlib import Path
 from bench.harness import check_output, output_args
 from tools.results import OUTSIDE
 
+from d2sr.atomic import write_result
 from d2sr.eval.plots import plt, save  # Agg, set there
-from d2sr.provenance import write_result
 from lab.held_out import open_sets
 
 ROOT = Path(__file__).resolve().parent.parent

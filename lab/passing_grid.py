@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.desync import DEFAULT_CONTROLLER
 from d2sr.eval.assumptions import settings
-from d2sr.provenance import write_result
 from d2sr.sim.passing import WORLDS, passing_rooms
 from d2sr.sim.timing import TimingSettings, simulate
 

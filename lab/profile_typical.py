@@ -36,7 +36,7 @@ from typing import Any
 import onnxruntime as ort
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.runtime.pipeline import Pipeline
 from lab.held_out import OUTSIDE_CAMERAS, outside_set, used_models
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import padded
 from d2sr.contract.repair import guard, repair_frame
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
 from lab.held_out import worst_case

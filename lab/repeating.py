@@ -74,7 +74,8 @@ def main() -> None:
     if args.json:
         if args.json.exists() and not args.overwrite:
             raise SystemExit(f"{args.json} exists; pass --overwrite")
-        from d2sr.provenance import data_read, write_result
+        from d2sr.atomic import write_result
+        from d2sr.provenance import data_read
 
         data = data_read("l515/dev0, l515/dev1: frames 60-104", read, args.data)
         write_result(result, args.json, data=data)

@@ -33,7 +33,7 @@ import numpy as np
 from bench.harness import check_output, output_args
 from tools import ros2_peer
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.runtime.stats import median_p99_ms
 from lab.held_out import outside_interference
 

@@ -27,11 +27,11 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import DETECTOR
 from d2sr.desync import make_controller
 from d2sr.errors import D2SRError
 from d2sr.frames import Frame
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings

@@ -68,9 +68,9 @@ from typing import Any
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import AUTO_RECOVERY
 from d2sr.errors import D2SRError
-from d2sr.provenance import write_result
 from d2sr.runtime.pipeline import Pipeline, Repaired
 from d2sr.runtime.settings import PRIME_FRAMES
 from lab.held_out import (

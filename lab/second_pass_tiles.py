@@ -17,10 +17,10 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.catalog import padded
 from d2sr.contract.repair import refill
 from d2sr.frames.base import to_metres
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
 from lab.held_out import worst_case

@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
-from d2sr.provenance import write_result
+from d2sr.atomic import write_result
 from d2sr.scene.stats import stack_stats
 from lab.held_out import OUTSIDE_CAMERAS, SETS, every_other, outside_set
 

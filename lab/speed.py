@@ -20,9 +20,9 @@ from pathlib import Path
 
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.eval.speed import bench_typical, bench_worst
 from d2sr.frames import open_frames
-from d2sr.provenance import write_result
 from lab.held_out import OUTSIDE_CAMERAS, outside_set, used_models, worst_case
 
 

@@ -22,9 +22,9 @@ import cv2
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.desync import make_controller
 from d2sr.frames import Frame
-from d2sr.provenance import write_result
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import RunSettings

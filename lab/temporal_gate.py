@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 from bench.harness import check_output, output_args
 
+from d2sr.atomic import write_result
 from d2sr.contract.repair import agreement
-from d2sr.provenance import write_result
 
 GATES = (0.0, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9, 1.01)
 

@@ -2,7 +2,7 @@
 figure to one run: the exact command, the git commit of the tree it ran in, the d2sr version, the models
 and their hashes, the data set and its status, the CPU and the date (issue 45).
 
-Every JSON result d2sr writes (``write_result``, the folders' manifests, ``eval`` outputs) calls
+Every JSON result d2sr writes (``d2sr.atomic.write_result``, the folders' manifests, ``eval`` outputs) calls
 ``record``; ``python tools/results.py --check`` fails on a result under ``docs/results`` without it.
 """
 
@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import json
 import os
 import platform
 import shlex
@@ -34,7 +33,6 @@ __all__ = [
     "model_hashes",
     "record",
     "stamp",
-    "write_result",
 ]
 
 MADE_BY = "made_by"  # the key heading every JSON file d2sr writes ("d2sr <version>"): how it knows its own
@@ -184,22 +182,3 @@ def stamp(
     if clash:
         raise ValueError(f"result keys {sorted(clash)} are provenance keys")
     return {MADE_BY: f"d2sr {__version__}", **head, **result}
-
-
-def write_result(
-    result: dict,
-    path: Path | None,
-    *,
-    models: Iterable[str | Path] = (),
-    folder: Path | None = None,
-    data: str | dict | None = None,
-) -> str:
-    """The result as JSON text, stamped with its provenance (``record``: this process's
-    command, commit, version, ``models`` hashed in ``folder``, ``data``, CPU, date); also written atomically
-    to ``path`` when given."""
-    from d2sr.atomic import atomic_write
-
-    text = json.dumps(stamp(result, models=models, folder=folder, data=data), indent=1)
-    if path is not None:
-        atomic_write(path, text + "\n")
-    return text

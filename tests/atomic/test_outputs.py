@@ -235,8 +235,9 @@ def test_a_result_records_the_run_that_made_it(tmp_path):
     """write_result stamps the command as typed again, the commit, the models' hashes and the data."""
     import hashlib
 
+    from d2sr.atomic import write_result
     from d2sr.contract.catalog import WEIGHTS
-    from d2sr.provenance import ROOT, command_line, write_result
+    from d2sr.provenance import ROOT, command_line
 
     assert command_line(["bench/x.py", "--json", "r j.json"]) == "python bench/x.py --json 'r j.json'"
     assert command_line([".venv/bin/d2sr", "eval", "labels"]) == "d2sr eval labels"

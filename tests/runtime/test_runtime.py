@@ -21,8 +21,8 @@ from d2sr.runtime.backends import Gated, open_backend
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
 from d2sr.runtime.session import Recording, run_recording, run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
+from d2sr.sim.lockstep import SimRoom, Start
 from d2sr.sim.overlap import OverlapGraph
-from d2sr.sim.room import SimRoom, Start
 from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import make_rig
 from helpers import FakeNet, d2sr

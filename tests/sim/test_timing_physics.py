@@ -1,5 +1,5 @@
 """One timing physics: the sweep's vectorized world (``sim.timing.simulate``) and the runtime's room
-(``sim.room.SimRoom``, windows set only through each sensor's trigger) deliver the same frames and
+(``sim.lockstep.SimRoom``, windows set only through each sensor's trigger) deliver the same frames and
 interfere the same ones on the same seed, with the controllers driven from outside the room exactly as
 the sweep drives them (a perfect detector). The sweep measures a frame's overlap in sub-steps and the
 room exactly, so a frame whose overlap share sits right at ``min_overlap`` may differ; none does here."""
@@ -11,7 +11,7 @@ import pytest
 
 from d2sr.desync import make_controller
 from d2sr.sim import OverlapGraph, TimingSettings, simulate
-from d2sr.sim.room import SimRoom, Start
+from d2sr.sim.lockstep import SimRoom, Start
 from d2sr.sim.world import make_rig
 
 SECONDS = 20.0

@@ -36,6 +36,7 @@ from d2sr.atomic.placing import (
     tidy,
 )
 from d2sr.atomic.policy import check_out
+from d2sr.atomic.result import write_result
 
 __all__ = [
     "CALLER",
@@ -55,5 +56,6 @@ __all__ = [
     "state",
     "temp_for",
     "tidy",
+    "write_result",
     "writing",
 ]

@@ -51,6 +51,7 @@ def bench(
 
     Example: d2sr bench --what models,pipeline --json out/bench.json
     """
+    from d2sr.atomic import write_result
     from d2sr.eval.speed import (
         bench_models,
         bench_pipeline,
@@ -59,7 +60,6 @@ def bench(
         bench_typical,
         bench_worst,
     )
-    from d2sr.provenance import write_result
 
     names = split_list(what, "what", WHAT)
     if sensors < 1 or seconds <= 0 or repeats < 1:

@@ -137,7 +137,7 @@ def moving_set(seed: int = 0, seconds: float = 8.0, every: int = 2) -> TestSet:
     """A robot's sensor (the paper's Table II, right) driving among three fixed ones, all always on: every
     ``every``-th frame of the robot, rendered and interfered by the simulator (a held-out room: training
     frames come from other seeds' rigs)."""
-    from d2sr.sim.room import SimRoom
+    from d2sr.sim.lockstep import SimRoom
     from d2sr.sim.timing import TimingSettings
     from d2sr.sim.world import make_rig
 

@@ -51,7 +51,7 @@ PAPER: dict[str, Any] = {
 def fig3(sensors: tuple[int, ...] = (1, 3, 5), seconds: float = 4.0, rooms: int = 3) -> dict:
     """Sensor 0's depth error against the simulator's clean frames with N sensors always on together
     (the paper's Fig. 3b: RMSE grows with the number of interfering LiDARs)."""
-    from d2sr.sim.room import SimRoom
+    from d2sr.sim.lockstep import SimRoom
     from d2sr.sim.timing import TimingSettings
     from d2sr.sim.world import make_rig
 

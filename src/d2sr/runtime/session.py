@@ -23,14 +23,14 @@ from d2sr.runtime.report import Report
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.runtime.sources import RoomTrigger, run_room
 from d2sr.runtime.stats import RunStats
+from d2sr.sim.lockstep import SimRoom, SlotEnd
 from d2sr.sim.record import EPOCH_NS
-from d2sr.sim.room import SimRoom, SlotEnd
 from d2sr.sim.timing import TimingSettings
 from d2sr.sim.world import Rig, make_rig
 from d2sr.synth import Filler, Pose
 from d2sr.synth.gaps import interleave
 
-__all__ = ["Recording", "odometry", "rig_intrinsics", "run_recording", "run_sim", "summarize", "synth_frame"]
+__all__ = ["Recording", "odometry", "rig_intrinsics", "run_recording", "run_sim", "slot_fill", "summarize"]
 
 Progress = Callable[[float], None]
 
@@ -147,11 +147,11 @@ def _fill(
     where = (period, ev.slot % total, room.offset(i, period))
     stamp = EPOCH_NS + round(start * 1e9)
     pose = odometry(rig, i, start)
-    frame = synth_frame(filler, f"{ev.slot:06d}", stamp, where, (k.height, k.width), scale, pose=pose)
+    frame = slot_fill(filler, f"{ev.slot:06d}", stamp, where, (k.height, k.width), scale, pose=pose)
     folder.write_synthesized(i, frame)
 
 
-def synth_frame(
+def slot_fill(
     filler: Filler,
     name: str,
     stamp: int | None,
@@ -192,7 +192,7 @@ class RunFiller:
         self._since += 1
         shape = (colour.shape[0], colour.shape[1])  # depth is aligned to colour
         name = f"{self._last}_{self._since:02d}"
-        f = synth_frame(self.filler, name, stamp, where, shape, scale, colour=colour)
+        f = slot_fill(self.filler, name, stamp, where, shape, scale, colour=colour)
         self.folder.write_synthesized(self.sensor, f)
         self.made += 1
 

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 from d2sr.frames.base import Frame
 from d2sr.runtime.loop import Capture, Result, SensorLoop
+from d2sr.sim.lockstep import SimRoom, SlotEnd
 from d2sr.sim.record import EPOCH_NS
-from d2sr.sim.room import SimRoom, SlotEnd
 
 __all__ = ["RoomTrigger", "run_room"]
 

@@ -25,7 +25,7 @@ from d2sr.errors import ConfigError
 from d2sr.frames.layout import RECORDING, FrameFolder, sensor_dir
 from d2sr.frames.overlap import MAX_WORKERS, processes
 from d2sr.sim.interference import InterferenceSettings
-from d2sr.sim.room import Camera
+from d2sr.sim.lockstep import Camera
 from d2sr.sim.rooms import L515, SensorModel
 from d2sr.sim.timing import TimingRun, TimingSettings, simulate
 from d2sr.sim.world import Rig, overlap_graph
