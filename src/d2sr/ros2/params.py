@@ -16,9 +16,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import AliasChoices, BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    AliasChoices,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    create_model,
+    field_validator,
+)
 
 from d2sr.errors import ConfigError, InputError
+from d2sr.runtime.settings import LoopSettings, RunSettings
 
 __all__ = ["NodeParams", "read_params"]
 
@@ -26,13 +35,18 @@ MAX_BYTES = 1 << 20  # a parameters file is a few lines; a larger one is not one
 Profile = Literal["SENSOR_DATA", "SYSTEM_DEFAULT", "DEFAULT"]  # d2sr.ros2.node.PROFILES
 
 
-class NodeParams(BaseModel):
-    """The parameters ``d2sr ros2`` takes from a file (each as its flag)."""
+def _as_set(settings: type[BaseModel], *names: str) -> dict[str, Any]:
+    """``names``' types as the settings declare them, each optional here (a file sets some keys only)."""
+    types: dict[str, Any] = {n: settings.model_fields[n].annotation for n in names}
+    return {n: (t | None, None) for n, t in types.items()}
+
+
+class _NodeOnly(BaseModel):
+    """The node's own parameters, which no settings object holds."""
 
     model_config = ConfigDict(extra="forbid", strict=False)
 
     topic: str | list[str] | None = None  # a list: several cameras in one process
-    depth_scale: float | None = None
     qos: str | None = None
     transport: str | None = None
     node_name: str | None = None
@@ -40,17 +54,7 @@ class NodeParams(BaseModel):
     remap: list[str] | None = None  # ROS 2's FROM:=TO rules
     trigger: str | list[str] | None = None  # with several topics, one per topic
     colour_topic: str | list[str] | None = None
-    controller: str | None = None
-    active_frames: int | None = None
-    repair: str | None = None
-    model: str | None = None
-    models: Path | None = None
-    threshold: float | None = None
-    mask_logit: float | None = None
-    passes: int | None = None
-    seconds: float | None = None
-    scene: bool | None = None
-    scene_from: Path | list[Path] | None = None
+    scene_from: Path | list[Path] | None = None  # with several topics, one per topic
     # Each stream's QoS (rclcpp's profile names; realsense-ros names its own depth_qos and info_qos alike):
     # what the node reads takes SENSOR_DATA, what it writes --qos's, unless set here.
     depth_qos: Profile | None = None
@@ -65,7 +69,14 @@ class NodeParams(BaseModel):
     confidence_qos: Profile | None = None
 
     @field_validator(
-        "depth_scale", "active_frames", "threshold", "mask_logit", "passes", "seconds", mode="before"
+        "depth_scale",
+        "active_frames",
+        "threshold",
+        "mask_logit",
+        "passes",
+        "seconds",
+        mode="before",
+        check_fields=False,
     )
     @classmethod
     def _not_a_switch(cls, v: object) -> object:
@@ -73,6 +84,18 @@ class NodeParams(BaseModel):
         if isinstance(v, bool):
             raise ValueError("a number, not true or false")
         return v
+
+
+# The parameters ``d2sr ros2`` takes from a file (each as its flag): the node's own, and the settings'
+# fields the node passes on, typed as those settings type them.
+NodeParams = create_model(
+    "NodeParams",
+    __base__=_NodeOnly,
+    **_as_set(
+        RunSettings, "depth_scale", "repair", "model", "models", "threshold", "mask_logit", "passes", "scene"
+    ),
+    **_as_set(LoopSettings, "controller", "active_frames", "seconds"),
+)
 
 
 def read_params(path: Path, node_name: str) -> dict[str, Any]:
