@@ -85,7 +85,7 @@ def test_the_command_takes_the_file_and_a_flag_wins(tmp_path):
     assert code == 0, err
     assert "d2sr ros2: /from/flag ->" in out
     code, _, err = d2sr_inprocess("ros2", "--seconds", "0.3")
-    assert code == 2 and "--topic is required" in err
+    assert code == 2 and "topic is required" in err and "--topic" in err
 
 
 def test_each_stream_takes_sensor_data_in_and_the_system_default_out_unless_told():

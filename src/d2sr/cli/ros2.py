@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import signal
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -20,8 +19,7 @@ from d2sr.cli.common import (
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
-from d2sr.errors import ConfigError
-from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
+from d2sr.runtime.settings import DEFAULT_ACTIVE
 from d2sr.ui import print_line
 
 __all__ = ["ros2"]
@@ -118,55 +116,10 @@ def ros2(
 
     Example: ROS_DOMAIN_ID=3 d2sr ros2 --topic /camera/depth/image_rect_raw --trigger serial:/dev/ttyACM0
     """
-    from d2sr.ros2 import Ros2Node, Wire, cameras_from
+    from d2sr.ros2.serve import serve, summary
 
-    o = dict(ctx.params)
-    if params_file is not None:
-        from d2sr.ros2.params import read_params
-
-        for key, value in read_params(params_file, node_name).items():
-            source = ctx.get_parameter_source(key)
-            if source is None or source.name == "DEFAULT":  # a flag on the command line wins
-                o[key] = value
-    streams = tuple((k[: -len("_qos")], v) for k, v in sorted(o.items()) if k.endswith("_qos") and v)
-    topics = _listed(o["topic"])
-    if not topics:
-        raise ConfigError("--topic is required (or topic in --params-file)")
-    if o["seconds"] is not None and not (0 < o["seconds"] < float("inf")):
-        raise ConfigError(f"--seconds must be a positive number, got {o['seconds']}")
-    cams = cameras_from(topics, _listed(o["colour_topic"]), _listed(o["trigger"]), _listed(o["scene_from"]))
-    settings = RunSettings(
-        repair=o["repair"], model=o["model"], models=Path(o["models"]), threshold=o["threshold"],
-        mask_logit=o["mask_logit"], passes=o["passes"], scene=o["scene"],
-    )  # fmt: skip
-    wire = Wire(qos=o["qos"], transport=o["transport"], node_name=o["node_name"], namespace=o["namespace"],
-                streams=streams, remaps=tuple(_listed(o["remap"])))  # fmt: skip
-    node = Ros2Node(
-        cams, o["depth_scale"], wire, say=print_line, controller=o["controller"],
-        active_frames=o["active_frames"], settings=settings,
-    )  # fmt: skip
-    signal.signal(signal.SIGINT, lambda *_: node.stop())
-    signal.signal(signal.SIGTERM, lambda *_: node.stop())
-    for cam in node.cameras:
-        print_line(f"d2sr ros2: {cam.topic} -> {', '.join(cam.outputs)} (ROS_DOMAIN_ID {node.domain})")
-    try:
-        figures = node.spin(o["seconds"])
-    finally:
-        node.close()
-    for t, stats in figures.items():
-        lat = stats.latency_ms()
-        timing = (
-            f"; in the node {lat['median']:.1f} ms median, {lat['p99']:.1f} ms p99" if stats.published else ""
-        )
-        print_line(
-            f"{t if len(figures) > 1 else ''}{': ' if len(figures) > 1 else ''}{stats.received} frames in, "
-            f"{stats.published} out ({stats.flagged} flagged, {stats.refused} skipped, {stats.dropped} "
-            f"dropped while behind, {stats.synthesized} synthesized){timing}"
-        )
-
-
-def _listed(value: object) -> list[Any]:
-    """An option given once or repeated (or a parameter given as one value or a list), as a list."""
-    if value is None:
-        return []
-    return list(value) if isinstance(value, list | tuple) else [value]
+    given = {
+        k for k in ctx.params if (src := ctx.get_parameter_source(k)) is not None and src.name != "DEFAULT"
+    }
+    for line in summary(serve(ctx.params, params_file, given, say=print_line)):
+        print_line(line)
