@@ -16,7 +16,7 @@ from d2sr.frames.overlap import processes
 from d2sr.sim.cwtof import CAMERAS, cw_tof_interference
 from d2sr.sim.dataset import SynthSet
 
-__all__ = ["MIN_MOVED", "VERSION", "cw_tof_frames", "moved"]
+__all__ = ["MIN_MOVED", "VERSION", "cw_tof_frames", "cw_tof_root", "moved"]
 
 VERSION = 2  # of this source's frames: sets made by another version are made again under a new name
 MIN_MOVED = 100  # a frame counts when more than this many pixels moved more than 2 cm (issue 80's bar)
@@ -51,6 +51,11 @@ def _chunk(args: tuple[Path, Path, int, int]) -> list[int]:
     return rows
 
 
+def cw_tof_root(ss: SynthSet, count: int) -> Path:
+    """Where ``cw_tof_frames(ss, count)`` keeps its frames (made when it holds a ``meta.json``)."""
+    return ss.root.parent / f"{ss.root.name}-cwtof-v{VERSION}-{count}"
+
+
 def cw_tof_frames(
     ss: SynthSet, count: int, progress: Callable[[int], None] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -59,7 +64,7 @@ def cw_tof_frames(
     ``TRIES`` draws, and their rows are zeros). Made once, kept beside ``ss``, named after it."""
     if not 0 < count <= len(ss):
         raise InputError(f"cw_tof: between 1 and the generated set's {len(ss)} frames, got {count}")
-    root = ss.root.parent / f"{ss.root.name}-cwtof-v{VERSION}-{count}"
+    root = cw_tof_root(ss, count)
     if not (root / "meta.json").is_file():
         with atomic_dir(root) as tmp:
             shape = (count, *ss.clean.shape[1:])

@@ -20,7 +20,7 @@ from d2sr.sim.dataset import VERSION, SynthSet, generate
 from d2sr.sim.families import shell_interference
 from d2sr.sim.rooms import L515, SensorModel
 from d2sr.train.config import TrainSettings
-from d2sr.train.cwtof import cw_tof_frames, moved
+from d2sr.train.cwtof import cw_tof_frames, cw_tof_root, moved
 from d2sr.ui import warn
 
 __all__ = ["Batch", "Pool", "Source", "synth_set"]
@@ -79,7 +79,7 @@ def synth_set(
 def _cw_tof(ss: SynthSet, count: int, progress: bool) -> Source:
     """The CW-ToF source (``TrainSettings.cw_tof``): each frame with its clean and last clean frame from
     ``ss``; every kept frame interfered."""
-    if progress:
+    if progress and not (cw_tof_root(ss, count) / "meta.json").is_file():
         from d2sr.ui import progress_bar
 
         with progress_bar() as bar:
