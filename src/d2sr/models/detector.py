@@ -36,8 +36,8 @@ class FastDetector(nn.Module):
     (a single image, the first frame of a stream) the frame itself is given as its own previous one; the
     model is trained on that case too. In inference (eval mode) a frame is scored twice, with its previous
     frame and alone, and the lower logit counts: it is flagged only when it looks interfered on its own
-    and unlike the frame before. On real clean L515 frames the pair alone flagged 8% (the sensor's own
-    flicker), the frame alone 2-5%, both together 2-5%; see docs/models.md."""
+    and unlike the frame before: the pair alone reads a sensor's own flicker as interference (docs/models.md
+    has the figures)."""
 
     stride = 32
 
@@ -103,10 +103,9 @@ class MaskDetector(nn.Module):
     repair threshold) over the frame's returns: its probability is ``share / (share + REF_SHARE)``. Not
     trained on its own (the count is not a gradient's path); ``d2sr adapt`` fine-tunes the model inside.
 
-    Why: adapted to a D435, the fine-tuned frame CNN scored clean and corrupted later frames in one band
-    (precision / recall 0.91 / 0.87 from outside), while the adapted unet8's mask covered 0.1-0.4% of the
-    later clean frames' returns and at least 3% of the visibly corrupted ones' but two (0.55%). The mask
-    learns from every pixel, the CNN from one label per frame. Costs one recovery pass."""
+    Why: adapted to a new sensor, a fine-tuned frame CNN scored its clean and corrupted frames in one band,
+    where the adapted unet8's mask set them apart (docs/adapt.md has the figures): the mask learns from
+    every pixel, the CNN from one label per frame. Costs one recovery pass."""
 
     def __init__(self, net: nn.Module, cut: float = 0.0) -> None:
         super().__init__()

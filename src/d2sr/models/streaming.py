@@ -10,8 +10,7 @@ The same functions as the full models, within float rounding (the sums are taken
   stays the same for every frame (and both passes) until the next clean frame: it is computed once
   (``code``, and ``head_code`` for the head's first layer) by the encoder, a file of its own
   (``contract.code_path``; onnxruntime computes every output of a graph whether asked for or not), and fed
-  in with the frames that follow. Two inputs rather than one to slice: onnxruntime copies a slice, 0.5 ms
-  of a 17 ms pass.
+  in with the frames that follow. Two inputs rather than one to slice: onnxruntime copies a slice.
 """
 
 from __future__ import annotations

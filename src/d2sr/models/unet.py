@@ -57,8 +57,8 @@ def pyramid_fill(value: torch.Tensor, weight: torch.Tensor, levels: int) -> torc
 def space_to_depth(x: torch.Tensor, s: int, c: int) -> torch.Tensor:
     """``F.pixel_unshuffle(x, s)`` of ``x`` with ``c`` channels (a constant: a traced shape would make the
     weights below part of the graph); in ONNX export, a stride-``s`` convolution with one-hot weights, the
-    same values bit for bit. pixel_unshuffle exports as a 6-D transpose, which onnxruntime ran at 2.4 ms on
-    a 640x480 frame, a sixth of unet8's time; the convolution takes a tenth of a millisecond."""
+    same values bit for bit. pixel_unshuffle exports as a 6-D transpose, which onnxruntime runs many times
+    slower than the convolution."""
     if not torch.onnx.is_in_onnx_export():
         return F.pixel_unshuffle(x, s)
     k = s * s

@@ -1,7 +1,7 @@
 """ROS 2 message types as Cyclone DDS IDL structs, in the layout ROS 2 puts on the wire (XCDR1, little
 endian). ``Image`` keeps Cyclone's type information (so ROS 2 nodes match it) but encodes and decodes its
-pixels through rosbags' CDR codec: Cyclone's generic one packs a 640x480 depth image byte by byte (35 ms)
-and returns a list; rosbags gives the same bytes in well under a millisecond and a numpy array back."""
+pixels through rosbags' CDR codec: Cyclone's generic one packs a depth image byte by byte and returns a
+list; rosbags gives the same bytes at memory speed and a numpy array back."""
 
 from dataclasses import dataclass, field
 from functools import cache

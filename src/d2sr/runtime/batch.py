@@ -125,8 +125,8 @@ def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Ite
 
 def repair_workers(cores: int | None = None) -> tuple[int, int | None]:
     """(frames repaired at once, onnxruntime threads each) on ``cores`` (default: the machine's): on 2
-    cores, two frames on one thread each repair 1.4-1.5x the frames a second of one frame on two (the guard
-    and write-back run on one core, and the model scales poorly). torch has threads of its own: one frame at
+    cores, two frames on one thread each repair more frames a second than one frame on two (the guard and
+    write-back run on one core, and the model scales poorly). torch has threads of its own: one frame at
     a time."""
     cores = cores if cores is not None else os.cpu_count() or 1
     workers = min(cores, 4)

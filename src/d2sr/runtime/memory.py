@@ -1,8 +1,7 @@
 """Frame loops allocate and free the same frame-size buffers at every frame (numpy temporaries, onnxruntime's
 outputs). glibc hands out blocks above its mmap threshold as fresh mappings, and trims freed memory at the
-top of its heap back to the system, so each such buffer faults in again, page by page, zeroed by the kernel:
-measured, about 5 ms of system time per worst-case 640x480 frame of ``recover --repair all --model auto``,
-7% of its time. Kept on the heap, a freed buffer serves the next frame's."""
+top of its heap back to the system, so each such buffer faults in again, page by page, zeroed by the kernel,
+in every frame. Kept on the heap, a freed buffer serves the next frame's."""
 
 from __future__ import annotations
 

@@ -135,7 +135,7 @@ def _gap(srt: np.ndarray, k: np.ndarray, part: float) -> np.ndarray:
 
 def sort_frames(stack: np.ndarray) -> np.ndarray:
     """``np.sort(stack, axis=0)`` for a few frames (up to 32): compare-and-swap whole frames through Batcher's
-    network, a few times faster than sorting each pixel's short column (0.8 vs 2.7 ms for 16 x 60 x 640)."""
+    network, faster than sorting each pixel's short column, which numpy does one column at a time."""
     n = stack.shape[0]
     if n > 32:
         return np.sort(stack, axis=0)

@@ -416,8 +416,8 @@ def recovered_sums(model: nn.Module, items: Items, logit: float) -> RepairSums:
 def pick_as_recovered(model: nn.Module, items: Items) -> tuple[float, str, list[RepairSums], dict]:
     """(mask threshold, the rule in words, the one-pass curve's sums, the threshold's ``recovered_sums``
     figures): ``pick_mask_logit`` on the one-pass curve, stepped up ``MASK_LOGITS`` until the repair
-    ``recover`` writes changes at most ``MAX_CLEAN_CHANGED`` of the clean pixels. Its second pass repairs
-    more than the one-pass curve counts (1.2-1.3% at the logit picked for 1% on a D435)."""
+    ``recover`` writes changes at most ``MAX_CLEAN_CHANGED`` of the clean pixels: its second pass repairs
+    more than the one-pass curve counts."""
     sums = mask_sums(model, items)
     logit, rule = pick_mask_logit(sums)
     k = MASK_LOGITS.index(logit)
