@@ -43,7 +43,8 @@ class StreamingDetector(nn.Module):
         stem = cast(nn.Conv2d, det.body[0])
         scale = features(torch.ones(1, 1, 1, 1))[0, :, 0, 0]  # features() = (scale x depth, return indicator)
         w = stem.weight.detach() * scale.repeat(2)[None, :, None, None]
-        self.alone = nn.Conv2d(2, stem.out_channels, 4, stride=4).requires_grad_(False)
+        k = int(stem.kernel_size[0])
+        self.alone = nn.Conv2d(2, stem.out_channels, k, stride=k).requires_grad_(False)
         self.alone.weight.copy_(w[:, :2] + w[:, 2:])
         cast(torch.Tensor, self.alone.bias).copy_(cast(torch.Tensor, stem.bias).detach())
         self.rest = cast(nn.Sequential, det.body[1:])
