@@ -36,13 +36,14 @@ def _udp_buffers() -> dict[int, int]:
 
 def test_the_participant_asks_for_a_larger_receive_buffer_unless_the_user_configured_cyclone(monkeypatch):
     monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
+    ours_domain = random.randint(210, 214)  # the user's below is another: one running keeps its own
     before = _udp_buffers()
-    dds = Dds(Wire(), random.randint(210, 219))
+    dds = Dds(Wire(), ours_domain)
     assert dds.configured is not None  # RECEIVE_BUFFER asked for ...
     ours = [v for k, v in _udp_buffers().items() if k not in before]
     monkeypatch.setenv("CYCLONEDDS_URI", "<CycloneDDS><Domain><General/></Domain></CycloneDDS>")
     before = _udp_buffers()
-    user = Dds(Wire(), random.randint(210, 219))
+    user = Dds(Wire(), ours_domain + 5)
     assert user.configured is None and user.participant is not None  # the user's configuration, as given
     theirs = [v for k, v in _udp_buffers().items() if k not in before]
     # ... and its sockets have it: more than Cyclone gives by itself (1 MB asked), unless the host caps both.
