@@ -118,6 +118,8 @@ _FILL = FillSettings(active_frames=6)
         (lambda: d2sr.repair(room(), models=Path("/nonexistent")), "no such"),
         (lambda: d2sr.Pipeline(controller="oracle"), "controller"),
         (lambda: d2sr.Pipeline(active_frames=0), "active_frames"),
+        (lambda: d2sr.Pipeline(active_frames=6.0), "active_frames"),
+        (lambda: d2sr.Pipeline(desync={"active_frames": 6}), "desync must be DesyncSettings"),
         (lambda: d2sr.Pipeline(depth_scale=-5), "depth_scale must be a positive"),  # was taken until a frame
         (lambda: d2sr.Pipeline(depth_scale=0), "depth_scale must be a positive"),
         (lambda: d2sr.open_frames(None), "a recording is a path"),  # a TypeError from pathlib before
@@ -153,3 +155,12 @@ def test_import_d2sr_is_light_and_lists_its_names():
     assert {"repair", "Pipeline", "recover_recording", "open_frames"} <= set(dir(d2sr))
     with pytest.raises(AttributeError):
         _ = d2sr.not_a_name
+
+
+def test_a_pipeline_runs_the_desync_settings_it_is_given_and_their_fields_over_them() -> None:
+    d = d2sr.DesyncSettings(controller="static", active_frames=9, seed=3)
+    p = d2sr.Pipeline(depth_scale=SCALE, desync=d)
+    assert p.desync == d and p.window.active_frames == 9 and p.loop.controller.active_frames == 9
+    over = d2sr.Pipeline(depth_scale=SCALE, desync=d, active_frames=4)
+    assert over.desync == d2sr.DesyncSettings(controller="static", active_frames=4, seed=3)
+    assert over.window.active_frames == 4

@@ -5,7 +5,8 @@ The library in a few names (``docs/api.md`` has runnable examples):
 - ``RunSettings``: how a run judges and repairs (model, threshold, scene, ...), one frozen object that
   every entry point below takes (``settings=``), its fields also by keyword.
 - ``repair(depth, depth_scale=None, settings=None, **fields)``: one frame detected and repaired.
-- ``Pipeline(depth_scale=None, settings=None, **fields)``: one sensor's loop; ``.process(depth)``.
+- ``Pipeline(depth_scale=None, settings=None, desync=None, **fields)``: one sensor's loop,
+  ``.process(depth)``; ``DesyncSettings``: its controller and active window.
 - ``recover_recording(input, out, settings)``, ``detect_recording(input, out, settings)``: a recording in,
   a recording out (what ``d2sr recover`` and ``d2sr detect`` run); ``fill_recording(input, out,
   active_frames, ...)``: the frames a duty-cycled laser skipped, synthesized (``d2sr fill``).
@@ -37,6 +38,7 @@ _WHERE = {
     "Summary": "d2sr.runtime.batch",
     "Written": "d2sr.runtime.batch",
     "RunSettings": "d2sr.runtime.settings",
+    "DesyncSettings": "d2sr.runtime.settings",
     "fill_recording": "d2sr.synth",
     "learn_scene_recording": "d2sr.runtime.scenes",
     "StoredScene": "d2sr.scene.stored",
@@ -52,6 +54,7 @@ __all__ = [
     "Cluster",
     "ConfigError",
     "D2SRError",
+    "DesyncSettings",
     "InputError",
     "OutputError",
     "Pipeline",
@@ -80,7 +83,7 @@ if TYPE_CHECKING:
     from d2sr.runtime.batch import Summary, Written, detect_recording, recover_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
     from d2sr.runtime.scenes import learn_scene_recording
-    from d2sr.runtime.settings import RunSettings
+    from d2sr.runtime.settings import DesyncSettings, RunSettings
     from d2sr.scene.stored import StoredScene
     from d2sr.synth import fill_recording
 

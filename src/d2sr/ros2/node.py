@@ -81,8 +81,9 @@ class Ros2Node:
     """``topic``: a depth image topic, or several (``Camera``s, each with its own colour topic, trigger and
     stored scene), repaired in one process that shares the models; ``depth_scale``: units per metre of
     16-bit images (default 1000, REP 118's millimetres); ``wire``: QoS, domain, transport, node name,
-    namespace and remapping (``Wire``); ``pipeline``: keyword arguments of ``d2sr.Pipeline`` (controller,
-    active_frames, trigger, model, ...), for every camera; ``say``: where warnings go (one line each)."""
+    namespace and remapping (``Wire``); ``pipeline``: keyword arguments of ``d2sr.Pipeline`` (``settings``,
+    ``desync``, ``trigger``, or their fields: ``model``, ``active_frames``, ...), for every camera; ``say``:
+    where warnings go (one line each)."""
 
     def __init__(
         self,

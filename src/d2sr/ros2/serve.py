@@ -12,7 +12,7 @@ from d2sr.errors import ConfigError
 from d2sr.ros2.camera import Stats
 from d2sr.ros2.node import Ros2Node, cameras_from
 from d2sr.ros2.wire import Wire
-from d2sr.runtime.settings import RunSettings
+from d2sr.runtime.settings import DesyncSettings, RunSettings
 
 __all__ = ["serve", "summary"]
 
@@ -60,10 +60,8 @@ def serve(
     )  # fmt: skip
     wire = Wire(qos=o["qos"], transport=o["transport"], node_name=o["node_name"], namespace=o["namespace"],
                 streams=streams, remaps=tuple(_listed(o["remap"])))  # fmt: skip
-    node = Ros2Node(
-        cams, o["depth_scale"], wire, say=say, controller=o["controller"],
-        active_frames=o["active_frames"], settings=settings,
-    )  # fmt: skip
+    desync = DesyncSettings(controller=o["controller"], active_frames=o["active_frames"])
+    node = Ros2Node(cams, o["depth_scale"], wire, say=say, settings=settings, desync=desync)
     signal.signal(signal.SIGINT, lambda *_: node.stop())
     signal.signal(signal.SIGTERM, lambda *_: node.stop())
     for cam in node.cameras:

@@ -18,14 +18,14 @@ from typing import Any
 
 import numpy as np
 
-from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER, TOTAL_FRAMES, make_controller
+from d2sr.desync import CONTROLLERS, TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import PLAUSIBLE_M, Frame, Intrinsics, probe, to_units
 from d2sr.frames.encoded import check_pixels
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Decision, Result, SensorLoop, Trigger
-from d2sr.runtime.settings import DEFAULT_ACTIVE, RunSettings
+from d2sr.runtime.settings import DesyncSettings, RunSettings
 from d2sr.synth import Filler, Pose, Synthesized
 from d2sr.triggers import Actuator, open_trigger
 
@@ -95,8 +95,8 @@ class Decided:
 
 # The type each argument of ``repair`` and ``Pipeline`` outside the settings must have.
 _TYPES: dict[str, tuple[type, ...]] = {
-    "depth_scale": (int, float), "controller": (str,), "active_frames": (int,), "seed": (int,),
-}  # fmt: skip
+    "depth_scale": (int, float),
+}
 _OPTIONAL = {"depth_scale"}
 
 
@@ -115,6 +115,14 @@ def check_types(**arguments: object) -> None:
             raise ConfigError(f"{name} must be {kind}, got {type(value).__name__} {str(value)[:40]!r}", name)
         if numeric and not np.isfinite(float(value)):  # type: ignore[arg-type]
             raise ConfigError(f"{name} must be a finite number, got {value}", name)
+
+
+def desync_of(desync: DesyncSettings | None, options: dict[str, Any]) -> DesyncSettings:
+    """``desync`` [the defaults] with ``options`` (``DesyncSettings`` fields by keyword) over it."""
+    if desync is not None and not isinstance(desync, DesyncSettings):
+        raise ConfigError(f"desync must be DesyncSettings, got {type(desync).__name__}", "desync")
+    given = {k: getattr(desync, k) for k in DesyncSettings.model_fields} if desync is not None else {}
+    return DesyncSettings(**(given | options))
 
 
 def settings_of(settings: RunSettings | None, options: dict[str, Any]) -> RunSettings:
@@ -201,7 +209,8 @@ class Pipeline:
 
     - ``depth_scale``: units per metre of uint16 frames (default 1000; raw L515 4000); float frames are
       metres.
-    - ``controller``, ``active_frames``, ``seed``: the de-synchronization controller; ``trigger``: what
+    - ``desync``: ``DesyncSettings`` [the defaults: controller "robust", 6 active frames of 30, seed 0], and
+      its fields by keyword over it (``active_frames=6``); ``trigger``: what
       moves the real sensor's window (none: the window is only reported). Either a ``d2sr.triggers`` spec
       (``"serial:/dev/ttyACM0"``, ``"gpio:gpiochip0:17@d400"``, ...) or an ``Actuator``: the loop is then
       closed, each frame's slot comes from the time ``process`` is called, and periods end on the
@@ -229,21 +238,20 @@ class Pipeline:
         depth_scale: float | None = None,
         *,
         settings: RunSettings | None = None,
-        controller: str = DEFAULT_CONTROLLER,
-        active_frames: int = DEFAULT_ACTIVE,
-        seed: int = 0,
+        desync: DesyncSettings | None = None,
         trigger: Trigger | str | None = None,
         intrinsics: Intrinsics | None = None,
         **options: Any,
     ) -> None:
-        check_types(depth_scale=depth_scale, controller=controller, active_frames=active_frames, seed=seed)
+        check_types(depth_scale=depth_scale)
         if depth_scale is not None and depth_scale <= 0:
             raise ConfigError(f"depth_scale must be a positive number, got {depth_scale}", "depth_scale")
-        if controller not in CONTROLLERS or controller == "oracle":
+        d = desync_of(desync, {k: options.pop(k) for k in list(options) if k in DesyncSettings.model_fields})
+        if d.controller == "oracle":
             names = ", ".join(c for c in CONTROLLERS if c != "oracle")
-            raise ConfigError(f"controller: unknown {controller!r} for one sensor; choose from {names}")
-        if not 1 <= active_frames <= TOTAL_FRAMES:
-            raise ConfigError(f"active_frames must be in 1..{TOTAL_FRAMES}, got {active_frames}")
+            msg = f"controller: unknown 'oracle' for one sensor; choose from {names}"
+            raise ConfigError(msg, "controller")
+        self.desync = d
         s = settings_of(settings, options)
         if s.scene_repair is None:  # a live stream's scene repairs whatever it repairs
             s = s.model_copy(update={"scene_repair": s.scene})
@@ -251,11 +259,11 @@ class Pipeline:
         self.depth_scale = depth_scale if depth_scale is not None else s.depth_scale
         self.backend = _models(s)
         if isinstance(trigger, str):
-            trigger = open_trigger(trigger, active_frames)
+            trigger = open_trigger(trigger, d.active_frames)
         actuator = trigger if isinstance(trigger, Actuator) else None
         self.loop = SensorLoop(
             self.backend,
-            make_controller(controller, TOTAL_FRAMES, active_frames, seed=seed),
+            make_controller(d.controller, TOTAL_FRAMES, d.active_frames, seed=d.seed),
             None if actuator is not None else trigger,
             settings=s,
         )

@@ -14,7 +14,7 @@ from d2sr.desync import CONTROLLERS, DEFAULT_ACTIVE, DEFAULT_CONTROLLER, TOTAL_F
 from d2sr.frames.base import PLAUSIBLE_M
 from d2sr.scene import SceneSettings
 
-__all__ = ["DEFAULT_ACTIVE", "PRIME_FRAMES", "REPAIR", "LoopSettings", "RunSettings"]
+__all__ = ["DEFAULT_ACTIVE", "PRIME_FRAMES", "REPAIR", "DesyncSettings", "LoopSettings", "RunSettings"]
 
 REPAIR = ("flagged", "all", "none")
 BACKENDS = ("auto", "onnx", "torch")
@@ -103,8 +103,9 @@ class RunSettings(Settings):
         return self.scene_repair
 
 
-class LoopSettings(Settings):
-    """``d2sr run``'s de-synchronization and what it runs on, beside ``RunSettings``."""
+class DesyncSettings(Settings):
+    """One sensor's de-synchronization: its duty-cycle controller, its active window and the controller's
+    seed (``d2sr.Pipeline``, the ROS 2 node; ``LoopSettings`` adds what ``d2sr run`` runs on)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", strict=True, allow_inf_nan=False)
 
@@ -116,13 +117,6 @@ class LoopSettings(Settings):
         description="Frames the laser is on per 1 s period (the paper's 20%).",
     )
     seed: int = Field(0, description="Random seed of the controller and the simulated room.")
-    sensors: int = Field(3, ge=1, le=63, description="sim: sensors in the room.")
-    seconds: float = Field(20.0, gt=0, description="sim and live: seconds to run.")
-    moving: bool = Field(False, description="sim: the last sensor rides a robot.")
-    trigger: str | None = Field(None, description="live: the trigger line (a d2sr.triggers spec).")
-    fill: bool = Field(False, description="Also write a frame for every slot the laser skipped.")
-    colour_topic: str | None = Field(None, description="A bag's colour stream, for fill.")
-    report: bool = Field(True, description="Write report.html into the run folder (every source).")
 
     @field_validator("controller")
     @classmethod
@@ -130,3 +124,15 @@ class LoopSettings(Settings):
         if v not in CONTROLLERS:
             raise ValueError(f"unknown {v!r}; choose from {', '.join(CONTROLLERS)}")
         return v
+
+
+class LoopSettings(DesyncSettings):
+    """``d2sr run``'s de-synchronization and what it runs on, beside ``RunSettings``."""
+
+    sensors: int = Field(3, ge=1, le=63, description="sim: sensors in the room.")
+    seconds: float = Field(20.0, gt=0, description="sim and live: seconds to run.")
+    moving: bool = Field(False, description="sim: the last sensor rides a robot.")
+    trigger: str | None = Field(None, description="live: the trigger line (a d2sr.triggers spec).")
+    fill: bool = Field(False, description="Also write a frame for every slot the laser skipped.")
+    colour_topic: str | None = Field(None, description="A bag's colour stream, for fill.")
+    report: bool = Field(True, description="Write report.html into the run folder (every source).")
