@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 
 from d2sr.atomic import write_result
+from d2sr.jobs.session import run_sim
+from d2sr.jobs.viewer import RerunLog
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Result
-from d2sr.runtime.session import run_sim
 from d2sr.runtime.settings import RunSettings
-from d2sr.runtime.viewer import RerunLog
 from harness import check_output, output_args
 
 

@@ -20,11 +20,11 @@ from d2sr.atomic import write_result
 from d2sr.desync import DEFAULT_CONTROLLER, make_controller
 from d2sr.eval.speed import frame_4000
 from d2sr.frames import Frame
+from d2sr.jobs.sources import RoomTrigger
+from d2sr.jobs.stats import RunStats
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import RunSettings
-from d2sr.runtime.sources import RoomTrigger
-from d2sr.runtime.stats import RunStats
 from d2sr.sim.dataset import TEST_SEED
 from d2sr.sim.lockstep import SimRoom
 from d2sr.sim.timing import TimingSettings

@@ -22,8 +22,8 @@ import numpy as np
 from bench.harness import check_output, output_args
 
 from d2sr.atomic import write_result
-from d2sr.runtime.batch import repair_workers
 from d2sr.runtime.pipeline import Pipeline
+from d2sr.runtime.workers import repair_workers
 from lab.held_out import outside_interference
 
 

@@ -14,7 +14,7 @@ import time
 import cv2
 import numpy as np
 
-from d2sr.runtime.session import odometry, rig_intrinsics
+from d2sr.jobs.session import odometry, rig_intrinsics
 from d2sr.sim.colour import grey
 from d2sr.sim.rooms import Renderer
 from d2sr.sim.world import make_rig

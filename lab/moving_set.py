@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from d2sr.frames.base import Intrinsics
-from d2sr.runtime.session import odometry, rig_intrinsics
+from d2sr.jobs.session import odometry, rig_intrinsics
 from d2sr.sim.lockstep import SimRoom
 from d2sr.sim.rooms import Room
 from d2sr.sim.timing import TimingSettings

@@ -25,7 +25,7 @@ CROP, CROPS = 128, 4
 
 
 def gen(rooms: int, out: Path, first: int = 3000, seconds: float = 20.0) -> None:
-    from d2sr.runtime.session import rig_intrinsics
+    from d2sr.jobs.session import rig_intrinsics
     from d2sr.sim.colour import grey
     from d2sr.sim.rooms import Renderer
     from d2sr.sim.world import make_rig

@@ -34,7 +34,7 @@ from bench.harness import check_output, output_args
 from tools import ros2_peer
 
 from d2sr.atomic import write_result
-from d2sr.runtime.stats import median_p99_ms
+from d2sr.jobs.stats import median_p99_ms
 from lab.held_out import outside_interference
 
 TOPIC = "/camera/depth/image_rect_raw"

@@ -22,7 +22,7 @@ from bench.harness import check_output, output_args
 from tools.trigger_board import Board
 
 from d2sr.atomic import write_result
-from d2sr.runtime.stats import median_p99_ms
+from d2sr.jobs.stats import median_p99_ms
 from d2sr.triggers import open_trigger
 
 

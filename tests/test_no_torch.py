@@ -18,6 +18,7 @@ CORES = [
     "scene",
     "atomic",
     "runtime",
+    "jobs",
     "triggers",
     "synth",
     "ros2",
@@ -25,7 +26,7 @@ CORES = [
     "eval/baselines.py",
     "contract",
     "runtime/pipeline.py",
-    "runtime/batch.py",
+    "jobs/recordings.py",
     "__init__.py",
     "cli",
     "eval/demo.py",
@@ -104,7 +105,7 @@ pred, mask = net.recover(x)
 u, _ = repair_frame((x[0] * 1000).astype(np.uint16), pred[0], mask[0], 1000.0)
 assert s.shape == (1,) and u.dtype == np.uint16 and 'torch' not in sys.modules
 # the closed loop in a simulated room, on the edge backend
-from d2sr.runtime.session import run_sim
+from d2sr.jobs.session import run_sim
 plan = LoopSettings(controller='damped', sensors=2, seconds=2.0)
 summary = run_sim(net, Path({str(tmp_path / "run")!r}), RunSettings(), plan)
 assert summary['all']['frames'] == 2 * 2 * 6 and 'torch' not in sys.modules

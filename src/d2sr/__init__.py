@@ -31,16 +31,16 @@ _WHERE = {
     "Pipeline": "d2sr.runtime.pipeline",
     "Repaired": "d2sr.runtime.pipeline",
     "Window": "d2sr.runtime.pipeline",
-    "recover_recording": "d2sr.runtime.batch",
+    "recover_recording": "d2sr.jobs.recordings",
     "recover_fleet": "d2sr.fleet",
     "Cluster": "d2sr.fleet",
-    "detect_recording": "d2sr.runtime.batch",
-    "Summary": "d2sr.runtime.batch",
-    "Written": "d2sr.runtime.batch",
+    "detect_recording": "d2sr.jobs.recordings",
+    "Summary": "d2sr.jobs.recordings",
+    "Written": "d2sr.jobs.recordings",
     "RunSettings": "d2sr.runtime.settings",
     "DesyncSettings": "d2sr.runtime.settings",
     "fill_recording": "d2sr.synth",
-    "learn_scene_recording": "d2sr.runtime.scenes",
+    "learn_scene_recording": "d2sr.jobs.scenes",
     "StoredScene": "d2sr.scene.stored",
     "open_frames": "d2sr.frames",
     "make_controller": "d2sr.desync",
@@ -80,9 +80,9 @@ if TYPE_CHECKING:
     from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
     from d2sr.fleet import Cluster, recover_fleet
     from d2sr.frames import open_frames
-    from d2sr.runtime.batch import Summary, Written, detect_recording, recover_recording
+    from d2sr.jobs.recordings import Summary, Written, detect_recording, recover_recording
+    from d2sr.jobs.scenes import learn_scene_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
-    from d2sr.runtime.scenes import learn_scene_recording
     from d2sr.runtime.settings import DesyncSettings, RunSettings
     from d2sr.scene.stored import StoredScene
     from d2sr.synth import fill_recording

@@ -16,7 +16,7 @@ import pytest
 
 from d2sr.errors import ConfigError
 from d2sr.fleet.cluster import _probe
-from d2sr.runtime.batch import recover_recording
+from d2sr.jobs.recordings import recover_recording
 from helpers import d2sr_inprocess
 
 pytest.importorskip("ray")

@@ -16,7 +16,7 @@ import pytest
 
 from d2sr.errors import ConfigError, OutputError
 from d2sr.fleet import LEDGER, Cluster, FleetProgress, recover_fleet
-from d2sr.runtime.batch import recover_recording
+from d2sr.jobs.recordings import recover_recording
 from d2sr.runtime.settings import RunSettings
 from helpers import BAG_TOPIC, d2sr_inprocess, write_bag
 

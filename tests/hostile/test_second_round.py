@@ -13,8 +13,8 @@ from d2sr.errors import InputError
 from d2sr.fleet.names import output_names
 from d2sr.frames import Frame
 from d2sr.frames.png import decode_png
+from d2sr.jobs.report import Report
 from d2sr.runtime.loop import Capture, Result
-from d2sr.runtime.report import Report
 from d2sr.scene.stats import CleanStats
 from d2sr.scene.stored import StoredScene
 from helpers import d2sr_inprocess

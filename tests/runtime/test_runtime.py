@@ -17,9 +17,9 @@ from d2sr.desync import make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import Frame
 from d2sr.frames.png import PngWriter
+from d2sr.jobs.session import Recording, run_recording, run_sim
 from d2sr.runtime.backends import Gated, open_backend
 from d2sr.runtime.loop import Capture, PeriodEnd, SensorLoop
-from d2sr.runtime.session import Recording, run_recording, run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.lockstep import SimRoom, Start
 from d2sr.sim.overlap import OverlapGraph
@@ -452,7 +452,7 @@ def test_detector_gets_the_previous_frame_whatever_its_flag():
 def test_detect_writes_every_score_exact_with_the_shipped_temporal_detector(tmp_path):
     # The live loop may report a frame's score alone below the threshold; d2sr detect's CSV, which a user
     # thresholds later, holds the exact score: the lower of alone and with the frame before.
-    from d2sr.runtime.batch import detect_recording
+    from d2sr.jobs.recordings import detect_recording
     from d2sr.sim.dataset import synth_sequence_frame
 
     frames = []
@@ -481,7 +481,7 @@ _FAULTS = """
 import resource, sys
 import cv2
 import numpy as np
-from d2sr.runtime.memory import reuse_freed_memory
+from d2sr.jobs.memory import reuse_freed_memory
 print(reuse_freed_memory() if sys.argv[1] == "1" else False)
 np.ones((480, 640), np.float32)  # the heap grows once
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt

@@ -392,7 +392,7 @@ def test_run_on_a_recording_takes_the_scene(tmp_path):
     import csv
 
     from d2sr.frames import open_frames
-    from d2sr.runtime.session import Recording, run_recording
+    from d2sr.jobs.session import Recording, run_recording
 
     rec = _patched_recording(tmp_path)
     flags = {}

@@ -213,7 +213,7 @@ def test_a_still_camera_with_noisy_colour_gives_the_real_frame_back():
 def test_colour_alone_follows_the_simulated_robot():
     """The simulator's colour camera (``d2sr.sim.colour``) on the moving robot: the motion read from colour
     alone agrees with the trajectory's to a few millimetres over three frames."""
-    from d2sr.runtime.session import odometry, rig_intrinsics
+    from d2sr.jobs.session import odometry, rig_intrinsics
     from d2sr.sim.colour import grey
     from d2sr.sim.rooms import Renderer
     from d2sr.sim.world import make_rig

@@ -242,7 +242,7 @@ def test_run_fill_on_a_recording_refuses_what_it_cannot_use(tmp_path, extra, mes
 def test_live_run_fills_what_the_camera_sent_as_colour_alone(tmp_path, monkeypatch, weights):
     """``run_live(fill=True)`` with a camera whose laser is on in slots 0-5: every colour-only moment is
     written synthesized into the run, the real ones as they came."""
-    from d2sr.runtime import live
+    from d2sr.jobs import live
     from d2sr.runtime.pipeline import open_models
 
     walls, colours = _walls_and_colours()
@@ -277,7 +277,7 @@ def test_a_realsense_gives_every_moment_its_depth_aligned_to_colour_or_colour_al
     import time
 
     from d2sr.frames.realsense import import_rs
-    from d2sr.runtime.shots import rgbd_shots
+    from d2sr.jobs.shots import rgbd_shots
 
     rs = import_rs()
     dev = rs.software_device()

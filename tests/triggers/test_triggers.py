@@ -393,7 +393,7 @@ def test_live_run_closed_through_a_trigger_writes_each_frame_in_its_slot(tmp_pat
     import queue as queuemod
 
     from d2sr.frames.base import Frame
-    from d2sr.runtime import live
+    from d2sr.jobs import live
     from d2sr.runtime.pipeline import open_models
 
     captured: queuemod.Queue = queuemod.Queue()

@@ -31,7 +31,7 @@ from d2sr.cli.common import (
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.frames.base import PLAUSIBLE_M
-from d2sr.runtime.batch import Written
+from d2sr.jobs.recordings import Written
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.ui import console, print_line, progress_bar
 

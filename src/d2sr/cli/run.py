@@ -32,8 +32,8 @@ from d2sr.cli.common import (
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.desync import CONTROLLERS, DEFAULT_CONTROLLER
 from d2sr.frames.base import PLAUSIBLE_M
+from d2sr.jobs.stats import stats_table
 from d2sr.runtime.settings import DEFAULT_ACTIVE, PRIME_FRAMES, LoopSettings, RunSettings
-from d2sr.runtime.stats import stats_table
 from d2sr.ui import console, progress_bar
 
 __all__ = ["run"]
@@ -124,7 +124,7 @@ def run(
 
     Example: d2sr run sim --sensors 3 --seconds 20 --out out/run --rerun out/run.rrd
     """
-    from d2sr.runtime.runner import run as run_source
+    from d2sr.jobs.runner import run as run_source
 
     given: dict[str, Any] = {} if scene is None else {"scene": scene}  # unset: on except for 'sim'
     settings = RunSettings(

@@ -29,7 +29,7 @@ def learn(
 
     Example: d2sr scene learn clean_room/ --depth-scale 4000 --out room.npz
     """
-    from d2sr.runtime.scenes import learn_scene_recording
+    from d2sr.jobs.scenes import learn_scene_recording
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong, depth_scale=depth_scale, topic=topic, max_range=max_range

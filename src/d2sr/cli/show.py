@@ -80,8 +80,8 @@ def view(
 ) -> None:
     """Open a finished run in Rerun: every sensor's repaired frames and predicted masks, and the detector
     score, flag and window over time. Example: d2sr view out/demo/runs/robust"""
-    from d2sr.runtime.viewer import LIVE
-    from d2sr.runtime.viewer import view as replay
+    from d2sr.jobs.viewer import LIVE
+    from d2sr.jobs.viewer import view as replay
 
     if save is not None:
         check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], option="--save")

@@ -1,4 +1,4 @@
-"""``d2sr detect`` and ``d2sr recover``: options parsed here, the work done by ``d2sr.runtime.batch``."""
+"""``d2sr detect`` and ``d2sr recover``: options parsed here, the work done by ``d2sr.jobs.recordings``."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ from d2sr.cli.common import (
 )
 from d2sr.contract.catalog import DEFAULT_MODEL, WEIGHTS
 from d2sr.frames.base import PLAUSIBLE_M
-from d2sr.runtime.batch import Progress
+from d2sr.jobs.recordings import Progress
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.ui import print_line, progress_bar
 
@@ -74,7 +74,7 @@ def detect(
 
     Example: d2sr detect recording/ --depth-scale 4000 --out flags.csv
     """
-    from d2sr.runtime.batch import detect_recording
+    from d2sr.jobs.recordings import detect_recording
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong,
@@ -136,7 +136,7 @@ def recover(
 
     Example: d2sr recover recording/ --depth-scale 4000 --out repaired/
     """
-    from d2sr.runtime.batch import Written, recover_recording
+    from d2sr.jobs.recordings import Written, recover_recording
 
     settings = RunSettings(
         recording_scale_wrong=recording_scale_wrong,

@@ -30,7 +30,7 @@ def check(
 
     Example: d2sr trigger check serial:/dev/ttyACM0
     """
-    from d2sr.runtime.trigger_check import check_trigger
+    from d2sr.jobs.trigger_check import check_trigger
 
     for line in check_trigger(spec, active_frames, seconds, pings).lines():
         print_line(line)

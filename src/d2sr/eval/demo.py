@@ -28,9 +28,9 @@ from d2sr.desync.base import DEFAULT_ACTIVE
 from d2sr.errors import ConfigError
 from d2sr.eval.plots import ratio_over_time, save, sensor_timeline
 from d2sr.frames.base import positive_finite
+from d2sr.jobs.session import run_sim
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Result
-from d2sr.runtime.session import run_sim
 from d2sr.runtime.settings import LoopSettings, RunSettings
 from d2sr.sim.record import MAX_SECONDS
 from d2sr.sim.timing import TimingSettings

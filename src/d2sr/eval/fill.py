@@ -48,7 +48,7 @@ def moving_robot_fill(
 ) -> dict[str, Any]:
     """Each method's RMSE and coverage on the moving robot, pooled and by frames since the last real one,
     for each number of real frames ``kept`` of 30; rooms are seeds ``first_seed..first_seed+rooms-1``."""
-    from d2sr.runtime.session import odometry, rig_intrinsics
+    from d2sr.jobs.session import odometry, rig_intrinsics
     from d2sr.sim.colour import grey
     from d2sr.sim.rooms import Renderer
     from d2sr.sim.world import make_rig

@@ -17,8 +17,8 @@ from d2sr.fleet.cluster import Cluster, connected
 from d2sr.fleet.ledger import LEDGER, Ledger, Outcome, fingerprint
 from d2sr.fleet.names import output_names
 from d2sr.frames.rosbag import bag_root
+from d2sr.jobs.recordings import Written, recover_recording
 from d2sr.provenance import command_as
-from d2sr.runtime.batch import Written, recover_recording
 from d2sr.runtime.settings import RunSettings
 from d2sr.ui import take_warnings
 

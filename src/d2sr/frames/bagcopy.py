@@ -59,7 +59,7 @@ def _pixels(msg: Any, dtype: np.dtype[Any]) -> tuple[np.ndarray, np.ndarray]:
 
 
 class Synthesis(Protocol):
-    """Frames for the moments a duty-cycled sensor's laser skipped (``runtime.batch`` gives one)."""
+    """Frames for the moments a duty-cycled sensor's laser skipped (``jobs.recordings`` gives one)."""
 
     topic: str  # the colour topic
 

@@ -18,10 +18,10 @@ import numpy as np
 from d2sr.errors import D2SRError, InputError
 from d2sr.frames.base import MAX_PIXELS
 from d2sr.frames.colour import decode_colour
+from d2sr.jobs.stats import median_p99_ms
 from d2sr.ros2.dds import Dds
 from d2sr.ros2.wire import Wire
 from d2sr.runtime.pipeline import Pipeline
-from d2sr.runtime.stats import median_p99_ms
 from d2sr.synth.gaps import ColourFrame, ColourGaps
 from d2sr.synth.recording import confidence_image
 

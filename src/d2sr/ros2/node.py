@@ -106,8 +106,8 @@ class Ros2Node:
         if len(set(names)) < len(names):
             raise ConfigError("a camera is named twice", "topic")
         _check_wiring(cams, w)
-        from d2sr.runtime.batch import repair_workers
         from d2sr.runtime.pipeline import Pipeline, settings_of
+        from d2sr.runtime.workers import repair_workers
         from d2sr.scene.stored import StoredScene
 
         base = settings_of(pipeline.pop("settings", None), {})

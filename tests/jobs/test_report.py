@@ -1,4 +1,4 @@
-"""report.html (d2sr.runtime.report): what a recording job did, for a person to open."""
+"""report.html (d2sr.jobs.report): what a recording job did, for a person to open."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 
 from d2sr.frames import Frame
+from d2sr.jobs.report import WORST, Report
 from d2sr.runtime.loop import Capture, Result
-from d2sr.runtime.report import WORST, Report
 from helpers import d2sr_inprocess
 
 
@@ -102,7 +102,7 @@ def test_recover_writes_its_report_in_the_output_and_no_report_leaves_it_out(tmp
 
 def test_a_recording_s_run_writes_its_report_in_the_run_folder(tmp_path):
     from d2sr.frames import open_frames
-    from d2sr.runtime.session import Recording, run_recording
+    from d2sr.jobs.session import Recording, run_recording
     from d2sr.runtime.settings import LoopSettings, RunSettings
     from helpers import FakeNet
 

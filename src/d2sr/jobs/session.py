@@ -16,13 +16,13 @@ import numpy as np
 from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frames, Intrinsics, to_metres, to_units
+from d2sr.jobs.output import RunFolder, SynthFrame
+from d2sr.jobs.report import Report
+from d2sr.jobs.sources import RoomTrigger, run_room
+from d2sr.jobs.stats import RunStats
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.loop import Capture, Result, SensorLoop
-from d2sr.runtime.output import RunFolder, SynthFrame
-from d2sr.runtime.report import Report
 from d2sr.runtime.settings import LoopSettings, RunSettings
-from d2sr.runtime.sources import RoomTrigger, run_room
-from d2sr.runtime.stats import RunStats
 from d2sr.sim.lockstep import SimRoom, SlotEnd
 from d2sr.sim.record import EPOCH_NS
 from d2sr.sim.timing import TimingSettings

@@ -17,15 +17,15 @@ from d2sr.desync import TOTAL_FRAMES, make_controller
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames.base import Frame, Intrinsics
 from d2sr.frames.realsense import import_rs
+from d2sr.jobs.output import RunFolder
+from d2sr.jobs.report import Report
+from d2sr.jobs.session import RunFiller, live_settings, summarize
+from d2sr.jobs.shots import Shot, host_arrival, rgbd_shots
+from d2sr.jobs.stats import RunStats
 from d2sr.runtime.backends import Backend
 from d2sr.runtime.closed import ClosedLoop
 from d2sr.runtime.loop import Capture, Result, SensorLoop
-from d2sr.runtime.output import RunFolder
-from d2sr.runtime.report import Report
-from d2sr.runtime.session import RunFiller, live_settings, summarize
 from d2sr.runtime.settings import LoopSettings, RunSettings
-from d2sr.runtime.shots import Shot, host_arrival, rgbd_shots
-from d2sr.runtime.stats import RunStats
 from d2sr.triggers import Actuator, open_trigger, parse_trigger
 
 __all__ = ["CAMERAS", "check_camera", "run_live"]

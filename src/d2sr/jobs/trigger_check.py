@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from d2sr.desync.base import DEFAULT_ACTIVE
 from d2sr.errors import ConfigError
-from d2sr.runtime.stats import median_p99_ms
+from d2sr.jobs.stats import median_p99_ms
 from d2sr.triggers import open_trigger, parse_trigger
 
 __all__ = ["TriggerCheck", "check_trigger"]

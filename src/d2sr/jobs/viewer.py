@@ -29,8 +29,8 @@ from d2sr.errors import InputError
 from d2sr.frames.base import check_name
 from d2sr.frames.layout import RUN, FrameFolder, sensor_dir
 from d2sr.frames.png import decode_png
+from d2sr.jobs.output import MAX_SENSORS
 from d2sr.runtime.loop import Result
-from d2sr.runtime.output import MAX_SENSORS
 
 __all__ = ["LIVE", "RerunLog", "view"]
 

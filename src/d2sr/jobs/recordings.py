@@ -12,10 +12,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
-import os
-from collections import deque
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,12 +31,13 @@ from d2sr.frames.base import to_metres, to_units
 from d2sr.frames.checks import checked, checked_counts
 from d2sr.frames.layout import REPAIRED, FrameFolder
 from d2sr.frames.overlap import Behind, prefetch
+from d2sr.jobs.memory import reuse_freed_memory
+from d2sr.jobs.report import Report
+from d2sr.jobs.scenes import open_recording
 from d2sr.runtime.loop import Capture, Result, SensorLoop
-from d2sr.runtime.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import model_settings, open_models
-from d2sr.runtime.report import Report
-from d2sr.runtime.scenes import open_recording
 from d2sr.runtime.settings import RunSettings
+from d2sr.runtime.workers import in_order, repair_workers
 
 __all__ = [
     "CSV_HEADER",
@@ -48,7 +46,6 @@ __all__ = [
     "Summary",
     "Written",
     "detect_recording",
-    "in_order",
     "recover_recording",
 ]
 
@@ -105,32 +102,6 @@ class Summary:
 
 def _quiet(line: str) -> None:
     """A library call says nothing unless asked (``say``)."""
-
-
-def in_order(loop: SensorLoop, captures: Iterable[Capture], workers: int) -> Iterator[Result]:
-    """``loop``'s results for ``captures``, in order. Frames are decided in order (``SensorLoop.decide``)
-    and repaired on ``workers`` threads while the next are decided; at most 2 x ``workers`` wait."""
-    if workers <= 1:
-        yield from map(loop.process, captures)
-        return
-    with ThreadPoolExecutor(workers) as pool:
-        running: deque[Future[Result]] = deque()
-        for cap in captures:
-            running.append(pool.submit(loop.finish, loop.decide(cap)))
-            if len(running) >= 2 * workers:
-                yield running.popleft().result()
-        while running:
-            yield running.popleft().result()
-
-
-def repair_workers(cores: int | None = None) -> tuple[int, int | None]:
-    """(frames repaired at once, onnxruntime threads each) on ``cores`` (default: the machine's): on 2
-    cores, two frames on one thread each repair more frames a second than one frame on two (the guard and
-    write-back run on one core, and the model scales poorly). torch has threads of its own: one frame at
-    a time."""
-    cores = cores if cores is not None else os.cpu_count() or 1
-    workers = min(cores, 4)
-    return workers, (cores // workers if workers > 1 else None)
 
 
 class _Sink(Protocol):
@@ -262,7 +233,7 @@ class Written:
     anything else a PNG folder), ``png`` or ``bag``; ``rerun``: also log the run to a ``.rrd`` file or the
     ``live`` viewer; ``colour_topic`` (a bag in and out, 16-bit depth): every colour message no depth
     message joins gets a synthesized frame (``d2sr.frames.bagcopy``); ``overwrite``: replace an output d2sr
-    made; ``report``: write ``report.html`` (``runtime.report``) in a PNG folder out, beside a bag out
+    made; ``report``: write ``report.html`` (``jobs.report``) in a PNG folder out, beside a bag out
     (``OUT.report.html``)."""
 
     format: str = "auto"
@@ -288,7 +259,7 @@ def recover_recording(
     scene. ``written``: how the output is written (``Written``); ``cores``: how many it may use (default:
     the machine's; the output is the same). Frames that are not flagged (unless every frame is repaired)
     come out bit for bit as they went in."""
-    from d2sr.runtime.viewer import LIVE, RerunLog
+    from d2sr.jobs.viewer import LIVE, RerunLog
 
     check_paths(input=input, out=out)
     check_instances(settings=(settings, RunSettings), written=(written, Written))

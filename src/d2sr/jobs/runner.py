@@ -13,10 +13,10 @@ from d2sr.atomic import check_out
 from d2sr.errors import ConfigError, InputError
 from d2sr.frames import open_colours
 from d2sr.frames.checks import Checked
-from d2sr.runtime.live import CAMERAS, check_camera, run_live
-from d2sr.runtime.memory import reuse_freed_memory
+from d2sr.jobs.live import CAMERAS, check_camera, run_live
+from d2sr.jobs.memory import reuse_freed_memory
+from d2sr.jobs.scenes import open_recording
 from d2sr.runtime.pipeline import model_settings, open_models
-from d2sr.runtime.scenes import open_recording
 from d2sr.runtime.settings import LoopSettings, RunSettings
 
 __all__ = ["run"]
@@ -38,8 +38,8 @@ def run(
     folder ``out``; ``rerun``: also log it to a ``.rrd`` file or the ``live`` viewer. Returns the summary.
     The scene is judged on a recording's or a camera's frames unless ``settings.scene`` is False; a
     simulated room has none (asking for it is an error)."""
-    from d2sr.runtime import session
-    from d2sr.runtime.viewer import LIVE, RerunLog
+    from d2sr.jobs import session
+    from d2sr.jobs.viewer import LIVE, RerunLog
 
     s = settings if settings is not None else RunSettings()
     ls = loop_settings if loop_settings is not None else LoopSettings()
