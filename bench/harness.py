@@ -27,6 +27,6 @@ def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
         path = getattr(args, option, None)
         if path is not None:
             try:
-                check_out(path, is_dir=False, overwrite=args.overwrite, option=f"--{option}")
+                check_out(path, is_dir=False, overwrite=args.overwrite, name=option)
             except D2SRError as exc:
-                ap.error(str(exc))
+                ap.error(str(exc).replace(option, f"--{option}", 1))

@@ -149,8 +149,10 @@ def test_check_out_rules(tmp_path, monkeypatch):
         check_out(Path("f.csv"), is_dir=False)
     assert err.value.setting == "overwrite"  # the library names its setting; the CLI adds the flag
     assert check_out(Path("f.csv"), is_dir=False, overwrite=True) == tmp_path / "f.csv"
-    with pytest.raises(OutputError, match="did not write"):
+    with pytest.raises(OutputError, match=r"^out mine\.csv exists and d2sr did not write it"):
         check_out(Path("mine.csv"), is_dir=False, overwrite=True)
+    with pytest.raises(OutputError, match=r"^json mine\.csv "):  # the library names its output, never a flag
+        check_out(Path("mine.csv"), is_dir=False, overwrite=True, name="json")
     (tmp_path / "d").mkdir()
     with pytest.raises(OutputError, match="name a file"):
         check_out(Path("d"), is_dir=False, overwrite=True)

@@ -162,3 +162,14 @@ def test_run_fill_is_refused_where_no_slot_is_skipped(tmp_path, weights):
         and len(err.strip().splitlines()) == 1
     )
     assert not (tmp_path / "r").exists()
+
+
+def test_a_refused_output_is_named_by_its_flag(tmp_path):
+    theirs = tmp_path / "theirs.csv"
+    theirs.write_text("a user's file\n")
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    (rec / "0.png").write_bytes(encode_png(np.full((48, 64), 1500, np.uint16), "0.png"))
+    code, _, err = d2sr_inprocess("detect", str(rec), "--out", str(theirs), "--overwrite")
+    assert code == 2 and err.startswith(f"d2sr: error: --out {theirs} exists and d2sr did not write it"), err
+    assert theirs.read_text() == "a user's file\n"

@@ -22,22 +22,23 @@ def check_out(
     overwrite: bool = False,
     inputs: Iterable[Path | None] = (),
     resume: bool = False,
-    option: str = "--out",
+    name: str = "out",
 ) -> Path:
     """Refuse an output path that would destroy something d2sr did not make; the absolute path otherwise.
 
-    ``resume``: an existing folder d2sr made is taken as it is (a run folder a command resumes)."""
+    ``resume``: an existing folder d2sr made is taken as it is (a run folder a command resumes). ``name``: the
+    output's name, first in every error (the command line names its flag)."""
     inputs = list(inputs)
-    check_paths(**{option: out}, **{f"input {k}": p for k, p in enumerate(inputs) if p is not None})
+    check_paths(**{name: out}, **{f"input {k}": p for k, p in enumerate(inputs) if p is not None})
     if not os.fspath(out).strip():
-        raise OutputError(f"{option} is empty; name a new file or folder")
+        raise OutputError(f"{name} is empty; name a new file or folder")
     if "\x00" in os.fspath(out):
-        raise OutputError(f"{option} holds a NUL character; name a new file or folder")
+        raise OutputError(f"{name} holds a NUL character; name a new file or folder")
     path = absolute(out)
     resolved, cwd = real(path), real(Path.cwd())
     if resolved == Path(resolved.anchor) or resolved in (cwd, real(Path.home())) or resolved in cwd.parents:
         raise OutputError(
-            f"{option} {out} is the current folder, one of its parents or your home; name a new one"
+            f"{name} {out} is the current folder, one of its parents or your home; name a new one"
         )
     for src in inputs:
         if src is None:
@@ -45,22 +46,22 @@ def check_out(
         s = real(Path(src))
         if resolved == s or s in resolved.parents or resolved in s.parents:
             how = "is" if resolved == s else "is inside" if s in resolved.parents else "contains"
-            raise OutputError(f"{option} {out} {how} the input ({src}); d2sr never writes over its input")
+            raise OutputError(f"{name} {out} {how} the input ({src}); d2sr never writes over its input")
     if path.parent.exists() and not path.parent.is_dir():
-        raise OutputError(f"{option} {out}: {path.parent} is a file, not a folder")
+        raise OutputError(f"{name} {out}: {path.parent} is a file, not a folder")
     tidy(path)
     if not (path.exists() or path.is_symlink()):
-        _check_writable(path.parent, option, out)
+        _check_writable(path.parent, name, out)
         return path
     if is_dir:
         if not path.is_dir() or path.is_symlink():
-            raise OutputError(f"{option} {out} exists and is not a folder; name a new folder")
+            raise OutputError(f"{name} {out} exists and is not a folder; name a new folder")
         if not any(path.iterdir()):
-            _check_writable(path.parent, option, out)
+            _check_writable(path.parent, name, out)
             return path
         if not (path / MANIFEST).is_file():
             raise OutputError(
-                f"{option} {out} exists and holds files d2sr did not make (no {MANIFEST}); d2sr never "
+                f"{name} {out} exists and holds files d2sr did not make (no {MANIFEST}); d2sr never "
                 "replaces such a folder: name a new or empty folder"
             )
         made(path)  # a manifest that names anything outside its folder is refused here, before any work
@@ -68,25 +69,25 @@ def check_out(
             return path
         if not overwrite:
             raise OutputError(
-                f"{option} {out} exists and is not empty; allow overwrite to replace what d2sr wrote there "
+                f"{name} {out} exists and is not empty; allow overwrite to replace what d2sr wrote there "
                 "(other files are kept), or name a new folder",
                 "overwrite",
             )
-        _check_writable(path.parent, option, out)
+        _check_writable(path.parent, name, out)
         return path
     if path.is_dir() or path.is_symlink():
-        raise OutputError(f"{option} {out} is a folder or a link; name a file")
+        raise OutputError(f"{name} {out} is a folder or a link; name a file")
     if not made_by_d2sr(path):
-        raise OutputError(f"{option} {out} exists and d2sr did not write it; name a new file")
+        raise OutputError(f"{name} {out} exists and d2sr did not write it; name a new file")
     if not overwrite:
-        raise OutputError(f"{option} {out} exists; allow overwrite to replace it", "overwrite")
-    _check_writable(path.parent, option, out)
+        raise OutputError(f"{name} {out} exists; allow overwrite to replace it", "overwrite")
+    _check_writable(path.parent, name, out)
     return path
 
 
-def _check_writable(parent: Path, option: str, out: Path) -> None:
+def _check_writable(parent: Path, name: str, out: Path) -> None:
     """The folder an output lands in can take it (checked before any work, not after)."""
     while not parent.exists():
         parent = parent.parent
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{option} {out}: cannot write in {parent} (permission denied)")
+        raise OutputError(f"{name} {out}: cannot write in {parent} (permission denied)")

@@ -196,6 +196,8 @@ def _terminated(signum: int, frame: object) -> None:
 # A run's setting and the flag that sets it, where the flag is not its name with dashes.
 _FLAG = {"scene": "--scene/--no-scene", "fill": "--fill"}
 _NO_FLAG = {"settings", "scene_settings"}
+# The outputs the library names first in its refusals (``atomic.check_out``'s ``name``): their flags.
+_OUTPUTS = re.compile(r"^(out|json|rerun|save)\b")
 
 
 def _with_flag(exc: D2SRError) -> str:
@@ -210,6 +212,7 @@ def _with_flag(exc: D2SRError) -> str:
     # A settings object's own one line ("RunSettings: repair: unknown ...") names its flag, not itself.
     text = re.sub(r"^\w+Settings: (\w+): ", lambda m: f"{_flag(m.group(1))}: ", str(exc))
     text = re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: _flag(m.group(1)), text)
+    text = _OUTPUTS.sub(lambda m: _flag(m.group(1)), text)
     name = exc.setting
     if name is None or name in _NO_FLAG or not name.isidentifier() or _flag(name) in text:
         return text

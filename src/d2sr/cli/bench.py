@@ -70,7 +70,7 @@ def bench(
     if no_scene and "typical" not in names:
         raise ConfigError("--no-scene is for --what typical")
     if json_out is not None:
-        check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
+        check_out(json_out, is_dir=False, overwrite=overwrite, name="json")
     depth: list = []
     scale = 0.0
     if on_frames and frames is not None:

@@ -79,7 +79,7 @@ def run(
     timing = TimingSettings.make(**values)
     check_out(out, is_dir=True, overwrite=overwrite)
     if json_out:
-        check_out(json_out, is_dir=False, overwrite=overwrite, option="--json")
+        check_out(json_out, is_dir=False, overwrite=overwrite, name="json")
     where = "one room" if scenario == "stationary" else ev.TITLES[scenario].split(" (")[0]
     with out_dir(out, overwrite) as tmp, progress_bar() as bar:
         task = bar.add_task("simulating", total=len(names))
@@ -170,7 +170,7 @@ def report(
     """
     from d2sr.eval import desync as ev
 
-    check_out(folder, is_dir=True, overwrite=True, option="FOLDER")
+    check_out(folder, is_dir=True, overwrite=True, name="FOLDER")
     path = folder / "sweep.json"
     if not path.is_file():
         raise ConfigError(f"{path}: no such file (run d2sr desync sweep --out {folder} first)")

@@ -84,7 +84,7 @@ def view(
     from d2sr.jobs.viewer import view as replay
 
     if save is not None:
-        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], option="--save")
+        check_out(save, is_dir=False, overwrite=overwrite, inputs=[run], name="save")
     n = replay(run, save if save is not None else LIVE)
     console.print(f"{n} frames of {run} -> {save or 'the Rerun viewer'}")
 

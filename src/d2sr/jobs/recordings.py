@@ -277,16 +277,14 @@ def recover_recording(
     check_out(out, is_dir=kind != "ros1", overwrite=wr.overwrite, inputs=_inputs(input))
     beside = Path(out).with_name(Path(out).name + ".report.html") if wr.report and kind != "png" else None
     if beside is not None:
-        check_out(
-            beside, is_dir=False, overwrite=wr.overwrite, inputs=_inputs(input), option="--out's report"
-        )
+        check_out(beside, is_dir=False, overwrite=wr.overwrite, inputs=_inputs(input), name="out's report")
     if wr.rerun is not None and wr.rerun != LIVE:
         check_out(
             Path(wr.rerun),
             is_dir=False,
             overwrite=wr.overwrite,
             inputs=[*_inputs(input), out],
-            option="--rerun",
+            name="rerun",
         )
     reuse_freed_memory()
     if cores is not None and cores < 1:

@@ -51,7 +51,7 @@ def run(
     inputs = [Path(source)] if is_recording else []
     check_out(out, is_dir=True, overwrite=overwrite, inputs=inputs)
     if rerun is not None and rerun != LIVE:
-        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=inputs, option="--rerun")
+        check_out(Path(rerun), is_dir=False, overwrite=overwrite, inputs=inputs, name="rerun")
     reuse_freed_memory()
     net = open_models(model_settings(s), recovery=s.repair != "none")
     say = progress or (lambda what, done: None)
