@@ -169,10 +169,8 @@ def main() -> None:
     args = ap.parse_args()
     folder = ["--models", str(args.models)] if args.models else []
     model = (["--model", args.model] if args.model else []) + folder
-    result = {
-        "data": "kinect2_multicam/cam0: 50 interfered frames, 6 alone",
-        "settings": measure(args.data, model, folder),
-    }
+    # No "data" key of its own: it would replace the record of the files read (``provenance.stamp``).
+    result = {"settings": measure(args.data, model, folder)}
     text = json.dumps(result, indent=1)
     print(text)
     if args.json:

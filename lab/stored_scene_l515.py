@@ -25,6 +25,7 @@ from bench.harness import check_output, output_args
 from d2sr.atomic import write_result
 from d2sr.desync import make_controller
 from d2sr.frames import Frame
+from d2sr.provenance import data_read
 from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import RunSettings
@@ -136,7 +137,9 @@ def main() -> None:
         }
         for how in ("stored", "primed")
     }
-    print(write_result(result, args.json, data="real L515 dev0/dev1; outside sets A-I"))
+    read = [f for v in VIEWS for f in sorted((args.data / "l515" / v).glob("*.png"))]
+    what = "l515/dev0, l515/dev1 (outside sets A-I on dev0 60-119 and dev1 0-59)"
+    print(write_result(result, args.json, data=data_read(what, read, args.data)))
 
 
 if __name__ == "__main__":

@@ -23,7 +23,11 @@ CHEAP: dict[str, list[str]] = {
     "docs/results/kinect2_cam0.json": ["-m", "lab.kinect2_cam0", "--data", "{data}", "--json", "{out}"],
     "docs/results/repeating.json": ["-m", "lab.repeating", "--data", "{data}", "--json", "{out}"],
     "docs/results/library_bars.json": ["-m", "lab.library_bars", "--data", "{data}", "--json", "{out}"],
-}
+    "docs/results/stored_scene_l515.json": [
+        "-m", "lab.stored_scene_l515", "--data", "{data}", "--repair", "--json", "{out}",
+    ],
+}  # fmt: skip
+# The demo table is re-made by the suite (tests/cli/test_cli.py compares it with the README's).
 #: What a result records about the run that made it, not what it measured.
 STAMP = frozenset({"made_by", "command", "commit", "version", "models", "cpu", "date"})
 RELATIVE = 1e-9  # figures are made with fixed seeds and steps: equal, up to float printing

@@ -176,9 +176,10 @@ def stamp(
     data: str | dict | None = None,
 ) -> dict:
     """``result`` headed by ``made_by`` and its provenance (``record``); a ``data`` key of the result's own
-    replaces the record's. Any other key the record writes is refused: it would hide the provenance."""
+    replaces the record's, unless ``data`` is given too (the files read would be hidden). Any other key the
+    record writes is refused: it would hide the provenance."""
     head = record(models=models, folder=folder, data=data)
-    clash = set(result) & (set(head) - {"data"})
+    clash = set(result) & (set(head) - ({"data"} if data is None else set()))
     if clash:
         raise ValueError(f"result keys {sorted(clash)} are provenance keys")
     return {MADE_BY: f"d2sr {__version__}", **head, **result}

@@ -254,6 +254,9 @@ def test_a_result_records_the_run_that_made_it(tmp_path):
     assert got["data"] == {"set": "x"} and got["figure"] == 1.5 and got["made_by"].startswith("d2sr ")
     with pytest.raises(ValueError, match="provenance keys"):  # a result's own "command" would hide the run's
         write_result({"command": "d2sr recover"}, None)
+    with pytest.raises(ValueError, match="provenance keys"):  # nor its own words hide the files it read
+        write_result({"data": "cam0"}, None, data={"name": "cam0", "files": ["a.png"]})
+    assert json.loads(write_result({"data": "cam0"}, None))["data"] == "cam0"  # words alone stay
 
 
 def test_a_folder_manifest_records_the_run_that_made_it(tmp_path):
