@@ -175,14 +175,14 @@ lofo: $(STAMP)
 	for f in $(FAMILIES); do \
 	  $(BIN)/d2sr train recovery --config configs/unet8-lofo.toml --leave-out $$f --out runs/lofo-recovery/no-$$f || exit 1; done
 
-# Every outside set of lab/held_out.py (real L515 frames, interference the generator does not make) with
+# Every outside set of bench/outside (real L515 frames, interference the generator does not make) with
 # recover's default and each shipped recovery model; then the summary across sets (about 12 min on 2 cores).
 SETS := a b c d e f g h i
 OUTSIDE := docs/results/outside
 outside: $(STAMP)
 	mkdir -p $(OUTSIDE)
 	for s in $(SETS); do for m in auto unet8 unet16 unet32; do \
-	  $(BIN)/python -m lab.held_out --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
+	  $(BIN)/python -m bench.outside --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
 	    --overwrite > /dev/null || exit 1; done; done
 	$(BIN)/python -m lab.outside_summary --json docs/results/outside_sets.json \
 	  --plot docs/results/outside_sets.png --overwrite
@@ -206,7 +206,7 @@ overlap: $(STAMP)
 # adapt is deterministic at one thread count, so they should agree): about 10 min each on 2 cores.
 adapt-runs: $(STAMP)
 	mkdir -p docs/results/adapt
-	for r in 1 2 3; do $(BIN)/python -m lab.held_out --data $(DATA) --adapt \
+	for r in 1 2 3; do $(BIN)/python -m bench.outside --data $(DATA) --adapt \
 	  --json docs/results/adapt/run-$$r.json --overwrite > /dev/null || exit 1; done
 
 eval-generalization: $(STAMP)

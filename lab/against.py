@@ -1,6 +1,6 @@
 """Benchmark: ``d2sr recover --repair all`` from outside the process, this checkout against another commit, in one
 run: the worst case for speed (real 640x480 L515 frames, every one corrupted by the outside interference
-of ``held_out.py``, so both passes run on every frame); ``--flagged``: without ``--repair all`` (the detector runs,
+of ``bench.outside``, so both passes run on every frame); ``--flagged``: without ``--repair all`` (the detector runs,
 and repairs what it flags); ``--model``: another recovery model than the default. Runs alternate between
 the two trees so that a shared, noisy machine slows both alike; per tree, the median over ``--runs`` of
 (60 frames - 10 frames) / 50 is the time a frame takes without start-up. Also checks that both write the
@@ -24,9 +24,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import worst_case
 
 from d2sr.atomic import write_result
-from lab.held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
 
@@ -101,7 +101,7 @@ def main() -> None:
     rate = {name: fps(secs[(name, 60)], secs[(name, 10)]) for name in trees}
     result = {
         "measured": " ".join(["d2sr recover IN", *options, "--depth-scale 4000 --out OUT"]),
-        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
+        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by bench.outside's outside_interference",
         "ref": args.ref,
         "runs": args.runs,
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},

@@ -1,13 +1,13 @@
 """Benchmark: ``d2sr recover --repair all --model auto`` (unet8-temporal where the last clean frame lines up with the
 frame, unet8 elsewhere) against each model alone, from outside, on two sequences:
 
-* ``still``: the outside L515 set of ``held_out.py`` (a sensor that held still; every other frame corrupted by
+* ``still``: the outside L515 set of ``bench.outside`` (a sensor that held still; every other frame corrupted by
   interference written apart from the generator);
 * ``moving``: the simulated robot driving among three fixed sensors of ``d2sr eval recovery`` (a held-out
   room), every frame in order, as the robot delivered it.
 
 Per model and sequence: ``d2sr recover --repair all``'s RMSE change, mask F1 and clean pixels changed on the frames
-that differ from their clean version (``held_out.scored``). And do no harm: on the real clean sequences of
+that differ from their clean version (``bench.outside``'s ``scored``). And do no harm: on the real clean sequences of
 ../shared/data (L515 dev0 and dev1, D435), the share of valid pixels ``recover --repair all`` moves by more than
 5 cm, over the sequence and in its worst frame; and every pixel it changes at all (no-return pixels it fills
 included), as a share of the valid-pixel count.
@@ -23,9 +23,10 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.score import d2sr, moved_5cm, scored
+from bench.outside.sets import SETS, every_other, outside_set
 
 from d2sr.atomic import write_result
-from lab.held_out import SETS, d2sr, every_other, moved_5cm, outside_set, scored
 
 MODELS = ("unet8", "unet8-temporal", "auto")
 CLEAN = (("l515/dev0", 4000.0), ("l515/dev1", 4000.0), ("d435", 1000.0))
@@ -47,7 +48,7 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
     ap.add_argument("--mask-logit", type=float, default=None, help="recover's --mask-logit for every model")
-    ap.add_argument("--set", choices=sorted(SETS), default="a", help="held_out.py's outside set for `still`")
+    ap.add_argument("--set", choices=sorted(SETS), default="a", help="bench/outside's outside set for `still`")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)

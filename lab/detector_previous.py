@@ -7,7 +7,7 @@ beside the shipped detector as the runtime scores it now, in process, each seque
   (``contract.agreement`` >= ``LINES_UP``), else the frame alone; a frame not flagged becomes the last clean
   one.
 
-On the open outside sets of ``held_out.py`` (recall and precision, 120 L515 frames, every other corrupted),
+On the open outside sets of ``bench.outside`` (recall and precision, 120 L515 frames, every other corrupted),
 the clean real sequences (L515 dev0 after the person and dev1, D435: false alarms) and the single clean
 frames (Azure Kinect, TUM, Open3D: flagged or not), at threshold 0.5.
 
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from bench.harness import check_output, output_args
+from bench.outside.sets import every_other, open_sets, outside_set
 
 from d2sr.atomic import write_result
 from d2sr.contract.catalog import THRESHOLD, WEIGHTS, padded
@@ -32,7 +33,6 @@ from d2sr.errors import D2SRError
 from d2sr.eval.generalization import real_clean_sets
 from d2sr.frames import open_frames
 from d2sr.models.store import load_model
-from lab.held_out import every_other, open_sets, outside_set
 
 Score = Callable[[list[np.ndarray], float], np.ndarray]
 

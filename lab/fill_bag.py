@@ -23,6 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import used_models
 from rosbags.rosbag2 import Writer
 from rosbags.typesys import Stores, get_typestore
 
@@ -31,7 +32,6 @@ from d2sr.desync import TOTAL_FRAMES
 from d2sr.synth import FillSettings, fill_recording
 from lab.fill_d435 import read
 from lab.fill_eval import PooledError
-from lab.held_out import used_models
 
 FAR_MM = 8000
 DEPTH, COLOUR = "/d435/depth/image_rect_raw", "/d435/color/image_raw"

@@ -20,12 +20,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import used_models
 
 from d2sr.atomic import write_result
 from d2sr.desync import TOTAL_FRAMES
 from d2sr.runtime.pipeline import Pipeline
 from lab.fill_eval import PooledError
-from lab.held_out import used_models
 
 FAR_MM = 8000
 

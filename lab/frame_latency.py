@@ -2,7 +2,7 @@
 machine, with nothing else running: each frame judged (``Pipeline.decide``) and then repaired
 (``Pipeline.finish``) on one thread, as the node does for one frame, one frame at a time, the onnxruntime
 threads the node gives each worker. Real L515 dev1 frames, every one with outside interference
-(``held_out.outside_interference``, a draw of its own each, as ``lab.ros2_loopback --every``); the medians
+(``bench.outside``'s ``outside_interference``, a draw of its own each, as ``lab.ros2_loopback --every``); the medians
 of the flagged frames (those the node repairs) over ``--frames`` after ``--warm`` warm-up frames, and of the
 recovery model's runs alone (``OnnxBackend.raw``: one pass).
 
@@ -20,11 +20,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets_a_i import outside_interference
 
 from d2sr.atomic import write_result
 from d2sr.runtime.pipeline import Pipeline
 from d2sr.runtime.workers import repair_workers
-from lab.held_out import outside_interference
 
 
 def _ms(values: list[float]) -> float:
@@ -78,7 +78,7 @@ def main() -> None:
                 finish.append(t2 - t1)
                 total.append(t2 - t0)
     result = {
-        "data": "L515 dev1 (real captures), every frame with outside interference (lab/held_out.py)",
+        "data": "L515 dev1 (real captures), every frame with outside interference (bench/outside)",
         "frames": args.frames,
         "flagged": len(total),
         "onnxruntime_threads": threads or 1,

@@ -1,6 +1,6 @@
 """Benchmark: the int8 models (``d2sr export --int8``: onnxruntime static quantization, calibrated on
 generated frames) against their fp32 originals on real L515 frames, every other one with the outside
-interference (``held_out``): detector verdicts that differ, the score difference, and the repair's RMSE
+interference (``bench.outside``): detector verdicts that differ, the score difference, and the repair's RMSE
 against the frame before corruption, fp32 beside int8.
 
 Run:  python -m lab.int8_real --data ../shared/data --json docs/results/int8_real.json
@@ -15,11 +15,11 @@ from pathlib import Path
 
 import cv2
 from bench.harness import check_output, output_args
+from bench.outside.sets_a_i import outside_interference
 
 from d2sr.atomic import write_result
 from d2sr.contract.catalog import WEIGHTS, model_files
 from d2sr.models.onnx.quantize import TOLERANCE, agreement, quantize, within_tolerance
-from lab.held_out import outside_interference
 
 
 def main() -> None:
@@ -42,7 +42,7 @@ def main() -> None:
             quantize(folder / f"{name}.onnx")
         got = agreement(folder, frames, 4000.0)
     result = {
-        "data": f"{len(files)} real L515 dev1 frames, every other with outside interference (held_out.py)",
+        "data": f"{len(files)} real L515 dev1 frames, every other with outside interference (bench/outside)",
         "quantized": "the shipped detector and unet8 (16 generated calibration frames)",
         "agreement": got,
         "tolerance": TOLERANCE,

@@ -1,5 +1,5 @@
 """Benchmark: the library against the command line, on real L515 frames with interference the project's
-generator never made (``held_out.worst_case``: 60 dev1 frames, each corrupted by the outside interference).
+generator never made (``bench.outside``'s ``worst_case``: 60 dev1 frames, each corrupted by the outside interference).
 
 * ``repair``: ``d2sr.repair(frame, depth_scale=4000)`` against ``d2sr recover`` on a one-frame folder (a
   subprocess, the public CLI) for the first ``--frames`` frames: identical depth and mask, uint16 out.
@@ -28,11 +28,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import worst_case
 
 import d2sr
 from d2sr.atomic import write_result
 from d2sr.runtime.loop import PRIME_FRAMES
-from lab.held_out import worst_case
 
 HERE = Path(__file__).resolve().parents[1]
 

@@ -1,6 +1,6 @@
 """Probe (issue 42, do no harm): what ``recover --repair all`` does to clean real L515 frames with and without the
 guard's lone-return rule (``contract.LONE_MAX``): returns moved by more than 5 cm and by more than 30 cm,
-and dropouts filled, on the 120 clean frames of the outside sets (``held_out.outside_set``).
+and dropouts filled, on the 120 clean frames of the outside sets (``bench.outside``'s ``outside_set``).
 
 Run:  python -m lab.lone_returns --data ../shared/data \\
           --json lab/notes/results/lone_returns.json
@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import outside_set, used_models
 
 import d2sr
 from d2sr import contract
 from d2sr.atomic import write_result
-from lab.held_out import outside_set, used_models
 
 
 def probe(frames: list[np.ndarray]) -> dict:

@@ -1,5 +1,5 @@
 """Benchmark: ``d2sr recover --repair all``'s worst case from outside the process (``against.py``'s frames: 640x480
-L515 frames, every one corrupted by ``held_out.py``'s outside interference) for several recover option
+L515 frames, every one corrupted by ``bench.outside``'s outside interference) for several recover option
 sets in one run on one tree, alternating between them so that a shared, noisy machine slows all alike; per
 option set the median over ``--runs`` of (60 frames - 10 frames) / 50 is the time a frame takes without
 start-up. For weighing a model or threshold against the default on the speed bar (30 fps).
@@ -14,10 +14,10 @@ import tempfile
 from pathlib import Path
 
 from bench.harness import check_output, output_args
+from bench.outside.sets import worst_case
 
 from d2sr.atomic import write_result
 from lab.against import HERE, _recover, fps, write_inputs
-from lab.held_out import worst_case
 
 # name: recover's options after --repair all (the default first: the one the others are compared with)
 # (Until 2026-11-26 the default was unet8 and "auto" had its own entry: bench_model_speed_2026-11-26.json.)
@@ -53,7 +53,7 @@ def main() -> None:
     result = {
         "measured": "d2sr recover IN --repair all OPTIONS --depth-scale 4000 --out OUT",
         "options": {name: " ".join(o) for name, o in OPTIONS.items()},
-        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by held_out.outside_interference",
+        "frames": "60 vs 10 L515 dev1 frames, every one corrupted by bench.outside's outside_interference",
         "runs": args.runs,
         "seconds": {f"{name} {n}": [round(s, 3) for s in v] for (name, n), v in secs.items()},
         "fps": rate,

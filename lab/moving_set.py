@@ -2,7 +2,7 @@
 reference (issue 42). The simulator's moving robot (its own L515, people walking), every frame with its
 odometry; about half the frames corrupted.
 
-* ``dev``: rooms of seeds 0-2 corrupted by set G's CW-ToF light (``held_out.tof_interference``), an open
+* ``dev``: rooms of seeds 0-2 corrupted by set G's CW-ToF light (``bench.outside``'s ``tof_interference``), an open
   set: what the reference's tolerance and threshold were chosen on.
 * ``j`` (written and sealed 2026-11-27, before the moving reference ran on it; its rule is in
   lab/notes/decisions.md): rooms of seeds 100-103, never rendered before, corrupted by
@@ -40,7 +40,7 @@ class Shot:
 
 def sequences(which: str) -> Iterator[list[Shot]]:
     """Each room's sequence of the robot's frames, in time order."""
-    from lab.held_out import tof_interference
+    from bench.outside.sets_a_i import tof_interference
 
     for seed in SEEDS[which]:
         rig = make_rig(seed, sensors=1, moving_robot=True)

@@ -3,7 +3,7 @@ repaired pixels, the masks and the CSV of scores, per input. Run it with two tre
 the same hashes mean the same outputs, bit for bit (issue 64's bar for a redesign that changes no output).
 ``--src OTHER/src``: the commands run on that tree's d2sr (the inputs are made with this one's).
 
-Inputs: the first 60 L515 dev1 frames each corrupted by the outside interference (``held_out.worst_case``),
+Inputs: the first 60 L515 dev1 frames each corrupted by the outside interference (``bench.outside``'s ``worst_case``),
 every other frame of outside sets G and D (120 frames each), the first 80 L515 dev0 frames, and the Kinect
 v2's interfered frames (``kinect2_multicam/cam0/interf``, 1000 units per metre).
 
@@ -21,8 +21,7 @@ import tempfile
 from pathlib import Path
 
 import cv2
-
-from lab.held_out import every_other, outside_set, worst_case
+from bench.outside.sets import every_other, outside_set, worst_case
 
 
 def _inputs(data: Path, root: Path) -> dict[str, tuple[Path, float]]:

@@ -1,5 +1,5 @@
-"""Summary: the shipped models on every open outside set of ``held_out.py``, per recover setting, with the
-worst set and the mean beside them, from the committed ``lab/held_out.py`` results (it runs no model):
+"""Summary: the shipped models on every open outside set of ``bench.outside``, per recover setting, with the
+worst set and the mean beside them, from the committed ``bench/outside`` results (it runs no model):
 detector recall and precision, ``recover --repair all`` RMSE change, mask F1 and clean pixels changed; as a table
 (printed, Markdown) and a plot (``--plot``) with issue 13's bars.
 
@@ -14,14 +14,14 @@ import json
 from pathlib import Path
 
 from bench.harness import check_output, output_args
+from bench.outside.sets import open_sets
 from tools.results import OUTSIDE
 
 from d2sr.atomic import write_result
 from d2sr.eval.plots import plt, save  # Agg, set there
-from lab.held_out import open_sets
 
 ROOT = Path(__file__).resolve().parent.parent
-# recover setting: the suffix of its held_out.py result files (``make outside``: outside/SET-SUFFIX.json).
+# recover setting: the suffix of its bench/outside result files (``make outside``: outside/SET-SUFFIX.json).
 SETTINGS = {
     "default (auto)": "auto",
     "--model unet8": "unet8",
@@ -44,7 +44,7 @@ def gather(sets: list[str]) -> dict:
         for which in sets:
             path = _file(which, suffix)
             if not path.is_file():
-                raise SystemExit(f"{path}: missing; lab/held_out.py --set {which} writes it")
+                raise SystemExit(f"{path}: missing; bench/outside --set {which} writes it")
             l515 = json.loads(path.read_text())["l515"]
             rows[f"set {which}"] = {k: l515[k] for k in FIGURES}
         worst = {
@@ -107,7 +107,7 @@ def main() -> None:
         plot(summary, args.plot)
     sources = [OUTSIDE.format(set=w, setting=x) for w in sets for x in SETTINGS.values()]
     result = {"bars": BARS, "settings": summary, "sources": sources}
-    print(write_result(result, args.json, data="every open outside set of lab/held_out.py (see sources)"))
+    print(write_result(result, args.json, data="every open outside set of bench/outside (see sources)"))
 
 
 if __name__ == "__main__":

@@ -35,10 +35,10 @@ from typing import Any
 
 import onnxruntime as ort
 from bench.harness import check_output, output_args
+from bench.outside.sets import OUTSIDE_CAMERAS, outside_set, used_models
 
 from d2sr.atomic import write_result
 from d2sr.runtime.pipeline import Pipeline
-from lab.held_out import OUTSIDE_CAMERAS, outside_set, used_models
 
 
 def _sessions(obj: Any, seen: set[int] | None = None) -> list[Any]:

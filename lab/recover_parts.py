@@ -1,5 +1,5 @@
 """Benchmark: where the time of ``recover --repair all``'s worst case goes, per frame and in process. The same 60
-real L515 frames as ``against.py`` (each corrupted by ``held_out.py``'s outside interference, so both passes
+real L515 frames as ``against.py`` (each corrupted by ``bench.outside``'s outside interference, so both passes
 run on every frame), through the steps ``SensorLoop.process`` takes with the shipped unet8 on onnxruntime:
 scale to metres, pass 1, its guard, the filled frame, pass 2, the final guard and write-back. Medians over
 ``--runs`` sweeps of the frames (the first sweep is a warm-up). Reading and writing PNGs are left out.
@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import worst_case
 
 from d2sr.atomic import write_result
 from d2sr.contract.catalog import padded
 from d2sr.contract.repair import guard, repair_frame
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
-from lab.held_out import worst_case
 
 PARTS = ("metres", "pass 1", "guard 1", "fill", "pass 2", "guard 2 + write-back")
 
@@ -63,7 +63,7 @@ def main() -> None:
     med = {k: round(statistics.median(v), 2) for k, v in ms.items()}
     result = {
         "benchmark": "recover --repair all worst case, per frame, in process (no PNG reading or writing)",
-        "frames": "60 L515 dev1 frames, every one corrupted by held_out.outside_interference",
+        "frames": "60 L515 dev1 frames, every one corrupted by bench.outside's outside_interference",
         "model": "unet8 (onnxruntime)",
         "runs": args.runs,
         "median_ms": med,

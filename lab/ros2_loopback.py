@@ -2,7 +2,7 @@
 IDL (tools/ros2_peer.py), on one ROS_DOMAIN_ID picked at random.
 
 * ``bar``: the peer publishes ``--frames`` (40) real L515 dev1 frames at 10 Hz on
-  /camera/depth/image_rect_raw, every other one corrupted by the outside interference (``held_out``), the
+  /camera/depth/image_rect_raw, every other one corrupted by the outside interference (``bench.outside``), the
   project's generator never made; counts what comes back on /repaired and /mask with the stamps kept, the
   RMSE of the corrupted frames before and after (against the frame before corruption, over its returns),
   and the node's exit code on SIGINT.
@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets_a_i import outside_interference
 from tools import ros2_peer
 
 from d2sr.atomic import write_result
 from d2sr.jobs.stats import median_p99_ms
-from lab.held_out import outside_interference
 
 TOPIC = "/camera/depth/image_rect_raw"
 EXTRA: list[str] = []  # the node's own options (--passes, --model, --models)
@@ -145,7 +145,7 @@ def main() -> None:
     if args.models is not None:
         EXTRA.extend(["--models", str(args.models)])
     result: dict = {
-        "data": "L515 dev1 (real captures), every other frame with outside interference (lab/held_out.py)",
+        "data": "L515 dev1 (real captures), every other frame with outside interference (bench/outside)",
     }
     rng = random.Random()
     # The bar: 40 real frames at 10 Hz.

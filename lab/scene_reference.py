@@ -10,7 +10,7 @@ Sequences:
 
 * clean: L515 dev0 (a person walks through its first frames) and dev1, whole; the hand-held D435 (a moving
   sensor: the reference keeps starting again);
-* outside sets A-F of ``held_out.py`` (real L515 frames, every other one corrupted), each view a sequence of
+* outside sets A-F of ``bench.outside`` (real L515 frames, every other one corrupted), each view a sequence of
   60 frames starting cold (no scene known).
 
 The reference's cost per frame (evidence and update, median) is timed on the still and the moving sensor.
@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import clean_sequences, every_other, open_sets, outside_set, set_data
 
 from d2sr.atomic import write_result
 from d2sr.contract.catalog import DETECTOR
@@ -36,7 +37,6 @@ from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import PRIME_FRAMES, RunSettings
 from d2sr.scene import SceneReference, SceneSettings
-from lab.held_out import clean_sequences, every_other, open_sets, outside_set, set_data
 
 EVIDENT, QUIET = SceneSettings().evident, SceneSettings().quiet
 

@@ -1,7 +1,7 @@
 """Benchmark (issue 42): the scene's repair where frames are judged. ``d2sr.Pipeline`` as shipped (the scene
 on, flagged frames repaired) with the scene's repair off and on (``SensorLoop.scene_repair``: where a
 flagged frame deviates freshly from a still scene that is trusted there, the scene's own depth), per set of
-``held_out.py``:
+``bench.outside``:
 
 * both L515 views of the outside set, each a cold sequence of 60 frames, the 120 frames corrupted as one
   sequence (seeds 0-119, as ``lab/scene_reference.py`` does): RMSE change over the corrupted frames,
@@ -67,16 +67,10 @@ from typing import Any
 
 import numpy as np
 from bench.harness import check_output, output_args
-
-from d2sr.atomic import write_result
-from d2sr.contract.catalog import AUTO_RECOVERY
-from d2sr.errors import D2SRError
-from d2sr.runtime.pipeline import Pipeline, Repaired
-from d2sr.runtime.settings import PRIME_FRAMES
-from lab.held_out import (
+from bench.outside.draw import KINDS
+from bench.outside.sets import (
     BEFORE_Z,
     JUDGED,
-    KINDS,
     SEALED,
     SETS,
     clean_sequences,
@@ -86,6 +80,12 @@ from lab.held_out import (
     set_data,
     used_models,
 )
+
+from d2sr.atomic import write_result
+from d2sr.contract.catalog import AUTO_RECOVERY
+from d2sr.errors import D2SRError
+from d2sr.runtime.pipeline import Pipeline, Repaired
+from d2sr.runtime.settings import PRIME_FRAMES
 
 # The scene's rates the modes below name (SceneSettings.range_rate and trust_rate since issue 64).
 RANGE_RATE, TRUST_RATE = 0.5, 0.9
@@ -450,7 +450,7 @@ def main() -> None:
     if args.what == "recording":
         result["l515_mean_worst"] = mean_worst(result["sets"])
     data = {
-        "sets": f"sets {', '.join(w.upper() for w in sets)} of lab/held_out.py, every other frame",
+        "sets": f"sets {', '.join(w.upper() for w in sets)} of bench/outside, every other frame",
         "frames": "120 real L515 frames (dev0 after the person has left, dev1) and the hand-held D435 (193)",
     }
     print(write_result(result, args.json, models=used_models(AUTO_RECOVERY), data=data))

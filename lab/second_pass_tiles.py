@@ -1,5 +1,5 @@
 """Probe (issue 44): would a second repair pass over only the tiles the first pass touched pay? On the worst
-case's frames (``held_out.worst_case``: 60 real L515 frames, every one corrupted), the share of the frame
+case's frames (``bench.outside``'s ``worst_case``: 60 real L515 frames, every one corrupted), the share of the frame
 that 32x32 tiles within ``--margin`` pixels of the first pass's guarded repair cover (``contract.refill``'s
 ``keep``, what the second pass sees changed). The second pass would run on those tiles plus the model's
 reach around them.
@@ -16,6 +16,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import worst_case
 
 from d2sr.atomic import write_result
 from d2sr.contract.catalog import padded
@@ -23,7 +24,6 @@ from d2sr.contract.repair import refill
 from d2sr.frames.base import to_metres
 from d2sr.runtime.backends import open_backend
 from d2sr.runtime.settings import RunSettings
-from lab.held_out import worst_case
 
 TILE = 32
 
@@ -63,7 +63,7 @@ def main() -> None:
             "min": round(float(np.min(tiles)), 3),
         },
     }
-    data = f"{args.data}/l515/dev1 (60 real frames with held_out.outside_interference)"
+    data = f"{args.data}/l515/dev1 (60 real frames with bench.outside's outside_interference)"
     print(write_result(result, args.json, models=["unet8"], data=data))
 
 

@@ -25,10 +25,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import OUTSIDE_CAMERAS, SETS, every_other, outside_set
 
 from d2sr.atomic import write_result
 from d2sr.scene.stats import stack_stats
-from lab.held_out import OUTSIDE_CAMERAS, SETS, every_other, outside_set
 
 SCALE = 4000.0
 REFERENCE = 16  # clean frames in the reference

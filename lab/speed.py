@@ -7,7 +7,7 @@
   sensor that has run a while: each whole L515 sequence, timed after its first 60 frames (the scene's
   start-up, and dev0's walking person).
 * Worst case: ``d2sr recover --repair all`` from outside the process on 60 real L515 frames, every one corrupted
-  by interference the project's generator does not make (``held_out.worst_case``), against the floor any
+  by interference the project's generator does not make (``bench.outside``'s ``worst_case``), against the floor any
   whole-process tool pays: the same PNGs read and written by OpenCV alone. Bar: at most 1.5x the floor.
 
 Run:  python -m lab.speed --data ../shared/data --json docs/results/bench_speed.json
@@ -19,11 +19,11 @@ import argparse
 from pathlib import Path
 
 from bench.harness import check_output, output_args
+from bench.outside.sets import OUTSIDE_CAMERAS, outside_set, used_models, worst_case
 
 from d2sr.atomic import write_result
 from d2sr.eval.speed import bench_typical, bench_worst
 from d2sr.frames import open_frames
-from lab.held_out import OUTSIDE_CAMERAS, outside_set, used_models, worst_case
 
 
 def main() -> None:

@@ -4,7 +4,7 @@ do not include: dev0 from its frames 120 on (the person has left), dev1 from its
 ``scene_from`` (no priming, as ``d2sr detect --scene-from`` runs):
 
 * clean: dev0 frames 0-119 (a person walks through its first frames) and dev1 frames 0-59: frames flagged;
-* the outside sets A-I (``held_out.every_other`` on dev0 60-119 and dev1 0-59): precision and recall, mean
+* the outside sets A-I (``bench.outside``'s ``every_other`` on dev0 60-119 and dev1 0-59): precision and recall, mean
   and worst, beside the primed scene's in the same run; with ``--repair``, also the repair as ``d2sr
   recover`` ships it (flagged frames): the corrupted frames' RMSE change against the clean frame over its
   returns, frames made worse, and the share of uncorrupted pixels changed.
@@ -21,6 +21,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench.harness import check_output, output_args
+from bench.outside.sets import every_other, open_sets
 
 from d2sr.atomic import write_result
 from d2sr.desync import make_controller
@@ -30,7 +31,6 @@ from d2sr.runtime.backends import Backend, open_backend
 from d2sr.runtime.loop import Capture, SensorLoop
 from d2sr.runtime.settings import RunSettings
 from d2sr.scene.stored import learn_scene
-from lab.held_out import every_other, open_sets
 
 SCALE = 4000.0
 # (view, frames judged, frames the stored scene is learned from): disjoint.

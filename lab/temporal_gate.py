@@ -5,7 +5,7 @@ For each interfered frame: the share of pixels returning in both the frame and i
 agree within 5 cm + 2% of depth (``contract.agreement``, what ``--model auto`` gates on; 0 when there is no
 last clean frame), and the squared error of unet8's and of unet8-temporal's repair (as ``recover`` writes
 it). Then, per gate, the RMSE change of the mix that takes the temporal repair where agreement >= gate.
-Two sets: the outside L515 set of ``held_out.py`` (a still sensor; last clean frame = the frame before) and
+Two sets: the outside L515 set of ``bench.outside`` (a still sensor; last clean frame = the frame before) and
 the simulated moving robot of ``d2sr eval recovery`` (its first 60 interfered frames; the true last clean
 frame, or none).
 
@@ -40,11 +40,14 @@ def main() -> None:
     args = ap.parse_args()
     check_output(ap, args)
 
+    from bench.outside.draw import SEED
+    from bench.outside.sets import outside_set
+    from bench.outside.sets_a_i import outside_interference
+
     from d2sr.contract.catalog import WEIGHTS
     from d2sr.contract.repair import repair_frame
     from d2sr.eval.models import moving_set
     from d2sr.models.inference import TorchBackend
-    from lab.held_out import SEED, outside_interference, outside_set
 
     nets = {m: TorchBackend(None, WEIGHTS / f"{m}.safetensors") for m in ("unet8", "unet8-temporal")}
 

@@ -129,6 +129,7 @@ def test_a_result_made_before_its_script_changed_is_listed_as_stale():
     assert results._script_of("python -m lab.kinect2_cam0 --data x", results.ROOT).name == "kinect2_cam0.py"
     assert results._script_of("python bench/models.py --json x", results.ROOT).name == "models.py"
     assert results._script_of("d2sr eval recovery --real x", results.ROOT) is None
+    assert results._script_of("python -m bench.outside --set a", results.ROOT).name == "outside"  # a package
     listed = results.stale(only=["docs/results/kinect2_cam0.json", "docs/results/ros2_loopback.json"])
     # made at 1e3e99f, after lab/kinect2_cam0.py last changed: not listed; ros2_loopback.json was made
     # before lab/ros2_loopback.py took --model: listed

@@ -73,10 +73,13 @@ def untraceable(root: Path = ROOT) -> tuple[list[str], int]:
 
 
 def _script_of(command: str, root: Path) -> Path | None:
-    """The lab, bench or tools script a result's command ran (``python -m lab.x``, ``python bench/x.py``)."""
-    m = re.search(r"python3? (?:-m ((?:lab|bench|tools)\.\w+)|((?:lab|bench|tools)/\w+\.py))", command)
+    """The lab, bench or tools script a result's command ran (``python -m lab.x``, ``python bench/x.py``), or
+    the package (``python -m bench.outside``)."""
+    m = re.search(r"python3? (?:-m ((?:lab|bench|tools)(?:\.\w+)+)|((?:lab|bench|tools)/\w+\.py))", command)
     if m is None:
         return None
+    if m.group(1) and (root / m.group(1).replace(".", "/") / "__main__.py").is_file():
+        return root / m.group(1).replace(".", "/")  # a package run with -m: its whole folder
     rel = m.group(1).replace(".", "/") + ".py" if m.group(1) else m.group(2)
     return root / rel if (root / rel).is_file() else None
 

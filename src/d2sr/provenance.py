@@ -98,20 +98,17 @@ def command_line(argv: Sequence[str] | None = None) -> str:
     if not argv:
         return ""
     head, rest = argv[0], argv[1:]
-    name = Path(head).name
-    if name in ("d2sr", "__main__.py") or head in ("-m", "-c"):
-        words = ["d2sr", *rest]
-    else:
-        words = ["python", head, *rest]
-        with contextlib.suppress(ValueError):
-            rel = Path(head).resolve().relative_to(ROOT)
-            packaged = len(rel.parts) > 1 and (ROOT / rel.parts[0] / "__init__.py").is_file()
-            words = (
-                ["python", "-m", ".".join(rel.with_suffix("").parts), *rest]
-                if packaged
-                else ["python", str(rel), *rest]
-            )
-    return shlex.join(words)
+    rel = None
+    with contextlib.suppress(ValueError):
+        rel = Path(head).resolve().relative_to(ROOT)
+    # A module of a package in the checkout (``lab``, ``bench.outside``; not d2sr's own, under ``src``); a
+    # package's ``__main__`` is the package.
+    if rel is not None and rel.parts[0] != "src" and (ROOT / rel.parent / "__init__.py").is_file():
+        parts = rel.with_suffix("").parts
+        return shlex.join(["python", "-m", ".".join(parts[:-1] if parts[-1] == "__main__" else parts), *rest])
+    if Path(head).name in ("d2sr", "__main__.py") or head in ("-m", "-c"):
+        return shlex.join(["d2sr", *rest])
+    return shlex.join(["python", str(rel) if rel is not None else head, *rest])
 
 
 def _sha256(path: Path) -> str:

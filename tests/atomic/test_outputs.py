@@ -244,7 +244,10 @@ def test_a_result_records_the_run_that_made_it(tmp_path):
     assert command_line(["bench/x.py", "--json", "r j.json"]) == "python bench/x.py --json 'r j.json'"
     assert command_line([".venv/bin/d2sr", "eval", "labels"]) == "d2sr eval labels"
     # a module of the lab, run with -m from the checkout: typed again the same way
-    assert command_line([str(ROOT / "lab" / "held_out.py"), "--set", "a"]) == "python -m lab.held_out --set a"
+    lab = [str(ROOT / "lab" / "kinect2_cam0.py"), "--x", "a"]
+    assert command_line(lab) == "python -m lab.kinect2_cam0 --x a"
+    outside = [str(ROOT / "bench" / "outside" / "__main__.py"), "--set", "a"]
+    assert command_line(outside) == "python -m bench.outside --set a"  # a package's __main__: the package
     out = tmp_path / "r.json"
     write_result({"figure": 1.5}, out, models=["unet8", "no-such-model"], data={"set": "x"})
     got = json.loads(out.read_text())

@@ -162,7 +162,7 @@ def test_int8_stays_experimental_while_it_misses_its_tolerance_against_fp32(int8
     assert not within_tolerance(got), got
     if REAL_L515.is_dir():
         import cv2
-        from lab.held_out import outside_interference  # the outside set A interference
+        from bench.outside.sets_a_i import outside_interference  # the outside set A interference
 
         files = sorted(REAL_L515.glob("*.png"))[:20]
         real = []
