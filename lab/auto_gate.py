@@ -48,7 +48,9 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--models", type=Path, default=None, help="a model folder (default: the shipped models)")
     ap.add_argument("--mask-logit", type=float, default=None, help="recover's --mask-logit for every model")
-    ap.add_argument("--set", choices=sorted(SETS), default="a", help="bench/outside's outside set for `still`")
+    ap.add_argument(
+        "--set", choices=sorted(SETS), default="a", help="bench/outside's outside set for `still`"
+    )
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
