@@ -79,7 +79,6 @@ class Entry:
 CATALOG: dict[str, Entry] = {
     "detector": Entry("detector", True, "ours; the shipped file is the two-frame (temporal) architecture"),
     "detector-temporal": Entry("detector", False, "ours, also weighs the sensor's previous frame"),
-    "detector8-temporal": Entry("detector", False, "ours at half the resolution (in training; not shipped)"),
     "paper-detector": Entry("detector", True, "the paper's detector"),
     MASK_DETECTOR: Entry("detector", False, "d2sr adapt's: its unet8's mask, thresholded"),
     "unet8": Entry("recovery", True, "ours, 8 channels (the single-frame default)"),

@@ -41,24 +41,19 @@ class FastDetector(nn.Module):
 
     stride = 32
 
-    def __init__(self, width: int = 24, frames: int = 1, stem: int = 4) -> None:
+    def __init__(self, width: int = 24, frames: int = 1) -> None:
         super().__init__()
         w = width
         self.frames = frames
         act = nn.LeakyReLU(0.1)
-        # A stem of 8 does the three convolutions at half the resolution (a quarter of their work); the
-        # last one then keeps its resolution, so the whole stride stays 32.
-        last = 2 if stem == 4 else 1
-        if stem not in (4, 8):
-            raise ValueError(f"stem must be 4 or 8, got {stem}")
         self.body = nn.Sequential(
-            nn.Conv2d(2 * frames, w, stem, stride=stem),
+            nn.Conv2d(2 * frames, w, 4, stride=4),
             act,
             nn.Conv2d(w, 2 * w, 3, stride=2, padding=1),
             act,
             nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1),
             act,
-            nn.Conv2d(2 * w, 4 * w, 3, stride=last, padding=1),
+            nn.Conv2d(2 * w, 4 * w, 3, stride=2, padding=1),
             act,
         )
         self.head = nn.Linear(8 * w, 1)

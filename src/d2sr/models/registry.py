@@ -17,7 +17,6 @@ __all__ = ["MODELS", "build", "check_input_size", "describe", "own_passes"]
 MODELS: dict[str, Callable[[], nn.Module]] = {
     "detector": FastDetector,
     "detector-temporal": lambda: FastDetector(frames=2),
-    "detector8-temporal": lambda: FastDetector(frames=2, stem=8),
     "paper-detector": PaperDetector,
     # Ours: space-to-depth stem and a depth head that corrects a fill (see unet.py). The paper's layout is
     # kept as the paper-* reference variants.
