@@ -21,8 +21,10 @@ def pytest_unconfigure(config) -> None:
     """Leave with the suite's verdict, without the interpreter's teardown. Native libraries this suite loads
     in-process (onnxruntime, librealsense's software device, Cyclone DDS, torch) keep threads of their own,
     and once in four full runs here one aborted that teardown after every test had passed ("terminate
-    called without an active exception", exit 134). The verdict is in by then."""
-    if _VERDICT and not hasattr(config, "workerinput"):  # an xdist worker leaves as xdist says
+    called without an active exception", exit 134). The verdict is in by then. Not under mutmut, which runs
+    the suite in its own process and goes on after it (``make mutation``)."""
+    # an xdist worker leaves as xdist says
+    if _VERDICT and not hasattr(config, "workerinput") and "mutmut" not in sys.modules:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(_VERDICT[0])
