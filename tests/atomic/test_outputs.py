@@ -269,3 +269,36 @@ def test_a_folder_manifest_records_the_run_that_made_it(tmp_path):
         (tmp / "a.txt").write_text("x")
     got = json.loads((tmp_path / "o" / MANIFEST).read_text())
     assert got["files"] == ["a.txt"] and got["command"] and got["commit"] and got["version"]
+
+
+def _ended_pid() -> int:
+    """The pid of a process that has run and ended (reaped)."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+def test_tidy_removes_only_the_temporaries_of_ended_runs(tmp_path):
+    from d2sr.atomic.naming import MARK, alive, ours
+    from d2sr.atomic.placing import tidy
+
+    out = tmp_path / "out.csv"
+    dead, me = _ended_pid(), os.getpid()
+    gone = tmp_path / f".out.csv.{MARK}-{dead}-ab12.tmp"  # a file a killed run was writing
+    gone_dir = tmp_path / f".out.csv.{MARK}-{dead}-cd34.tmp"  # a folder it was writing
+    live = tmp_path / f".out.csv.{MARK}-{me}-ef56.tmp"  # this run's own, still being written
+    other = tmp_path / f".out.csv.{MARK}-{dead}-0a0b.bak"  # not a kind d2sr removes
+    theirs = tmp_path / ".out.csv.notes.tmp"  # a user's file of a similar name
+    for f in (gone, live, other, theirs):
+        f.write_text("x")
+    gone_dir.mkdir()
+    (gone_dir / "0.png").write_text("x")
+    assert ours(gone) == ("tmp", dead) and ours(other) is None and ours(theirs) is None
+    assert ours(tmp_path / f".out.csv.{MARK}-{dead}-ab12.old", ("tmp", "old")) == ("old", dead)
+    assert alive(me) and not alive(dead) and not alive(2**40)  # a pid no process can have
+    tidy(out)
+    assert not gone.exists() and not gone_dir.exists()
+    assert live.read_text() == other.read_text() == theirs.read_text() == "x"

@@ -133,3 +133,14 @@ def test_repair_sums_score_rmse_f1_and_clean_pixels_changed():
     moved[7, 7] = 2.5  # a clean pixel moved 50 cm
     harm.add(moved, hit.copy(), x, clean, hit)
     assert harm.result()["clean_changed"] == pytest.approx(1 / 48)
+
+
+def test_agreement_is_the_share_of_pixels_returning_in_both_that_agree():
+    now = np.full((4, 4), 0.5, np.float32)
+    before = now.copy()
+    now[0, :] = 0  # no return now: not counted, whatever the frame before read
+    before[1, :] = 0.9  # 40 cm off: counted, and not agreeing
+    assert agreement(now, before) == pytest.approx(8 / 12)
+    assert agreement(now, None) == 0.0 and agreement(np.zeros_like(now), before) == 0.0
+    with pytest.raises(InputError, match=r"\(2, 2\).*\(4, 4\)"):
+        agreement(now, before[:2, :2])
