@@ -302,3 +302,19 @@ def test_tidy_removes_only_the_temporaries_of_ended_runs(tmp_path):
     tidy(out)
     assert not gone.exists() and not gone_dir.exists()
     assert live.read_text() == other.read_text() == theirs.read_text() == "x"
+
+
+def test_discarding_a_temporary_never_raises_so_the_first_error_is_the_one_reported(tmp_path, monkeypatch):
+    from d2sr.atomic.placing import discard
+
+    discard(tmp_path / "never-made")  # a write that failed before its temporary existed
+    folder = tmp_path / ".out.d2sr-1-ab.tmp"
+    folder.mkdir()
+    (folder / "0.png").write_text("x")
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise PermissionError("busy")
+
+    monkeypatch.setattr(os, "rmdir", refuse)
+    discard(folder)  # what cannot go stays; the caller re-raises its own error, not this one
+    assert folder.is_dir()
