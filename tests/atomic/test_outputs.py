@@ -318,3 +318,36 @@ def test_discarding_a_temporary_never_raises_so_the_first_error_is_the_one_repor
     monkeypatch.setattr(os, "rmdir", refuse)
     discard(folder)  # what cannot go stays; the caller re-raises its own error, not this one
     assert folder.is_dir()
+
+
+class _Planted:
+    """Unpickling this touches a file: the sign that a reader ran code found in an input."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[object, tuple[Path]]:
+        return Path.touch, (self.marker,)
+
+
+def test_a_stored_scene_is_told_as_d2sr_s_by_a_small_meta_read_as_data(tmp_path):
+    from d2sr.atomic.naming import made_by_d2sr
+
+    def npz(name: str, meta: object) -> Path:
+        path = tmp_path / name
+        with open(path, "wb") as fh:  # np.savez would add .npz to a name without it
+            np.savez(fh, meta=meta)
+        return path
+
+    def text(n: int) -> np.ndarray:
+        head = b'{"format": "d2sr-scene-1", "pad": "'
+        return np.frombuffer(head + b"x" * (n - len(head) - 2) + b'"}', np.uint8)
+
+    header = 128  # the .npy header of a 1-D uint8 member: the member's size is this plus its bytes
+    assert made_by_d2sr(npz("ours.npz", text(1000)))
+    assert made_by_d2sr(npz("largest.npz", text((1 << 16) - header)))  # a member of 64 KiB exactly
+    assert not made_by_d2sr(npz("large.npz", text((1 << 16) - header + 64)))  # larger: not read
+    marker = tmp_path / "ran"
+    planted = np.empty(1, object)
+    planted[0] = _Planted(marker)
+    assert not made_by_d2sr(npz("pickled.npz", planted)) and not marker.exists()  # never unpickled

@@ -205,3 +205,15 @@ def test_a_scene_learned_on_the_fly_still_lets_the_frame_before_explain_a_small_
         hit[40:70, 30:80] -= int(0.04 * SCALE)
         fresh.append(ref.evidence(hit).fresh[40:70, 30:80].mean())
     assert fresh[0] > 0.8 and max(fresh[1:]) < 0.05
+
+
+def test_a_scene_that_does_not_fit_says_what_it_is_and_what_the_frames_are():
+    stored = _learned(3)
+    stored.check_fits((96, 128), SCALE * (1 + 1e-7), "room.npz")  # within the scale's tolerance: fits
+    with pytest.raises(InputError) as size:
+        stored.check_fits((60, 80), SCALE, "room.npz")
+    assert str(size.value) == "room.npz: a scene of 128x96 frames; these frames are 80x60"
+    with pytest.raises(InputError) as scale:
+        stored.check_fits((96, 128), 1000.0, "room.npz")
+    assert str(scale.value) == "room.npz: a scene at depth scale 4000; these frames are at 1000"
+    assert size.value.setting == scale.value.setting == "scene_from"  # the CLI names --scene-from
