@@ -79,7 +79,11 @@ def measure(data: Path, sets: list[str]) -> dict:
                 hit = b != c
                 changed += float((~hit & (fixed != b)).sum())
                 kept += float((~hit).sum())
-                tp, fp, fn = tp + float((m & hit).sum()), fp + float((m & ~hit).sum()), fn + float((~m & hit).sum())
+                tp, fp, fn = (
+                    tp + float((m & hit).sum()),
+                    fp + float((m & ~hit).sum()),
+                    fn + float((~m & hit).sum()),
+                )
                 if not hit.any():
                     continue
                 ok = c > 0
