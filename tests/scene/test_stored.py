@@ -217,3 +217,42 @@ def test_a_scene_that_does_not_fit_says_what_it_is_and_what_the_frames_are():
         stored.check_fits((96, 128), 1000.0, "room.npz")
     assert str(scale.value) == "room.npz: a scene at depth scale 4000; these frames are at 1000"
     assert size.value.setting == scale.value.setting == "scene_from"  # the CLI names --scene-from
+
+
+def test_a_scene_whose_statistics_no_clean_sequence_has_is_refused_and_float_slack_is_not(tmp_path):
+    good = tmp_path / "good.npz"
+    _learned(4).save(good)
+    with np.load(good) as z:
+        arrays = {k: z[k].copy() for k in z.files}
+    seen = np.argwhere(arrays["rate"] > 0)[0]
+    at = (int(seen[0]), int(seen[1]))
+    med = float(arrays["nz_median"][at])
+
+    def with_(name: str, **changed: float) -> object:
+        out = {k: a.copy() for k, a in arrays.items()}
+        for k, v in changed.items():
+            out[k][at] = v
+        path = tmp_path / f"{name}.npz"
+        with open(path, "wb") as fh:
+            np.savez(fh, **out)
+        return StoredScene.load(path)
+
+    with_("slack", lo=med + 5e-5, hi=med - 5e-5)  # float32 rounding between percentiles: taken
+    never = np.argwhere(arrays["rate"] == 0)[0]
+    path = tmp_path / "unseen.npz"
+    unseen = {k: a.copy() for k, a in arrays.items()}
+    unseen["lo"][int(never[0]), int(never[1])] = (
+        1.0  # a pixel that never returned: its percentiles say nothing
+    )
+    with open(path, "wb") as fh:
+        np.savez(fh, **unseen)
+    StoredScene.load(path)
+    for name, change in {
+        "rate": {"rate": 1.5},
+        "negative": {"median": -0.1},
+        "lo": {"lo": med + 0.01},  # its 2nd percentile a centimetre past its median
+        "hi": {"hi": med - 0.01},
+    }.items():
+        with pytest.raises(InputError) as err:
+            with_(name, **change)
+        assert str(err.value) == f"{tmp_path / name}.npz: its statistics are none a clean sequence has", name
