@@ -256,3 +256,34 @@ def test_a_scene_whose_statistics_no_clean_sequence_has_is_refused_and_float_sla
         with pytest.raises(InputError) as err:
             with_(name, **change)
         assert str(err.value) == f"{tmp_path / name}.npz: its statistics are none a clean sequence has", name
+
+
+def _scene_file(path, meta: object, shape: tuple[int, int] = (1, 1), raw: np.ndarray | None = None):
+    arrays = {k: np.zeros(shape, np.float32) for k in ("median", "nz_median", "lo", "hi", "rate", "mean_err")}
+    body = raw if raw is not None else np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    with open(path, "wb") as fh:
+        np.savez(fh, meta=body, **arrays)
+    return path
+
+
+def test_a_scene_s_description_is_checked_field_by_field():
+    import tempfile
+    from pathlib import Path
+
+    good = {"format": "d2sr scene 1", "depth_scale": 4000.0, "frames": 3, "shape": [1, 1], "source": "x"}
+    with tempfile.TemporaryDirectory() as tmp:
+        one = StoredScene.load(_scene_file(Path(tmp) / "one.npz", good))  # a 1x1 scene is a scene
+        assert one.shape == (1, 1) and one.frames == 3
+        nodesc = "not a scene file d2sr wrote (no description of it)"
+        for name, meta, raw, why in (
+            ("list", [good], None, nodesc),
+            ("format", good | {"format": "other 1"}, None, nodesc),
+            ("floats", None, np.zeros(8, np.float32), nodesc),
+            ("twod", None, np.zeros((2, 4), np.uint8), nodesc),
+            ("zero", good | {"shape": [0, 1]}, None, "its description has the wrong types"),
+            ("text", good | {"shape": ["1", 1]}, None, "its description has the wrong types"),
+        ):
+            path = _scene_file(Path(tmp) / f"{name}.npz", meta, raw=raw)
+            with pytest.raises(InputError) as err:
+                StoredScene.load(path)
+            assert str(err.value) == f"{path}: {why}", name

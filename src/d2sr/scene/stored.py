@@ -90,6 +90,8 @@ class StoredScene:
                 # each array is read only once its stored size says it is the scene's: a file cannot make
                 # the reader unpack more than the scene it describes
                 got = {k: _member(z, k, 4 * h * w) for k in _ARRAYS}
+        except InputError:  # the description's own reason (an InputError is a ValueError too)
+            raise
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
             why = type(exc).__name__
             raise InputError(f"{path}: not a scene file d2sr wrote ({why})", "scene_from") from None
