@@ -144,3 +144,17 @@ def test_agreement_is_the_share_of_pixels_returning_in_both_that_agree():
     assert agreement(now, None) == 0.0 and agreement(np.zeros_like(now), before) == 0.0
     with pytest.raises(InputError, match=r"\(2, 2\).*\(4, 4\)"):
         agreement(now, before[:2, :2])
+
+
+@pytest.mark.parametrize(("read", "predicted"), [(8.0, 9.0), (0.5, 0.2)])
+def test_the_guard_s_range_is_the_trusted_returns_never_the_masked_readings(read, predicted):
+    """A patch read far (or near) past the wall and predicted farther still: the clamp is the wall's range,
+    not one the patch's own wrong readings widen."""
+    metres = _wall()
+    mask = np.zeros(metres.shape, bool)
+    mask[10:20, 10:20] = True
+    metres[mask] = read
+    p, keep = guard(metres, np.full(metres.shape, predicted, np.float32), mask)
+    tol = 0.03 + 0.02 * read
+    want = 2.0 + tol if predicted > 2.0 else 2.0 - tol
+    assert keep[mask].all() and np.allclose(p[mask], want, atol=1e-5)
