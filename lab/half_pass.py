@@ -9,7 +9,10 @@ Per set: the RMSE change over the corrupted frames against the clean frame (pool
 pixels the set changed, the share of unchanged pixels the repair changed, frames made worse; and one
 thread's median milliseconds for the model's part (half: the pass and the resize).
 
-Run:  python -m lab.half_pass --data ../shared/data [--sets a,b] [--json out.json]
+``--half-models FOLDER``: the half-resolution pass runs that folder's unet8 (one fine-tuned at half
+resolution, ``lab/half_train.py``), the other two the shipped one.
+
+Run:  python -m lab.half_pass --data ../shared/data [--sets a,b] [--half-models out/half] [--json out.json]
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ def _half(net, metres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return up(logit), up(pred)
 
 
-def _ways(net):
+def _ways(net, half_net):
     cut = net.mask_logit
 
     def two(m):
@@ -53,21 +56,25 @@ def _ways(net):
         return recover_passes(net.raw, m, None, cut, 1)
 
     def half(m):
-        logit, pred = _half(net, m)
-        return pred, logit > cut
+        logit, pred = _half(half_net, m)
+        return pred, logit > half_net.mask_logit
 
     return {"unet8, two passes (as recover)": two, "unet8, one pass": one, "unet8, one pass at half": half}
 
 
-def measure(data: Path, sets: list[str]) -> dict:
+def measure(data: Path, sets: list[str], half_models: Path | None = None) -> dict:
     net = open_backend(RunSettings(backend="onnx", model="unet8", threads=1))
+    half_net = net
+    if half_models is not None:
+        at = RunSettings(backend="onnx", model="unet8", models=half_models, threads=1)
+        half_net = open_backend(at, detector=False)
     clean = outside_set(data)
     out: dict = {}
     times: dict[str, list[float]] = {}
     for which in sets:
         bad = every_other(clean, SCALE, which)
         row = {}
-        for name, run in _ways(net).items():
+        for name, run in _ways(net, half_net).items():
             se0 = se1 = n = worse = changed = kept = tp = fp = fn = 0.0
             for b, c in zip(bad, clean, strict=True):
                 metres = padded((b.astype(np.float32) / np.float32(SCALE))[None])
@@ -106,12 +113,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data"))
     ap.add_argument("--sets", default=",".join(open_sets()), help="outside sets, comma-separated [A-I]")
+    ap.add_argument("--half-models", type=Path, default=None, help="the half pass's unet8 [the shipped]")
     output_args(ap)
     args = ap.parse_args()
     check_output(ap, args)
     result = {"probe": "issue 78: unet8 once at half resolution beside two passes and one at full"}
-    result |= measure(args.data, args.sets.split(","))
-    print(write_result(result, args.json, models=["unet8"]))
+    result |= measure(args.data, args.sets.split(","), args.half_models)
+    models = ["unet8"] + ([str(args.half_models / "unet8.safetensors")] if args.half_models else [])
+    print(write_result(result, args.json, models=models))
 
 
 if __name__ == "__main__":
