@@ -151,9 +151,10 @@ results: $(STAMP)
 verify-results: $(STAMP)
 	$(BIN)/python tools/verify_results.py --data $(DATA)
 
-# Mutation testing (issue 81; not in CI, about an hour on 2 cores): mutmut changes atomic/, contract/repair.py
+# Mutation testing (issue 81; not in CI, 1-2 hours on 2 cores): mutmut changes atomic/, contract/repair.py
 # and scene/stored.py one mutant at a time ([tool.mutmut] in pyproject.toml) and lists the mutants no test
-# caught in out/mutation.txt.
+# caught in out/mutation.txt (mutmut results: survived, and "no tests" for code only the suite's kill tests
+# reach).
 mutation: $(STAMP)
 	$(BIN)/pip install -q "mutmut==3.8.1" -c constraints.txt
 	$(BIN)/mutmut run --max-children 2 || true
