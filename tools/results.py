@@ -78,9 +78,10 @@ def _script_of(command: str, root: Path) -> Path | None:
     m = re.search(r"python3? (?:-m ((?:lab|bench|tools)(?:\.\w+)+)|((?:lab|bench|tools)/\w+\.py))", command)
     if m is None:
         return None
-    if m.group(1) and (root / m.group(1).replace(".", "/") / "__main__.py").is_file():
-        return root / m.group(1).replace(".", "/")  # a package run with -m: its whole folder
-    rel = m.group(1).replace(".", "/") + ".py" if m.group(1) else m.group(2)
+    module = m.group(1).replace(".", "/") if m.group(1) else None
+    if module is not None and (root / module / "__main__.py").is_file():
+        return root / module  # a package run with -m: its whole folder
+    rel = module + ".py" if module is not None else m.group(2)
     return root / rel if (root / rel).is_file() else None
 
 

@@ -14,7 +14,7 @@ import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -28,6 +28,8 @@ from d2sr.runtime.loop import Capture, Decision, Result, SensorLoop, Trigger
 from d2sr.runtime.settings import DesyncSettings, RunSettings
 from d2sr.synth import Filler, Pose, Synthesized
 from d2sr.triggers import Actuator, open_trigger
+
+S = TypeVar("S", DesyncSettings, RunSettings)  # a settings object the library takes, fields over it
 
 __all__ = [
     "Decided",
@@ -117,25 +119,27 @@ def check_types(**arguments: object) -> None:
             raise ConfigError(f"{name} must be a finite number, got {value}", name)
 
 
+def _over(kind: type[S], given: S | None, options: dict[str, Any], name: str) -> S:
+    """``given`` [``kind``'s defaults] with ``options`` (its fields by keyword) over it."""
+    if given is not None and not isinstance(given, kind):
+        raise ConfigError(f"{name} must be {kind.__name__}, got {type(given).__name__}", name)
+    if not options:
+        return given if given is not None else kind()
+    kept = {k: getattr(given, k) for k in given.model_fields_set} if given is not None else {}
+    return kind(**(kept | options))
+
+
 def desync_of(desync: DesyncSettings | None, options: dict[str, Any]) -> DesyncSettings:
     """``desync`` [the defaults] with ``options`` (``DesyncSettings`` fields by keyword) over it."""
-    if desync is not None and not isinstance(desync, DesyncSettings):
-        raise ConfigError(f"desync must be DesyncSettings, got {type(desync).__name__}", "desync")
-    given = {k: getattr(desync, k) for k in DesyncSettings.model_fields} if desync is not None else {}
-    return DesyncSettings(**(given | options))
+    return _over(DesyncSettings, desync, options, "desync")
 
 
 def settings_of(settings: RunSettings | None, options: dict[str, Any]) -> RunSettings:
     """``settings`` [the defaults] with ``options`` (``RunSettings`` fields by keyword) over it."""
-    if settings is not None and not isinstance(settings, RunSettings):
-        raise ConfigError(f"settings must be RunSettings, got {type(settings).__name__}", "settings")
     unknown = sorted(set(options) - set(RunSettings.model_fields))
-    if unknown:
+    if unknown and (settings is None or isinstance(settings, RunSettings)):
         raise ConfigError(f"unknown setting {unknown[0]!r}; settings: {', '.join(RunSettings.model_fields)}")
-    if not options:
-        return settings if settings is not None else RunSettings()
-    given = {k: getattr(settings, k) for k in settings.model_fields_set} if settings is not None else {}
-    return RunSettings(**(given | options))
+    return _over(RunSettings, settings, options, "settings")
 
 
 @functools.lru_cache(maxsize=4)
