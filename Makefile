@@ -84,9 +84,8 @@ weights: $(STAMP)
 	$(BIN)/d2sr train recovery --config configs/unet8-temporal.toml --out runs/unet8-temporal
 	# The shipped unet8 (since 2026-11-26): runs/unet8 trained on with depth-shell patterns (data version 6).
 	$(BIN)/d2sr train recovery --config configs/unet8-shell.toml --out runs/unet8-shell
-	# unet8-fast (issue 78; not shipped yet): one pass, distilled from the shipped unet8 (lab/notes/decisions.md).
+	# unet8-fast (issue 78): one pass, from the shipped unet8 and distilled from its two passes.
 	$(BIN)/d2sr train recovery --config configs/unet8-fast.toml --out runs/unet8-fast
-	$(BIN)/d2sr train recovery --config configs/unet8-fast-stage2.toml --out runs/unet8-fast-stage2
 	# The shipped unet16 (since 2026-11-26): that unet8 widened to unet16 (models.widen), trained on.
 	$(BIN)/d2sr train recovery --config configs/unet16-wide.toml --out runs/unet16-wide
 	# The shipped unet32 (since 2026-11-26): that unet8 widened four times, trained on (lab/notes/decisions.md).

@@ -236,9 +236,11 @@ def test_streaming_backend_follows_its_inputs_not_its_cache(tmp_path):
         OnnxBackend(None, old)
 
 
-def test_exported_unet_folds_pixels_with_a_convolution(tmp_path, monkeypatch):
+def test_exported_unet_folds_pixels_with_space_to_depth(tmp_path):
     # pixel_unshuffle exports as a 6-D Transpose: 2.4 of unet8's 13.5 ms a 640x480 frame in onnxruntime.
+    # The export is SpaceToDepth and a Gather of its channels: bit for bit pixel_unshuffle's values.
     import onnx
+    import onnxruntime as ort
     import torch.nn.functional as F
 
     from d2sr.models.onnx.export import export
@@ -248,10 +250,22 @@ def test_exported_unet_folds_pixels_with_a_convolution(tmp_path, monkeypatch):
     save_model(build("unet8").eval(), "unet8", w, mask_logit=0.0)
     export(w, tmp_path / "unet8.onnx")
     assert "Transpose" not in {n.op_type for n in onnx.load(str(tmp_path / "unet8.onnx")).graph.node}
-    monkeypatch.setattr(torch.onnx, "is_in_onnx_export", lambda: True)  # the exported path, value for value
+
+    class Fold(torch.nn.Module):
+        def __init__(self, s: int, c: int) -> None:
+            super().__init__()
+            self.s, self.c = s, c
+
+        def forward(self, x: torch.Tensor) -> torch.Tensor:
+            return space_to_depth(x, self.s, self.c)
+
     for s, c in ((2, 2), (4, 4)):
         x = torch.rand(2, c, 8 * s, 4 * s)
-        assert torch.equal(space_to_depth(x, s, c), F.pixel_unshuffle(x, s))
+        path = tmp_path / f"fold{s}.onnx"
+        torch.onnx.export(Fold(s, c), (x,), str(path), input_names=["x"], dynamo=False, opset_version=17)
+        session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+        got = session.run(None, {"x": x.numpy()})[0]
+        assert np.array_equal(got, F.pixel_unshuffle(x, s).numpy())
 
 
 def test_every_recovery_model_has_the_paper_composition():

@@ -57,7 +57,7 @@ __all__ = [
 ]
 
 DETECTOR = "detector"
-FAST_RECOVERY = "unet8-fast"  # d2sr.models.onepass: distilled from unet8's two passes into one
+FAST_RECOVERY = "unet8-fast"  # d2sr.models.onepass: unet8 at half resolution, one pass
 MASK_DETECTOR = "mask-detector"  # d2sr adapt's detector: a recovery model's mask (not trained on its own)
 
 

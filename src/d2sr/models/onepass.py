@@ -1,128 +1,171 @@
 """A recovery model built for one pass at the camera's rate (``unet8-fast``).
 
-The same two heads as ``d2sr.models.unet.UNet`` (mask logits; depth as a fill of the trusted returns plus
-a correction), laid out so that almost nothing runs at full resolution:
+unet8's trunk (``d2sr.models.unet.UNet``: four levels, width 8) runs on the grid of 8x8 blocks, a quarter
+of its work at 640x480; the heads still decide every pixel:
 
-- each 8x8 block of pixels is folded into channels (ONNX ``SpaceToDepth``, one cheap kernel) and a 1x1 stem
-  mixes them down to ``width`` channels, so the trunk (three levels) runs at 1/8, 1/16 and 1/32;
-- the heads (``RowHead``) see the trunk's context and, per row of a block, the row's own pixels, and unfold
-  back (``DepthToSpace``): every pixel still decides for itself, with units that see it and its row (a
-  few units shared by a whole block cannot decide per pixel; lab/notes/decisions.md);
-- the fill trusts a return where the mask logit is below 0 (a hard cut: it only feeds the fill, whose
-  gradient is detached anyway) and pushes and pulls from the 1/8 grid, one upsampling to full resolution.
+- the frame's 8x8 blocks are folded into channels once (ONNX ``SpaceToDepth``) and a 1x1 stem gives the
+  trunk every pixel of a block as the 32 channels unet8's first convolution takes; it starts as the
+  selection of each block's (even row, even column) pixels, unet8's 4x4 cells at half resolution, so the
+  model starts as unet8 run at half resolution (the same parameter names);
+- the heads run per 2x2 phase of a block (grouped 1x1 convolutions): each pixel's mask logit and depth
+  correction come from its own phase's 16 pixels and the block's context, unet8's head at half
+  resolution laid four times side by side, narrower;
+- the fill is unet8's push-pull on the half-resolution frame, trusted where that frame's own logits say so,
+  repeated to each 2x2 block; each pixel's correction then moves its own depth.
 
-It is distilled from the two-pass ``unet8`` (``TrainSettings.teacher``), so one pass does what two do.
+Distilled from unet8's two passes (``TrainSettings.teacher``), so one pass does what two do.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from d2sr.contract.catalog import CATALOG, FAST_RECOVERY
-from d2sr.models.detector import features
-from d2sr.models.unet import FILL_LEVELS, _block, pyramid_fill
+from d2sr.errors import InputError
+from d2sr.models.unet import UNet, _block, push_pull, space_to_depth
 
-__all__ = ["OnePassUNet", "RowHead", "block_fill", "fold"]
+__all__ = ["OnePassUNet", "grid_pad", "phase_channels", "repeat2"]
 
-
-def _fold(x: torch.Tensor, s: int) -> torch.Tensor:
-    n, c, h, w = x.shape
-    y = x.reshape(n, c, h // s, s, w // s, s).permute(0, 3, 5, 1, 2, 4)
-    return y.reshape(n, s * s * c, h // s, w // s)
+_B = 8  # pixels a block side: 2 (phases) x 4 (unet8's cell at half resolution)
+_HIDDEN = 64  # units a phase: unet8's head's, so each phase starts as that head
 
 
-class _Fold(torch.autograd.Function):
-    """``_fold`` exported as one ONNX ``SpaceToDepth`` node (the same order), which onnxruntime runs in a
-    fraction of the 6-D transpose torch would export."""
-
-    @staticmethod
-    def forward(ctx: Any, x: torch.Tensor, s: int) -> torch.Tensor:
-        return _fold(x, s)
-
-    @staticmethod
-    def symbolic(g: Any, x: Any, s: int) -> Any:
-        return g.op("SpaceToDepth", x, blocksize_i=s)
+def phase_channels(a: int, b: int) -> list[int]:
+    """The 16 channels of a folded frame (channel ``i * 8 + j``: pixel (i, j) of a block) that hold phase
+    (a, b), in the order unet8's fold of the half-resolution frame lays out its 4x4 cell: ``k * 4 + m`` for
+    the phase's pixel (2k + a, 2m + b)."""
+    return [(2 * k + a) * _B + 2 * m + b for k in range(4) for m in range(4)]
 
 
-def fold(x: torch.Tensor, s: int) -> torch.Tensor:
-    """(N, C, H, W) -> (N, s*s*C, H/s, W/s), channel (i*s + j)*C + c holding channel c at (i, j) of a block
-    (ONNX's order, not ``pixel_unshuffle``'s)."""
-    if torch.onnx.is_in_onnx_export():
-        return _Fold.apply(x, s)
-    return _fold(x, s)
+_PHASES = [(a, b) for a in range(2) for b in range(2)]
+_OWN = [ch for a, b in _PHASES for ch in phase_channels(a, b)]
 
 
-def _bilinear(s: int) -> torch.Tensor:
-    """(s*s, 1, 3, 3): for each pixel (i, j) of a block, the weights of the 3x3 blocks around it that a
-    bilinear upsampling by ``s`` gives it (align_corners=False): an upsampling as a convolution on the
-    block grid, its output already folded."""
-    u = (torch.arange(s, dtype=torch.float32) + 0.5) / s - 0.5  # offset from the block's centre, in blocks
-    w = torch.stack([(-u).clamp(min=0), 1 - u.abs(), u.clamp(min=0)], dim=1)  # (s, 3): left, centre, right
-    return (w[:, None, :, None] * w[None, :, None, :]).reshape(s * s, 1, 3, 3)
+def _unfold_order(part: int) -> list[int]:
+    """For output ``part`` (0: mask logit, 1: correction), the head channels in ``pixel_shuffle``'s order
+    for one channel: pixel (i, j) of a block <- phase (i % 2, j % 2)'s channel ``part * 16 + k * 4 + m``."""
+    return [
+        (2 * (i % 2) + j % 2) * 32 + part * 16 + (i // 2) * 4 + j // 2 for i in range(_B) for j in range(_B)
+    ]
 
 
-def block_fill(depth: torch.Tensor, trust: torch.Tensor, s: int, levels: int) -> torch.Tensor:
-    """Push-pull fill (``d2sr.models.unet.push_pull``) on the grid of ``s`` x ``s`` blocks, folded: ``depth``
-    and ``trust`` are (N, s*s, h, w) as ``fold`` lays out one channel; returns each pixel's fill in the same
-    layout, the block grid's estimate bilinearly upsampled (every pixel's, trusted or not: only masked ones
-    are used)."""
-    est = pyramid_fill((depth * trust).mean(dim=1, keepdim=True), trust.mean(dim=1, keepdim=True), levels)
-    return F.conv2d(F.pad(est, (1, 1, 1, 1), mode="replicate"), _bilinear(s).to(est.dtype))
+_LOGIT, _CORRECTION = _unfold_order(0), _unfold_order(1)
 
 
-class RowHead(nn.Module):
-    """The heads, per row of a block: the row's ``s`` pixels (their depth and return indicator, as ``fold``
-    lays out two channels) and the block's context from the trunk -> each pixel's mask logit and depth
-    correction, in the same order. ``hidden`` units a row: every pixel decides with units that see it and
-    its row, not with a few shared by the whole block."""
+def grid_pad(x: torch.Tensor, multiple: int) -> torch.Tensor:
+    """``x`` with a zero border at the bottom and right up to a multiple of ``multiple``; traced from the
+    input's shape, so one exported file takes every size."""
+    h, w = x.shape[-2], x.shape[-1]
+    return F.pad(x, (0, (multiple - w % multiple) % multiple, 0, (multiple - h % multiple) % multiple))
 
-    def __init__(self, context: int, s: int, hidden: int) -> None:
-        super().__init__()
-        self.context = nn.Conv2d(context, s * hidden, 1)
-        self.own = nn.Conv2d(2 * s * s, s * hidden, 1, groups=s)
-        self.out = nn.Conv2d(s * hidden, 2 * s * s, 1, groups=s)
 
-    def forward(self, h: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
-        return self.out(F.relu(self.context(h) + self.own(x)))
+def repeat2(x: torch.Tensor) -> torch.Tensor:
+    """Each pixel repeated into a 2x2 block (ONNX ``Resize``, nearest)."""
+    return F.interpolate(x, scale_factor=2.0, mode="nearest")
 
 
 class OnePassUNet(nn.Module):
     """Mask logits and depth (metres) of one frame, (N, 1, H, W) each; H and W divisible by ``stride``."""
 
-    levels = 3
-    s2d = 8
+    levels = 4
+    width = 8
+    s2d = _B
     fill = True
     frames = 1
+    stride = 32  # the catalogue's padding; the trunk's own grid is padded inside
     passes = CATALOG[FAST_RECOVERY].passes
+    phases_order: torch.Tensor
+    logit_order: torch.Tensor
+    correction_order: torch.Tensor
 
-    def __init__(self, width: int = 8, hidden: int = 32) -> None:
+    def __init__(self) -> None:
         super().__init__()
-        self.width = width
-        self.stride = self.s2d * 2 ** (self.levels - 1)
-        widths = [width * 2**i for i in range(self.levels)]
-        self.stem = nn.Sequential(nn.Conv2d(2 * self.s2d * self.s2d, width, 1), nn.ReLU(inplace=True))
-        self.down = nn.ModuleList(_block(c, w) for c, w in zip([width, *widths[:-1]], widths, strict=True))
-        self.up = nn.ModuleList(_block(widths[i + 1] + widths[i], widths[i]) for i in range(self.levels - 1))
-        self.head = RowHead(widths[0], self.s2d, hidden)
+        hidden = _HIDDEN
+        widths = [self.width * 2**k for k in range(self.levels)]
+        self.down = nn.ModuleList()
+        # The stem: (depth / 4, return) of every pixel of a block -> the 32 channels unet8's first convolution
+        # takes (a 1x1 convolution: the first 3x3 one over all 128 cost four times the time). It starts as
+        # the selection of phase (0, 0)'s, unet8's input at half resolution (``start_from``).
+        self.stem = nn.Sequential(nn.Conv2d(2 * 64, 2 * 16, 1), nn.ReLU(inplace=True))
+        c = 2 * 16
+        for w in widths:
+            self.down.append(_block(c, w))
+            c = w
+        self.up = nn.ModuleList(_block(widths[k + 1] + widths[k], widths[k]) for k in range(self.levels - 1))
+        n = len(_PHASES)
+        # Per phase: the block's context and the phase's 16 depths (metres; no return reads 0) -> its units
+        # -> its 16 pixels' mask logits and corrections. One grouped convolution each, the context given to
+        # every group (a separate context convolution and sum cost more than the copies).
+        self.hidden = nn.Conv2d(n * (widths[0] + 16), n * hidden, 1, groups=n)
+        self.out = nn.Conv2d(n * hidden, n * 32, 1, groups=n)
+        for name, order in (("phases", _OWN), ("logit", _LOGIT), ("correction", _CORRECTION)):
+            self.register_buffer(f"{name}_order", torch.tensor(order), persistent=False)
+
+    def _trunk(self, x: torch.Tensor) -> torch.Tensor:
+        h, w = x.shape[-2], x.shape[-1]
+        y = grid_pad(x, 2 ** (self.levels - 1))
+        skips = []
+        for k, block in enumerate(self.down):
+            y = block(F.max_pool2d(y, 2) if k else y)
+            skips.append(y)
+        for k in range(self.levels - 2, -1, -1):
+            y = self.up[k](torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skips[k]], dim=1))
+        return y[..., :h, :w]
 
     def forward(self, depth: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        # Channel (i * s2d + j) * 2 + c: feature c (depth / 4, return) of pixel (i, j) of each block; a block
-        # row's pixels are consecutive channels, what the heads' groups take.
-        x = fold(features(depth), self.s2d)
-        d = x[:, 0::2] * 4.0  # depth, channel i * s2d + j: pixel_shuffle's order for one channel
-        h = self.stem(x)
-        skips = []
-        for i, block in enumerate(self.down):
-            h = block(F.max_pool2d(h, 2) if i else h)
-            skips.append(h)
-        for i in range(self.levels - 2, -1, -1):
-            h = self.up[i](torch.cat([F.interpolate(h, scale_factor=2.0, mode="nearest"), skips[i]], dim=1))
-        out = self.head(h, x)
-        logit, correction = out[:, 0::2], out[:, 1::2]
-        trust = ((d > 0) & (logit.detach() < 0)).to(d.dtype)
-        pred = block_fill(d, trust, self.s2d, FILL_LEVELS - (self.s2d.bit_length() - 1)) + 4.0 * correction
-        return F.pixel_shuffle(logit, self.s2d), F.pixel_shuffle(pred, self.s2d)
+        h, w = depth.shape[-2], depth.shape[-1]
+        x = space_to_depth(depth[:, :1], _B, 1)  # (N, 64, H / 8, W / 8)
+        own = x.index_select(1, self.phases_order)  # phase by phase; phase (0, 0) first
+        first, rest = own[:, :16], own[:, 16:]
+        returns = (own > 0).to(own.dtype)
+        features = torch.cat([first * 0.25, returns[:, :16], rest * 0.25, returns[:, 16:]], dim=1)
+        ctx = self._trunk(self.stem(features))
+        groups = [t for k in range(len(_PHASES)) for t in (ctx, own[:, 16 * k : 16 * (k + 1)])]
+        out = self.out(F.relu(self.hidden(torch.cat(groups, dim=1))))
+        logit = F.pixel_shuffle(out.index_select(1, self.logit_order), _B)
+        correction = F.pixel_shuffle(out.index_select(1, self.correction_order), _B)
+        # The fill: push-pull on the half-resolution frame (phase (0, 0)), trusted where its logits say,
+        # padded on the block grid (cheaper there) to what the pyramid halves.
+        pad = 32 // (_B // 2)
+        half = F.pixel_shuffle(grid_pad(first, pad), 4)
+        sure = torch.sigmoid(F.pixel_shuffle(grid_pad(out[:, :16], pad), 4).detach())
+        base = push_pull(half, (half > 0).to(half.dtype) * (1 - sure))[..., : h // 2, : w // 2]
+        return logit, repeat2(base) + 4.0 * correction
+
+    @torch.no_grad()
+    def start_from(self, unet: UNet) -> None:
+        """Become ``unet`` (unet8's layout) at half resolution, each phase with unet8's head: its trunk
+        copied, and each phase's units unet8's head units, the depth's 1/4 moved into the weights and the
+        return indicator taken as 1 (exact for returning pixels; a pixel with no return reads 0 and learns
+        the rest). On phase (0, 0) it is then unet8 run on every second pixel of every second row."""
+        layout = (unet.width, unet.s2d, unet.fill, unet.frames, unet.levels)
+        if layout != (self.width, 4, True, 1, self.levels):
+            raise InputError("only unet8's layout (width 8, 4x4 cells, the fill, one frame) starts it")
+        first, last = _conv(unet.head[0]), _conv(unet.head[2])
+        if first.out_channels * len(_PHASES) != self.hidden.out_channels:
+            raise InputError(f"unet8's head has {first.out_channels} units, this {self.hidden.out_channels}")
+        own = {k: v for k, v in unet.state_dict().items() if k.startswith(("down.", "up."))}
+        self.load_state_dict(own, strict=False)
+        stem = _conv(self.stem[0])
+        stem.weight.zero_()
+        stem.weight[:, :32, 0, 0] = torch.eye(32)  # the features are >= 0: the ReLU passes them as they are
+        if stem.bias is not None:
+            stem.bias.zero_()
+        ctx = self.width
+        w = first.weight[:, :, 0, 0]  # (units, context 8 + depth / 4 16 + return 16)
+        unit = torch.cat([w[:, :ctx], 0.25 * w[:, ctx : ctx + 16]], dim=1)
+        n = len(_PHASES)
+        self.hidden.weight.copy_(unit.repeat(n, 1)[:, :, None, None])
+        self.out.weight.copy_(last.weight.repeat(n, 1, 1, 1))
+        for mine, theirs, extra in ((self.hidden, first, w[:, ctx + 16 :].sum(dim=1)), (self.out, last, 0.0)):
+            if mine.bias is None or theirs.bias is None:
+                raise InputError("unet8's head and this one both have biases")
+            mine.bias.copy_((theirs.bias + extra).repeat(n))
+
+
+def _conv(m: nn.Module) -> nn.Conv2d:
+    if not isinstance(m, nn.Conv2d):
+        raise InputError(f"expected a convolution in unet8's head, found {type(m).__name__}")
+    return m

@@ -13,6 +13,7 @@ from torch import nn
 from d2sr.atomic import atomic_file, atomic_write
 from d2sr.contract.catalog import THRESHOLD
 from d2sr.errors import InputError
+from d2sr.models.onepass import OnePassUNet
 from d2sr.models.registry import MODELS, build
 from d2sr.models.unet import UNet
 from d2sr.models.widen import can_widen, widen
@@ -127,6 +128,14 @@ def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
         raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
     counts = {"copied": 0, "grown": 0, "widened": 0, "untouched": 0}
     narrow = build(name) if name in MODELS else None
+    if isinstance(narrow, UNet) and isinstance(model, OnePassUNet):
+        try:
+            narrow.load_state_dict(old)
+        except RuntimeError as exc:
+            raise InputError(f"{path}: weights do not fit {name} ({str(exc).splitlines()[0]})") from None
+        model.start_from(narrow)
+        counts["copied"] = len(model.state_dict())
+        return counts
     if isinstance(narrow, UNet) and isinstance(model, UNet) and can_widen(narrow, model):
         try:
             narrow.load_state_dict(old)
