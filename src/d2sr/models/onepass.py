@@ -95,10 +95,11 @@ class OnePassUNet(nn.Module):
             c = w
         self.up = nn.ModuleList(_block(widths[k + 1] + widths[k], widths[k]) for k in range(self.levels - 1))
         n = len(_PHASES)
-        # Per phase: the block's context and the phase's 16 depths (metres; no return reads 0) -> its units
+        # Per phase: the block's context, the phase's 16 depths (metres) and whether each returns (unet8's
+        # head input at half resolution; the depth's 1/4 is in the weights) -> its units
         # -> its 16 pixels' mask logits and corrections. One grouped convolution each, the context given to
         # every group (a separate context convolution and sum cost more than the copies).
-        self.hidden = nn.Conv2d(n * (widths[0] + 16), n * hidden, 1, groups=n)
+        self.hidden = nn.Conv2d(n * (widths[0] + 32), n * hidden, 1, groups=n)
         self.out = nn.Conv2d(n * hidden, n * 32, 1, groups=n)
         for name, order in (("phases", _OWN), ("logit", _LOGIT), ("correction", _CORRECTION)):
             self.register_buffer(f"{name}_order", torch.tensor(order), persistent=False)
@@ -122,7 +123,8 @@ class OnePassUNet(nn.Module):
         returns = (own > 0).to(own.dtype)
         features = torch.cat([first * 0.25, returns[:, :16], rest * 0.25, returns[:, 16:]], dim=1)
         ctx = self._trunk(self.stem(features))
-        groups = [t for k in range(len(_PHASES)) for t in (ctx, own[:, 16 * k : 16 * (k + 1)])]
+        cut = [slice(16 * k, 16 * (k + 1)) for k in range(len(_PHASES))]
+        groups = [t for c in cut for t in (ctx, own[:, c], returns[:, c])]
         out = self.out(F.relu(self.hidden(torch.cat(groups, dim=1))))
         logit = F.pixel_shuffle(out.index_select(1, self.logit_order), _B)
         correction = F.pixel_shuffle(out.index_select(1, self.correction_order), _B)
@@ -137,9 +139,9 @@ class OnePassUNet(nn.Module):
     @torch.no_grad()
     def start_from(self, unet: UNet) -> None:
         """Become ``unet`` (unet8's layout) at half resolution, each phase with unet8's head: its trunk
-        copied, and each phase's units unet8's head units, the depth's 1/4 moved into the weights and the
-        return indicator taken as 1 (exact for returning pixels; a pixel with no return reads 0 and learns
-        the rest). On phase (0, 0) it is then unet8 run on every second pixel of every second row."""
+        copied, the stem the selection of phase (0, 0), and each phase's units unet8's head units (the
+        depth's 1/4 moved into the weights). On phase (0, 0) it is then unet8 run on every second pixel of
+        every second row."""
         layout = (unet.width, unet.s2d, unet.fill, unet.frames, unet.levels)
         if layout != (self.width, 4, True, 1, self.levels):
             raise InputError("only unet8's layout (width 8, 4x4 cells, the fill, one frame) starts it")
@@ -155,14 +157,14 @@ class OnePassUNet(nn.Module):
             stem.bias.zero_()
         ctx = self.width
         w = first.weight[:, :, 0, 0]  # (units, context 8 + depth / 4 16 + return 16)
-        unit = torch.cat([w[:, :ctx], 0.25 * w[:, ctx : ctx + 16]], dim=1)
+        unit = torch.cat([w[:, :ctx], 0.25 * w[:, ctx : ctx + 16], w[:, ctx + 16 :]], dim=1)
         n = len(_PHASES)
         self.hidden.weight.copy_(unit.repeat(n, 1)[:, :, None, None])
         self.out.weight.copy_(last.weight.repeat(n, 1, 1, 1))
-        for mine, theirs, extra in ((self.hidden, first, w[:, ctx + 16 :].sum(dim=1)), (self.out, last, 0.0)):
+        for mine, theirs in ((self.hidden, first), (self.out, last)):
             if mine.bias is None or theirs.bias is None:
                 raise InputError("unet8's head and this one both have biases")
-            mine.bias.copy_((theirs.bias + extra).repeat(n))
+            mine.bias.copy_(theirs.bias.repeat(n))
 
 
 def _conv(m: nn.Module) -> nn.Conv2d:
