@@ -95,7 +95,8 @@ weights: $(STAMP)
 	# paper-detector were trained on data version 3 by the same configs (code of b0d36d6 and ebe0a54); on
 	# version 4 the detector flags 16-19% of the clean L515 frames and the Azure Kinect frames (CHANGELOG
 	# 0.6.0, 0.7.0): those runs stay in runs/ to compare with, as does lab/trials/unet16.toml's.
-	for m in unet8-shell/unet8 unet16-wide/unet16 unet32-wide/unet32 unet8-temporal/unet8-temporal; do \
+	for m in unet8-shell/unet8 unet16-wide/unet16 unet32-wide/unet32 unet8-temporal/unet8-temporal \
+	  unet8-fast/unet8-fast; do \
 	  cp runs/$$m.safetensors runs/$$m.card.json runs/$$m.md $(SHIP)/; done
 	$(BIN)/d2sr export --out $(SHIP) --overwrite
 
@@ -181,7 +182,7 @@ SETS := a b c d e f g h i
 OUTSIDE := docs/results/outside
 outside: $(STAMP)
 	mkdir -p $(OUTSIDE)
-	for s in $(SETS); do for m in auto unet8 unet16 unet32; do \
+	for s in $(SETS); do for m in auto unet8 unet16 unet32 unet8-fast; do \
 	  $(BIN)/python -m bench.outside --data $(DATA) --set $$s --model $$m --json $(OUTSIDE)/$$s-$$m.json \
 	    --overwrite > /dev/null || exit 1; done; done
 	$(BIN)/python -m lab.outside_summary --json docs/results/outside_sets.json \

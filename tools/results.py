@@ -403,6 +403,10 @@ NOTES = {
     "float32. Slower than unet8: the default stays unet8.",
     "unet8-temporal": "Trained on generated frame pairs only; recover's default (auto) uses it where the "
     "last clean frame lines up with the frame.",
+    "unet8-fast": "Started from the shipped unet8 and trained on generated frames only, distilled from "
+    "unet8's two passes. One pass in about half the time of one unet8 pass; it repairs less than the "
+    "default on every outside set, so it is not the default: choose it where frames must come back at the "
+    "camera's rate (docs/ros2.md).",
     "detector": "Trained on generated frames only. Interference that leaves a plausible surface (a "
     "constant offset on stripes, a smooth swing) is rarely flagged from outside.",
     "paper-detector": "The paper's detector layout, trained on generated frames only; kept for comparison.",

@@ -73,7 +73,7 @@ def recovery(
     out: Annotated[Path, typer.Option(help="Folder for recovery.json, tables and plots.")],
     model: Annotated[
         str, typer.Option(help="Recovery models (comma-separated names).")
-    ] = "unet8,unet16,unet32,unet8-temporal",
+    ] = "unet8,unet16,unet32,unet8-temporal,unet8-fast",
     models: ModelDir = WEIGHTS,
     real: Real = REAL,
     cache: Cache = CACHE,
