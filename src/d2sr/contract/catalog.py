@@ -85,7 +85,7 @@ CATALOG: dict[str, Entry] = {
     "unet16": Entry("recovery", True, "ours, 16 channels"),
     "unet32": Entry("recovery", True, "ours, 32 channels"),
     "unet8-temporal": Entry("recovery", True, "ours, also sees the last clean frame"),
-    FAST_RECOVERY: Entry("recovery", False, "ours, one pass (in training; not shipped)", passes=1),
+    FAST_RECOVERY: Entry("recovery", True, "ours, one pass at the camera's rate; repairs less", passes=1),
     "unet8-direct": Entry("recovery", False, "ablation: an absolute-depth head"),
     "paper-unet8": Entry("recovery", False, "the paper's layout"),
     "paper-unet16": Entry("recovery", False, "the paper's layout"),
