@@ -332,6 +332,18 @@ README_ROWS = (
         ),
         "`python -m lab.ros2_loopback`",
     ),
+    Row(
+        "every frame interfered, `--model unet8-fast`: back, median / p99 in node",
+        "—",
+        "docs/results/ros2_loopback_every_fast.json",
+        lambda d: (
+            f"{d['rate_30hz']['repaired_received']} of {d['rate_30hz']['published']}, "
+            f"{d['rate_30hz']['node_latency']['median_ms']:.1f} / "
+            f"{d['rate_30hz']['node_latency']['p99_ms']:.1f} ms "
+            f"({d['cpu'].replace(' Processor', '')})"
+        ),
+        "`... --every --model unet8-fast`",
+    ),
 )
 
 
