@@ -83,7 +83,7 @@ def main() -> None:
             t1 = time.perf_counter()
             r = pipe.finish(d)
             t2 = time.perf_counter()
-            flagged += counted and r.interfered
+            flagged += int(counted and r.interfered)
             if counted and (r.interfered or args.clean):
                 decide.append(t1 - t0)
                 finish.append(t2 - t1)

@@ -116,8 +116,9 @@ def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
     """Start ``model`` from another model's weights (fine-tuning, or a variant that adds inputs or outputs).
     Tensors of the same name and shape are copied; where a shape grew, the old values fill the leading slice
     and the new part starts at zero (a new input channel is ignored at first, a new output reads 0).
-    A narrower UNet of the same layout is widened instead (``models.widen``): the model starts as the same
-    function. Returns counts of copied, grown, widened and untouched tensors."""
+    A narrower UNet of the same layout is widened instead (``models.widen``), and unet8-fast starts from
+    unet8 (``OnePassUNet.start_from``): the model starts as the same function. Returns counts of copied,
+    grown, widened and untouched tensors."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such weights file to start from")
@@ -128,21 +129,19 @@ def warm_start(model: nn.Module, path: Path) -> dict[str, int]:
         raise InputError(f"{path}: corrupt weights ({str(exc).splitlines()[0]})") from None
     counts = {"copied": 0, "grown": 0, "widened": 0, "untouched": 0}
     narrow = build(name) if name in MODELS else None
-    if isinstance(narrow, UNet) and isinstance(model, OnePassUNet):
+    # A UNet the model is built from (unet8-fast from unet8, a wider UNet from a narrower one) starts the
+    # model as the same function rather than by names and shapes.
+    if isinstance(narrow, UNet) and (isinstance(model, OnePassUNet) or can_widen(narrow, model)):
         try:
             narrow.load_state_dict(old)
         except RuntimeError as exc:
             raise InputError(f"{path}: weights do not fit {name} ({str(exc).splitlines()[0]})") from None
-        model.start_from(narrow)
-        counts["copied"] = len(model.state_dict())
-        return counts
-    if isinstance(narrow, UNet) and isinstance(model, UNet) and can_widen(narrow, model):
-        try:
-            narrow.load_state_dict(old)
-        except RuntimeError as exc:
-            raise InputError(f"{path}: weights do not fit {name} ({str(exc).splitlines()[0]})") from None
-        widen(narrow, model)
-        counts["widened"] = len(model.state_dict())
+        if isinstance(model, OnePassUNet):
+            model.start_from(narrow)
+            counts["copied"] = len(model.state_dict())
+        elif isinstance(model, UNet):  # can_widen holds only between UNets
+            widen(narrow, model)
+            counts["widened"] = len(model.state_dict())
         return counts
     state = model.state_dict()
     with torch.no_grad():
