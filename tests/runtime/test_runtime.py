@@ -526,3 +526,32 @@ def test_auto_runs_the_temporal_model_at_its_own_operating_point():
     assert net.single.mask_logit == open_backend(RunSettings(model="unet8", backend="onnx")).mask_logit
     given = open_backend(RunSettings(backend="onnx", mask_logit=0.25))
     assert given.temporal.mask_logit == given.single.mask_logit == 0.25
+
+
+def test_frames_finished_on_threads_while_later_ones_are_judged_come_out_as_one_at_a_time(net):
+    """The node and ``recover`` judge frames in order and repair them on workers while the next are judged;
+    the scene's repair of a frame is worked out there too. With the scene learning from the clean frames
+    in between, every frame comes out bit for bit as ``process`` gives it one at a time."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    rng = np.random.default_rng(3)
+    z = 2.0 + np.linspace(0, 1, 128, dtype=np.float32)[None].repeat(96, 0)
+
+    def frame(k: int) -> np.ndarray:
+        f = z + rng.normal(0, 0.005, z.shape).astype(np.float32)
+        if k >= 12 and k % 3:  # interfered: a patch read 4 cm near, elsewhere each time
+            r, c = 10 + 5 * (k % 7), 10 + 8 * (k % 5)
+            f[r : r + 30, c : c + 40] -= 0.04
+        return np.rint(f * 4000).astype(np.uint16)
+
+    frames = [frame(k) for k in range(60)]
+    settings = RunSettings(repair="flagged", scene=True)
+    one = SensorLoop(net, make_controller("static", 30, 30), settings=settings)
+    alone = [one.process(Capture(Frame(str(k), f), 4000.0)) for k, f in enumerate(frames)]
+    many = SensorLoop(net, make_controller("static", 30, 30), settings=settings)
+    with ThreadPoolExecutor(2) as pool:
+        decided = [many.decide(Capture(Frame(str(k), f), 4000.0)) for k, f in enumerate(frames)]
+        together = list(pool.map(many.finish, decided))  # every frame judged before any is repaired
+    assert sum(r.reason.endswith("scene") for r in alone) >= 5
+    for a, b in zip(alone, together, strict=True):
+        assert np.array_equal(a.depth, b.depth) and np.array_equal(a.mask, b.mask) and a.flagged == b.flagged

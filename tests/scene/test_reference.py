@@ -937,3 +937,41 @@ def test_a_primed_scene_is_kept_only_where_the_sensor_held_still():
     kept = primed(still)._reference
     assert kept is not None and kept.settled
     assert primed(moving)._reference is None
+
+
+@pytest.mark.parametrize("stored", [False, True])
+def test_a_deferred_scene_repair_reads_the_scene_as_it_was_when_asked_for(stored):
+    """``repair_later`` (the loop works it out in ``finish``, on a worker, while later frames are judged):
+    called after the reference has taken in more clean frames (new statistics, stripe by stripe) and a
+    lasting change, it gives bit for bit what ``repair`` gave at once, though the reference's own
+    statistics have moved; a stored scene's surface test too."""
+    from d2sr.scene.stored import learn_scene
+
+    rng = np.random.default_rng(8)
+    frames = [_scene(rng) for _ in range(16)]
+
+    def reference() -> SceneReference:
+        if stored:
+            return SceneReference.from_stored(learn_scene(lambda: iter(frames), SCALE, "s", 16))
+        ref = _ref()
+        _learn([ref], frames)
+        return ref
+
+    hit = _scene(rng)
+    hit[40:70, 30:80] = np.where(hit[40:70, 30:80] > 0, hit[40:70, 30:80] - int(0.04 * SCALE), 0)
+    now_ref, later_ref = reference(), reference()
+    for ref in (now_ref, later_ref):
+        ref.evidence(_scene(rng))  # the frame before: what explains the next one's deviations
+    now = now_ref.repair(now_ref.evidence(hit))
+    later = later_ref.repair_later(later_ref.evidence(hit))
+    assert later_ref._stats is not None
+    before = later_ref._stats.nz_median.copy()
+    moved = [_scene(rng) for _ in range(SHIPPED.persist + 2)]
+    for f in moved:  # a box 10 cm farther from then on: the scene after ``persist`` frames
+        f[10:40, 90:120] = np.where(f[10:40, 90:120] > 0, f[10:40, 90:120] + int(0.1 * SCALE), 0)
+    _learn([later_ref], moved)
+    assert not np.array_equal(later_ref._stats.nz_median, before)
+    got = later()
+    assert now.fill.any()
+    for a, b in zip(now, got, strict=True):
+        assert np.array_equal(a, b)

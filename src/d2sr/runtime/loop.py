@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -93,8 +93,8 @@ class Decision:
     period: int
     offset: int
     started: float  # perf_counter at decide
-    # What the scene knows of the frame (``RunSettings.repairs_scene``).
-    scene: SceneRepair | None = None
+    # What the scene knows of the frame (``RunSettings.repairs_scene``), worked out by ``finish``.
+    scene: Callable[[], SceneRepair] | None = None
     scene_used: bool | None = None  # ``Result.scene``
     reason: str = ""  # ``Result.reason``
 
@@ -212,7 +212,7 @@ class SensorLoop:
         fix = self._mode == "all" or (flagged and self._mode == "flagged")
         known = None
         if ev is not None and self._reference is not None and self.settings.repairs_scene and fix:
-            known = self._reference.repair(ev)
+            known = self._reference.repair_later(ev)  # in finish: off the frames' order
         used = ev.usable if ev is not None else None
         d = Decision(
             cap, metres, score, flagged, fix, previous, self.period, self.controller.offset, t, known, used,
@@ -263,7 +263,8 @@ class SensorLoop:
         depth, mask = raw, np.zeros(raw.shape, bool)
         if d.repair:
             pred, m = self.backend.recover(d.metres, d.previous)
-            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, d.scene)
+            known = d.scene() if d.scene is not None else None
+            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, known)
         seconds = time.perf_counter() - d.started
         res = Result(
             d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds, d.scene_used, d.reason

@@ -7,13 +7,16 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import cv2
 import numpy as np
 
 from d2sr.frames.base import crop_around
 from d2sr.scene.settings import SceneSettings
+
+if TYPE_CHECKING:
+    from d2sr.scene.stats import CleanStats
 
 __all__ = ["HALF", "QUARTER", "Evidence", "SceneRepair"]
 
@@ -39,6 +42,9 @@ class Parts:
     off: np.ndarray | None = None  # bool: the off windows' pixels
     far: np.ndarray | None = None  # bool: the returns read far off
     before: np.ndarray | None = None  # the frame before's deviations (m; -1 a dropout)
+    # (stored, statistics, steady pixels) as a deferred repair holds them (``SceneReference.repair_later``);
+    # empty: ``explain`` reads the reference's own.
+    held: list[tuple[bool, CleanStats, np.ndarray]] = field(default_factory=list)
 
 
 @dataclass

@@ -13,8 +13,11 @@ is a ``SceneSettings`` field with its reason; the measurements are in ``lab/note
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from collections import deque
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -73,6 +76,7 @@ class SceneReference:
         self.scale = float(depth_scale)
         self._naps = 0  # restarts because the view changed since the gate was last open
         self._ring: np.ndarray | None = None
+        self._lent = False  # a deferred repair holds the statistics as they are (``repair_later``)
         self.reset()
 
     @classmethod
@@ -160,6 +164,7 @@ class SceneReference:
             gap = full.pop("gap")
             self._start(frame.shape, CleanStats(frames=self.count, **full), gap)
             return
+        self._own()
         stripes = self.settings.stripes
         rows = -(-frame.shape[0] // stripes)
         r0 = self._stripe * rows
@@ -176,7 +181,7 @@ class SceneReference:
         """The scene's statistics (of the first ``warm`` clean frames, or stored: learned clean, no gaps) and
         their returns' ``gap`` (``stack_stats``, metres), and the limits read from them."""
         s = self.settings
-        self._stats = stats
+        self._stats, self._lent = stats, False
         self._gap = gap if gap is not None else np.zeros(shape, np.float32)
         self._labeller = Labeller(self._stats, tolerance=(s.tol_abs, s.tol_rel))
         self._parted = np.zeros(shape, bool)
@@ -189,6 +194,22 @@ class SceneReference:
         self._returned = np.zeros(shape[0], np.int64)
         self._limits()
         self._streak = np.zeros(shape, np.uint16)
+
+    def _own(self) -> None:
+        """Before the statistics a deferred repair reads change in place: give the reference copies of its
+        own, so the repair still reads them as they were when it was asked for (``repair_later``)."""
+        if not self._lent:
+            return
+        s, labeller = self._stats, self._labeller
+        assert s is not None and labeller is not None
+        self._stats = labeller.s = dataclasses.replace(
+            s, rate=s.rate.copy(), nz_median=s.nz_median.copy(), lo=s.lo.copy(), hi=s.hi.copy()
+        )
+        same = self._shift_px is self._steady
+        self._steady, self._split = self._steady.copy(), self._split.copy()
+        if same:
+            self._shift_px = self._steady
+        self._lent = False
 
     def _limits(self, rows: slice = slice(None)) -> None:
         """The per-pixel limits the evidence compares a frame with, worked out again where the statistics
@@ -255,13 +276,16 @@ class SceneReference:
         near = neighbours(deviates)
         dense_share = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference not
         before = self._before
+        held: list[tuple[bool, CleanStats, np.ndarray]] = []  # set by repair_later: what it holds
 
         def explain() -> tuple[np.ndarray, float]:
             fresh = unexplained(metres, mask, before, cfg)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense_share
-            if self._stored:
-                fresh = fresh | (mask & self._on_surface(metres))
+            stored, stats, steady = held[0] if held else (self._stored, self._stats, self._steady)
+            if stored:
+                assert stats is not None
+                fresh = fresh | (mask & _on_surface(metres, stats, steady, cfg))
             return fresh, dense(fresh & deviates, known)
 
         # Where nothing split or shifted, ``changed`` is ``deviates``: its neighbours are counted already.
@@ -269,7 +293,7 @@ class SceneReference:
         self._before = _explains(metres, changed, near if alike else neighbours(changed))
         self._keep_lasting(frame, changed)
         far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
-        parts = Parts(cfg, explain, shift, off_px, far_off, before)
+        parts = Parts(cfg, explain, shift, off_px, far_off, before, held)
         return Evidence(
             mask,
             share,
@@ -283,18 +307,6 @@ class SceneReference:
             known=known,
             parts=parts,
         )
-
-    def _on_surface(self, metres: np.ndarray) -> np.ndarray:
-        """Returns within ``offset_cap`` of a stored scene's depth where it nearly always returns: the same
-        surface read a few centimetres off, which nothing that moved explains. A stored scene was learned
-        clean and is not re-summarized from the frames it judges, so a persistent offset from it is the
-        CW-ToF kind of interference (a real Kinect v2 beside two others reads its target's face 2-5 cm off,
-        frame after frame, varying in sign and size), not the scene's own drift."""
-        s = self._stats
-        assert s is not None
-        off = np.abs(np.subtract(metres, s.nz_median, dtype=np.float32))
-        out: np.ndarray = (metres > 0) & (off <= np.float32(self.settings.offset_cap)) & self._steady
-        return out
 
     def _view_changed(self, share: float) -> bool:
         """Count a frame deviating like another view (beyond ``moved``, or ``elsewhere``); after
@@ -363,49 +375,24 @@ class SceneReference:
         returning pixel that reads within the range the scene has seen it at, or where the scene seldom
         returns near the depth it did, is left as it is (``keep``): a model's guess could only do harm.
         Nothing when not usable."""
-        s, cfg = self._stats, self.settings
-        shape = ev.mask.shape
-        if s is None or not ev.usable:
-            empty = np.zeros(shape, bool)
-            return SceneRepair(empty, np.zeros(shape, np.float32), empty)
-        m = ev.metres
-        # A return where the scene's clean depths agree is trusted from range_rate: it did return, and the
-        # scene says where; a dropout only where the scene nearly always returns (trust_rate).
-        rate = np.where(m > 0, np.float32(cfg.range_rate), np.float32(cfg.trust_rate))
-        trusted = (s.rate >= rate) & (s.hi - s.lo <= cfg.trust_abs + cfg.trust_rel * s.nz_median)
-        trusted &= s.nz_median > 0
-        near = neighbours(ev.fresh)
-        # Fresh deviations in patches; where the scene nearly always returns (steady), sparser ones too.
-        patches = (near >= HALF) | ((near >= QUARTER) & self._steady)
-        where = ev.fresh & patches & trusted
-        far_frame = ev.far_evident
-        if far_frame:
-            # Each return read far beyond where the scene returns half the time or more (so it has a depth
-            # there), in a frame with more such returns than the sensor's own flicker makes: interference.
-            where |= ev.fresh_far_pixels
-        tol = cfg.tol_abs + cfg.tol_rel * s.nz_median
-        within = (m >= s.lo - tol) & (m <= s.hi + tol)
-        seldom = s.rate < cfg.range_rate
-        far_from_seen = np.abs(m - s.nz_median) > cfg.far_abs + cfg.far_rel * s.nz_median
-        seldom &= (s.rate == 0) | ~far_from_seen  # where it seldom returns, only near where it did
-        if far_frame:
-            # Where it seldom returns but did, a fresh return far from that depth, amid a quarter of such
-            # returns and far-off ones: the sensor's own stray returns there come alone or a few together.
-            rare = (m > 0) & (s.rate > 0) & (s.rate < cfg.range_rate) & far_from_seen
-            rare = unexplained(m, rare, ev.parts.before if ev.parts else None, cfg)
-            rare &= neighbours(rare | ev.fresh_far_pixels) >= QUARTER
-            where |= rare
-        keep = (m > 0) & ~ev.mask & (seldom | within)
-        depth = np.where(where, s.nz_median, 0).astype(np.float32)
-        if ev.shift_evident:
-            at, by = _offsets(ev, s, where, cfg, self._split)
-            where, keep = where | at, keep & ~at
-            depth[at] = m[at] - by[at]
-        return SceneRepair(where, depth, keep)
+        return self.repair_later(ev)()
+
+    def repair_later(self, ev: Evidence) -> Callable[[], SceneRepair]:
+        """``repair`` of ``ev``'s frame, worked out when the returned function is called: later and on another
+        thread, while the next frames are judged (``SensorLoop.finish``). It reads the statistics as they
+        are now; the reference copies them before it next changes them."""
+        stats = self._stats
+        if stats is None or not ev.usable:
+            return functools.partial(_nothing, ev.mask.shape)
+        self._lent = True
+        if ev.parts is not None and not ev.parts.held:
+            ev.parts.held.append((self._stored, stats, self._steady))
+        return functools.partial(_repair, ev, stats, self._steady, self._split, self.settings)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
         assert self._ring is not None and self._stats is not None and self._streak is not None
+        self._own()
         self._ring[:, where] = frame[where]
         v = frame[where].astype(np.float32) / np.float32(self.scale)
         s = self._stats
@@ -416,6 +403,63 @@ class SceneReference:
         self._gap[where] = 0
         self._streak[where] = 0
         self._limits()
+
+
+def _on_surface(metres: np.ndarray, s: CleanStats, steady: np.ndarray, cfg: SceneSettings) -> np.ndarray:
+    """Returns within ``offset_cap`` of a stored scene's depth where it nearly always returns (``steady``):
+    the same surface read a few centimetres off, which nothing that moved explains. A stored scene was
+    learned clean and is not re-summarized from the frames it judges, so a persistent offset from it is the
+    CW-ToF kind of interference (a real Kinect v2 beside two others reads its target's face 2-5 cm off,
+    frame after frame, varying in sign and size), not the scene's own drift."""
+    off = np.abs(np.subtract(metres, s.nz_median, dtype=np.float32))
+    out: np.ndarray = (metres > 0) & (off <= np.float32(cfg.offset_cap)) & steady
+    return out
+
+
+def _nothing(shape: tuple[int, ...]) -> SceneRepair:
+    """A scene repair that knows nothing: no reference yet, or the sensor moved."""
+    empty = np.zeros(shape, bool)
+    return SceneRepair(empty, np.zeros(shape, np.float32), empty)
+
+
+def _repair(
+    ev: Evidence, s: CleanStats, steady: np.ndarray, split: np.ndarray, cfg: SceneSettings
+) -> SceneRepair:
+    """``SceneReference.repair``'s work on the statistics it was given (``repair_later``)."""
+    m = ev.metres
+    # A return where the scene's clean depths agree is trusted from range_rate: it did return, and the
+    # scene says where; a dropout only where the scene nearly always returns (trust_rate).
+    rate = np.where(m > 0, np.float32(cfg.range_rate), np.float32(cfg.trust_rate))
+    trusted = (s.rate >= rate) & (s.hi - s.lo <= cfg.trust_abs + cfg.trust_rel * s.nz_median)
+    trusted &= s.nz_median > 0
+    near = neighbours(ev.fresh)
+    # Fresh deviations in patches; where the scene nearly always returns (steady), sparser ones too.
+    patches = (near >= HALF) | ((near >= QUARTER) & steady)
+    where = ev.fresh & patches & trusted
+    far_frame = ev.far_evident
+    if far_frame:
+        # Each return read far beyond where the scene returns half the time or more (so it has a depth
+        # there), in a frame with more such returns than the sensor's own flicker makes: interference.
+        where |= ev.fresh_far_pixels
+    tol = cfg.tol_abs + cfg.tol_rel * s.nz_median
+    within = (m >= s.lo - tol) & (m <= s.hi + tol)
+    seldom = s.rate < cfg.range_rate
+    far_from_seen = np.abs(m - s.nz_median) > cfg.far_abs + cfg.far_rel * s.nz_median
+    seldom &= (s.rate == 0) | ~far_from_seen  # where it seldom returns, only near where it did
+    if far_frame:
+        # Where it seldom returns but did, a fresh return far from that depth, amid a quarter of such
+        # returns and far-off ones: the sensor's own stray returns there come alone or a few together.
+        rare = (m > 0) & (s.rate > 0) & (s.rate < cfg.range_rate) & far_from_seen
+        rare = unexplained(m, rare, ev.parts.before if ev.parts else None, cfg)
+        rare &= neighbours(rare | ev.fresh_far_pixels) >= QUARTER
+        where |= rare
+    keep = (m > 0) & ~ev.mask & (seldom | within)
+    depth = np.where(where, s.nz_median, 0).astype(np.float32)
+    if ev.shift_evident:
+        at, by = _offsets(ev, s, where, cfg, split)
+        where, keep = where | at, keep & ~at
+        depth[at] = m[at] - by[at]
+    return SceneRepair(where, depth, keep)
 
 
 def _explains(metres: np.ndarray, mask: np.ndarray, near: np.ndarray) -> np.ndarray:
