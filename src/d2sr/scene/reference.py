@@ -43,7 +43,7 @@ from d2sr.scene.stored import StoredScene
 __all__ = ["SceneReference"]
 
 #: The statistics the evidence and the repair read, refreshed stripe by stripe (``median`` and ``mean_err``
-#: are ``d2sr label``'s, for the paper's method only).
+#: are ``d2sr label``'s, for the paper's method only: a reference keeps them at 0).
 READ = ("rate", "nz_median", "lo", "hi", "gap")
 
 
@@ -159,10 +159,11 @@ class SceneReference:
         if self.count < self.settings.warm or self._stored:
             return
         if self._stats is None:  # just warm: every stripe at once
-            ring = stack_stats(self._ring[: self.count], (*STAT_FIELDS, "gap"), self.settings.split_part)
+            ring = stack_stats(self._ring[: self.count], READ, self.settings.split_part)
             full = _metres(ring, self.scale)  # one sort of the ring for both
             gap = full.pop("gap")
-            self._start(frame.shape, CleanStats(frames=self.count, **full), gap)
+            unread = {k: np.zeros(frame.shape, np.float32) for k in STAT_FIELDS if k not in full}
+            self._start(frame.shape, CleanStats(frames=self.count, **full, **unread), gap)
             return
         self._own()
         stripes = self.settings.stripes
