@@ -26,6 +26,7 @@ from bench.harness import check_output, output_args
 from bench.outside.sets_a_i import outside_interference
 
 from d2sr.atomic import write_result
+from d2sr.jobs.memory import reuse_freed_memory
 from d2sr.runtime.pipeline import Pipeline
 from d2sr.runtime.workers import repair_workers
 
@@ -58,6 +59,7 @@ def main() -> None:
     else:
         sent = [outside_interference(clean[k % len(clean)], 4000.0, 7 + k) for k in range(n)]
     _, threads = repair_workers()
+    reuse_freed_memory()  # as the node does (d2sr.ros2.serve)
     decide, finish, total = [], [], []
     passes: list[float] = []
     flagged = 0
