@@ -175,7 +175,7 @@ class SceneReference:
         self._gap[r0:r1] = fresh.pop("gap")
         for name, v in fresh.items():
             getattr(self._stats, name)[r0:r1] = v
-        self._limits(slice(r0, r1))
+        self._limits(slice(r0, r1), labeller=True)
         self._stripe = (self._stripe + 1) % stripes
 
     def _start(self, shape: tuple[int, ...], stats: CleanStats, gap: np.ndarray | None = None) -> None:
@@ -193,7 +193,7 @@ class SceneReference:
         self._far_lo = np.zeros(shape, np.float32)
         self._far_hi = np.zeros(shape, np.float32)
         self._returned = np.zeros(shape[0], np.int64)
-        self._limits()
+        self._limits()  # the labeller worked its own out as it was made
         self._streak = np.zeros(shape, np.uint16)
 
     def _own(self) -> None:
@@ -212,12 +212,13 @@ class SceneReference:
             self._shift_px = self._steady
         self._lent = False
 
-    def _limits(self, rows: slice = slice(None)) -> None:
+    def _limits(self, rows: slice = slice(None), labeller: bool = False) -> None:
         """The per-pixel limits the evidence compares a frame with, worked out again where the statistics
-        changed: the labeller's, the steady pixels, and where a return reads far off."""
-        s, labeller, cfg = self._stats, self._labeller, self.settings
-        assert s is not None and labeller is not None
-        labeller.refresh(rows)
+        changed: the steady pixels, where a return reads far off, and (``labeller``) the labeller's."""
+        s, cfg = self._stats, self.settings
+        assert s is not None and self._labeller is not None
+        if labeller:
+            self._labeller.refresh(rows)
         median = s.nz_median[rows]
         self._parted[rows] = (self._gap[rows] > cfg.trust_abs + cfg.trust_rel * median) & (median > 0)
         # The split pixels, which the parted ones decide within their 9x9 neighbourhoods (beyond the stripe).
@@ -403,7 +404,7 @@ class SceneReference:
         s.mean_err[where] = 0
         self._gap[where] = 0
         self._streak[where] = 0
-        self._limits()
+        self._limits(labeller=True)
 
 
 def _on_surface(metres: np.ndarray, s: CleanStats, steady: np.ndarray, cfg: SceneSettings) -> np.ndarray:
