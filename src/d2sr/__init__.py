@@ -14,6 +14,8 @@ The library in a few names (``docs/api.md`` has runnable examples):
   each as ``recover_recording`` repairs it (``d2sr fleet``; the ``fleet`` extra).
 - ``open_frames(path)``: read any supported recording; ``make_controller(name, ...)``: a de-synchronization
   controller on its own.
+- ``reuse_freed_memory()``: for your own frame loop, once, process-wide: a frame's freed buffers serve the
+  next frame's instead of being faulted in afresh (glibc; what ``d2sr ros2``, ``recover`` and ``run`` do).
 - ``D2SRError`` and its kinds ``InputError``, ``ConfigError``, ``OutputError``: what d2sr raises on purpose.
 
 Names load on first use, so ``import d2sr`` stays light.
@@ -48,6 +50,7 @@ _WHERE = {
     "InputError": "d2sr.errors",
     "ConfigError": "d2sr.errors",
     "OutputError": "d2sr.errors",
+    "reuse_freed_memory": "d2sr.jobs.memory",
 }
 
 __all__ = [
@@ -73,6 +76,7 @@ __all__ = [
     "recover_fleet",
     "recover_recording",
     "repair",
+    "reuse_freed_memory",
 ]
 
 if TYPE_CHECKING:
@@ -80,6 +84,7 @@ if TYPE_CHECKING:
     from d2sr.errors import ConfigError, D2SRError, InputError, OutputError
     from d2sr.fleet import Cluster, recover_fleet
     from d2sr.frames import open_frames
+    from d2sr.jobs.memory import reuse_freed_memory
     from d2sr.jobs.recordings import Summary, Written, detect_recording, recover_recording
     from d2sr.jobs.scenes import learn_scene_recording
     from d2sr.runtime.pipeline import Pipeline, Repaired, Window, repair
