@@ -169,16 +169,20 @@ def repair_frame(
     mask: np.ndarray,
     scale: float,
     scene: SceneRepair | None = None,
+    metres: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(repaired frame in the input's units, mask of the pixels repaired): the guarded prediction inside
     the mask (``guard``), rounded to the input's units (uint16) or as computed (float32 metres, ``scale``
     1); the input itself everywhere else, bit for bit. A model repair that would move no return fills no
     hole either: the frame's holes are then the sensor's own. With ``scene``: its ``keep`` pixels are out
     of the mask (and so trusted by the guard), and its ``fill`` depths are written past the guard's
-    model-error margin; only those that change the pixel count as repaired."""
+    model-error margin; only those that change the pixel count as repaired. ``metres``: ``frames`` in float32
+    metres, where the caller has them (``d2sr.frames.base.to_metres`` gives the same values)."""
     if scene is not None:
         mask = mask & ~scene.keep
-    p, m = guard(frames.astype(np.float32) / np.float32(scale), pred, mask)
+    if metres is None:
+        metres = frames.astype(np.float32) / np.float32(scale)
+    p, m = guard(metres, pred, mask)
     if not (frames[m] > 0).any():
         # Holes alone are no sign of interference: an L515 loses ~18,000 returns a frame to its own
         # flicker, so a repair that would move no return fills no hole either (lab/notes/decisions.md).

@@ -264,7 +264,8 @@ class SensorLoop:
         if d.repair:
             pred, m = self.backend.recover(d.metres, d.previous)
             known = d.scene() if d.scene is not None else None
-            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, known)
+            metres = d.metres[0, :h, :w]  # the frame as the model saw it: not converted again
+            depth, mask = repair_frame(raw, pred[0, :h, :w], m[0, :h, :w], d.capture.scale, known, metres)
         seconds = time.perf_counter() - d.started
         res = Result(
             d.capture, d.score, d.flagged, depth, mask, d.period, d.offset, seconds, d.scene_used, d.reason
