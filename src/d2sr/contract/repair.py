@@ -183,7 +183,7 @@ def repair_frame(
     if metres is None:
         metres = frames.astype(np.float32) / np.float32(scale)
     p, m = guard(metres, pred, mask)
-    if not (frames[m] > 0).any():
+    if not (m & (frames > 0)).any():  # whole frames: a quarter of the time of gathering the masked pixels
         # Holes alone are no sign of interference: an L515 loses ~18,000 returns a frame to its own
         # flicker, so a repair that would move no return fills no hole either (lab/notes/decisions.md).
         m = np.zeros_like(m)
@@ -191,6 +191,8 @@ def repair_frame(
     if scene is not None:
         p, written = np.where(scene.fill, scene.depth, p), m | scene.fill
     out = frames.copy()
-    fixed = np.maximum(p[written], 0) * np.float32(scale)
-    out[written] = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
+    at = np.flatnonzero(written)  # found once for the read and the write
+    fixed = np.maximum(p.ravel()[at], 0) * np.float32(scale)
+    put = fixed if frames.dtype.kind == "f" else np.clip(np.rint(fixed), 0, 65535).astype(np.uint16)
+    out.ravel()[at] = put
     return out, m if scene is None else m | (scene.fill & (out != frames))
