@@ -230,7 +230,7 @@ class Ros2Node:
         warm_codecs()
         net = self.cameras[0].pipeline.backend
         zeros = np.zeros((1, 480, 640), np.float32)
-        net.scores(zeros, None)
+        net.scores(zeros, zeros)  # with a frame before: a temporal detector's second model runs too
         with contextlib.suppress(Exception):  # a detector-only setup (--repair none) has no recovery model
             net.recover(zeros, None)
 
