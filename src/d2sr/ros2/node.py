@@ -223,16 +223,33 @@ class Ros2Node:
             self._waitset.detach(cond)
 
     def _warm_up(self) -> None:
-        """One frame through the models and the message codecs before the first message, so it pays no
-        start-up cost (the cameras share the models)."""
+        """One frame through the models, the repair and the message codecs before the first message, so it
+        pays no start-up cost (the cameras share the models): the detectors on the node's thread, which
+        judges, and the recovery model and the repair on each worker, which repairs (a thread's first
+        frame-size buffers are its own to fault in)."""
+        from d2sr.contract.repair import repair_frame
         from d2sr.ros2.msgs import warm_codecs
 
         warm_codecs()
+        np.median(np.zeros(2))  # its first call imports numpy.ma (14 ms): the first frame's scale check
         net = self.cameras[0].pipeline.backend
         zeros = np.zeros((1, 480, 640), np.float32)
-        net.scores(zeros, zeros)  # with a frame before: a temporal detector's second model runs too
-        with contextlib.suppress(Exception):  # a detector-only setup (--repair none) has no recovery model
-            net.recover(zeros, None)
+        # Twice: onnxruntime's second run at a size is the first at full speed (with one, the stream's first
+        # frames were judged in 14-18 ms against 8).
+        for _ in range(2):
+            net.scores(zeros, zeros)  # with a frame before: a temporal detector's second model runs too
+        together = threading.Barrier(self._workers)
+
+        def repair() -> None:
+            together.wait(timeout=60)  # each worker takes one, not one worker two
+            for _ in range(2):
+                with contextlib.suppress(Exception):  # --repair none: detector only, no recovery model
+                    net.recover(zeros, None)
+            repair_frame(np.ones((480, 640), np.uint16), zeros[0], np.ones((480, 640), bool), 1000.0)
+
+        for done in [self._pool.submit(repair) for _ in range(self._workers)]:
+            with contextlib.suppress(threading.BrokenBarrierError):
+                done.result()
 
     def _diagnostics(self) -> Any:
         """``/diagnostics``: a status per camera (WARN while its frames are being dropped or refused)."""
