@@ -42,9 +42,16 @@ class Parts:
     off: np.ndarray | None = None  # bool: the off windows' pixels
     far: np.ndarray | None = None  # bool: the returns read far off
     before: np.ndarray | None = None  # the frame before's deviations (m; -1 a dropout)
+    motion: Motion | None = None  # what moved since the frame before (``before``), worked out once
     # (stored, statistics, steady pixels) as a deferred repair holds them (``SceneReference.repair_later``);
     # empty: ``explain`` reads the reference's own.
     held: list[tuple[bool, CleanStats, np.ndarray]] = field(default_factory=list)
+
+    def moved(self, metres: np.ndarray) -> Motion:
+        """``motion``, or one made for ``metres`` and ``before`` where none was given."""
+        if self.motion is None:
+            self.motion = Motion(metres, self.before, self.settings)
+        return self.motion
 
 
 @dataclass
@@ -98,7 +105,7 @@ class Evidence:
         p = self.parts
         if p is None or p.off is None or not self.off:
             return 0.0
-        return float(np.count_nonzero(unexplained(self.metres, p.off, p.before, p.settings))) / self.known
+        return float(np.count_nonzero(p.moved(self.metres).unexplained(p.off))) / self.known
 
     @functools.cached_property
     def fresh_far(self) -> float:
@@ -114,7 +121,7 @@ class Evidence:
         p = self.parts
         if p is None or p.far is None or not self.far:
             return np.zeros(self.mask.shape, bool)
-        return unexplained(self.metres, p.far, p.before, p.settings)
+        return p.moved(self.metres).unexplained(p.far)
 
     @property
     def far_evident(self) -> bool:
@@ -167,18 +174,40 @@ def dense(mask: np.ndarray, known: int) -> float:
     return float(np.count_nonzero(neighbours(mask) >= HALF)) / known
 
 
+class Motion:
+    """What moved between a frame (``metres``) and the frame before (``before``: its deviating depths, -1 a
+    dropout, 0 none; None: no frame before, nothing to tell motion by), worked out once however many kinds
+    of deviation ask (the fresh ones, the far-off and off returns, the scene's rare ones)."""
+
+    def __init__(self, metres: np.ndarray, before: np.ndarray | None, settings: SceneSettings) -> None:
+        self.metres, self.before, self.settings = metres, before, settings
+
+    @functools.cached_property
+    def _reach(self) -> np.ndarray:
+        """bool: the pixels a deviation of the frame before explains (``explained``'s test, every pixel)."""
+        assert self.before is not None
+        return _reach(self.metres, self.before, self.settings)
+
+    @functools.cached_property
+    def _moving(self) -> bool:
+        return self.before is not None and bool(self.before.any())
+
+    def unexplained(self, mask: np.ndarray) -> np.ndarray:
+        """The pixels of ``mask`` nothing that moved explains: none on the first frame judged against a new
+        reference (no motion to tell by); ``mask`` itself where nothing deviated a frame before."""
+        if self.before is None:
+            return np.zeros_like(mask)
+        if mask.any() and self._moving:
+            out: np.ndarray = mask & ~self._reach
+            return out
+        return mask
+
+
 def unexplained(
     metres: np.ndarray, mask: np.ndarray, before: np.ndarray | None, settings: SceneSettings
 ) -> np.ndarray:
-    """The pixels of ``mask`` nothing that moved explains (``explained``): none on the first frame judged
-    against a new reference (``before`` None: no motion to tell by); ``mask`` itself where nothing deviated
-    a frame before."""
-    if before is None:
-        return np.zeros_like(mask)
-    if mask.any() and before.any():
-        out: np.ndarray = mask & ~explained(metres, mask, before, settings)
-        return out
-    return mask
+    """``Motion(metres, before, settings).unexplained(mask)``, for one mask."""
+    return Motion(metres, before, settings).unexplained(mask)
 
 
 def explained(
@@ -186,7 +215,14 @@ def explained(
 ) -> np.ndarray:
     """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
     within ``motion_px`` read at about the same depth: a moved object's surface."""
-    out = np.zeros(mask.shape, bool)
+    out: np.ndarray = mask & _reach(metres, before, settings)
+    return out
+
+
+def _reach(metres: np.ndarray, before: np.ndarray, settings: SceneSettings) -> np.ndarray:
+    """bool: every pixel a deviation of the frame before within ``motion_px`` explains (read at about its
+    depth, or a dropout beside its dropouts)."""
+    out = np.zeros(metres.shape, bool)
     reach = settings.motion_px
     # Nothing further than motion_px from the frame before's deviations can be explained: the cost follows
     # them (erode and dilate ignore what lies beyond a crop's edge).
@@ -201,5 +237,5 @@ def explained(
     tol = settings.motion_abs + settings.motion_rel * m
     near = (m > 0) & (m >= lo - tol) & (m <= hi + tol)
     dropped = (m == 0) & (cv2.erode(np.where(b < 0, 0, 1).astype(np.uint8), k) == 0)
-    out[rs, cs] = mask[rs, cs] & (near | dropped)
+    out[rs, cs] = near | dropped
     return out

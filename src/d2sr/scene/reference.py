@@ -28,12 +28,12 @@ from d2sr.scene.evidence import (
     HALF,
     QUARTER,
     Evidence,
+    Motion,
     Parts,
     SceneRepair,
     dense,
     neighbours,
     none,
-    unexplained,
 )
 from d2sr.scene.labeller import Labeller
 from d2sr.scene.settings import SceneSettings
@@ -279,9 +279,10 @@ class SceneReference:
         dense_share = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference not
         before = self._before
         held: list[tuple[bool, CleanStats, np.ndarray]] = []  # set by repair_later: what it holds
+        motion = Motion(metres, before, cfg)
 
         def explain() -> tuple[np.ndarray, float]:
-            fresh = unexplained(metres, mask, before, cfg)
+            fresh = motion.unexplained(mask)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense_share
             stored, stats, steady = held[0] if held else (self._stored, self._stats, self._steady)
@@ -295,7 +296,7 @@ class SceneReference:
         self._before = _explains(metres, changed, near if alike else neighbours(changed))
         self._keep_lasting(frame, changed)
         far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
-        parts = Parts(cfg, explain, shift, off_px, far_off, before, held)
+        parts = Parts(cfg, explain, shift, off_px, far_off, before, motion, held)
         return Evidence(
             mask,
             share,
@@ -452,7 +453,7 @@ def _repair(
         # Where it seldom returns but did, a fresh return far from that depth, amid a quarter of such
         # returns and far-off ones: the sensor's own stray returns there come alone or a few together.
         rare = (m > 0) & (s.rate > 0) & (s.rate < cfg.range_rate) & far_from_seen
-        rare = unexplained(m, rare, ev.parts.before if ev.parts else None, cfg)
+        rare = ev.parts.moved(m).unexplained(rare) if ev.parts else np.zeros_like(rare)
         rare &= neighbours(rare | ev.fresh_far_pixels) >= QUARTER
         where |= rare
     keep = (m > 0) & ~ev.mask & (seldom | within)
