@@ -184,7 +184,7 @@ class Motion:
 
     @functools.cached_property
     def _reach(self) -> np.ndarray:
-        """bool: the pixels a deviation of the frame before explains (``explained``'s test, every pixel)."""
+        """bool: every pixel a deviation of the frame before explains (``_reach``), once a frame."""
         assert self.before is not None
         return _reach(self.metres, self.before, self.settings)
 
@@ -201,22 +201,6 @@ class Motion:
             out: np.ndarray = mask & ~self._reach
             return out
         return mask
-
-
-def unexplained(
-    metres: np.ndarray, mask: np.ndarray, before: np.ndarray | None, settings: SceneSettings
-) -> np.ndarray:
-    """``Motion(metres, before, settings).unexplained(mask)``, for one mask."""
-    return Motion(metres, before, settings).unexplained(mask)
-
-
-def explained(
-    metres: np.ndarray, mask: np.ndarray, before: np.ndarray, settings: SceneSettings
-) -> np.ndarray:
-    """Deviating pixels that a deviation of the frame before (``before``: its depths, -1 a dropout, 0 none)
-    within ``motion_px`` read at about the same depth: a moved object's surface."""
-    out: np.ndarray = mask & _reach(metres, before, settings)
-    return out
 
 
 def _reach(metres: np.ndarray, before: np.ndarray, settings: SceneSettings) -> np.ndarray:
