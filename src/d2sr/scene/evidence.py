@@ -38,20 +38,13 @@ class Parts:
 
     settings: SceneSettings
     explain: Callable[[], tuple[np.ndarray, float]]  # -> (fresh, fresh_dense)
+    motion: Motion  # what moved since the frame before, worked out once for every kind of deviation
     shift: np.ndarray | None = None  # bool: the shifted windows' pixels
     off: np.ndarray | None = None  # bool: the off windows' pixels
     far: np.ndarray | None = None  # bool: the returns read far off
-    before: np.ndarray | None = None  # the frame before's deviations (m; -1 a dropout)
-    motion: Motion | None = None  # what moved since the frame before (``before``), worked out once
     # (stored, statistics, steady pixels) as a deferred repair holds them (``SceneReference.repair_later``);
     # empty: ``explain`` reads the reference's own.
     held: list[tuple[bool, CleanStats, np.ndarray]] = field(default_factory=list)
-
-    def moved(self, metres: np.ndarray) -> Motion:
-        """``motion``, or one made for ``metres`` and ``before`` where none was given."""
-        if self.motion is None:
-            self.motion = Motion(metres, self.before, self.settings)
-        return self.motion
 
 
 @dataclass
@@ -105,7 +98,7 @@ class Evidence:
         p = self.parts
         if p is None or p.off is None or not self.off:
             return 0.0
-        return float(np.count_nonzero(p.moved(self.metres).unexplained(p.off))) / self.known
+        return float(np.count_nonzero(p.motion.unexplained(p.off))) / self.known
 
     @functools.cached_property
     def fresh_far(self) -> float:
@@ -121,7 +114,7 @@ class Evidence:
         p = self.parts
         if p is None or p.far is None or not self.far:
             return np.zeros(self.mask.shape, bool)
-        return p.moved(self.metres).unexplained(p.far)
+        return p.motion.unexplained(p.far)
 
     @property
     def far_evident(self) -> bool:
@@ -183,8 +176,8 @@ class Motion:
         self.metres, self.before, self.settings = metres, before, settings
 
     @functools.cached_property
-    def _reach(self) -> np.ndarray:
-        """bool: every pixel a deviation of the frame before explains (``_reach``), once a frame."""
+    def _explained(self) -> np.ndarray:
+        """bool: every pixel a deviation of the frame before explains (``_reach``)."""
         assert self.before is not None
         return _reach(self.metres, self.before, self.settings)
 
@@ -198,7 +191,7 @@ class Motion:
         if self.before is None:
             return np.zeros_like(mask)
         if mask.any() and self._moving:
-            out: np.ndarray = mask & ~self._reach
+            out: np.ndarray = mask & ~self._explained
             return out
         return mask
 

@@ -296,7 +296,7 @@ class SceneReference:
         self._before = _explains(metres, changed, near if alike else neighbours(changed))
         self._keep_lasting(frame, changed)
         far_off = (metres > 0) & ((metres < self._far_lo) | (metres > self._far_hi))
-        parts = Parts(cfg, explain, shift, off_px, far_off, before, motion, held)
+        parts = Parts(cfg, explain, motion, shift, off_px, far_off, held)
         return Evidence(
             mask,
             share,
@@ -453,7 +453,7 @@ def _repair(
         # Where it seldom returns but did, a fresh return far from that depth, amid a quarter of such
         # returns and far-off ones: the sensor's own stray returns there come alone or a few together.
         rare = (m > 0) & (s.rate > 0) & (s.rate < cfg.range_rate) & far_from_seen
-        rare = ev.parts.moved(m).unexplained(rare) if ev.parts else np.zeros_like(rare)
+        rare = ev.parts.motion.unexplained(rare) if ev.parts else np.zeros_like(rare)
         rare &= neighbours(rare | ev.fresh_far_pixels) >= QUARTER
         where |= rare
     keep = (m > 0) & ~ev.mask & (seldom | within)
