@@ -975,3 +975,78 @@ def test_a_deferred_scene_repair_reads_the_scene_as_it_was_when_asked_for(stored
     assert now.fill.any()
     for a, b in zip(now, got, strict=True):
         assert np.array_equal(a, b)
+
+
+def _full_wall_scene(seed: int, part: int = 0, **settings: object) -> SceneReference:
+    """A live reference whose ring is full of a wall; ``part``: metres x 4000 the patch reads off in every
+    other of those frames (interference the detector passed, repeating at one place)."""
+    rng = np.random.default_rng(seed)
+    ref = _ref(**settings)
+    frames = [_wall(rng) for _ in range(SHIPPED.frames)]
+    for f in frames[1::2]:
+        f[40:60, 30:70] += part
+    _learn([ref], frames)
+    assert ref.count == SHIPPED.frames
+    return ref
+
+
+def _patched(frame: np.ndarray, off: float) -> np.ndarray:
+    """``frame`` with its patch read ``off`` metres off."""
+    frame[40:60, 30:70] = (frame[40:60, 30:70] + np.int32(off * SCALE)).astype(np.uint16)
+    return frame
+
+
+def _patch_fresh(ref: SceneReference, seed: int, offsets: list[float]) -> list[float]:
+    """Each frame's patch read off by ``offsets`` (metres) in turn: the share of it that is fresh."""
+    rng = np.random.default_rng(seed)
+    return [float(ref.evidence(_patched(_wall(rng), off)).fresh[40:60, 30:70].mean()) for off in offsets]
+
+
+def test_a_full_live_scene_keeps_a_surface_whose_offset_flickers_fresh_and_one_that_rests_explained():
+    """A CW-ToF neighbour reads the same surface a few centimetres off by an amount that changes frame to
+    frame: against a live scene whose ring is full, nothing that moved explains it (``flicker_m``). A thing
+    resting on the surface reads the same each frame: after its first, the frame before explains it. A young
+    scene (its ring not full) leaves both to the frame before."""
+    flicker = [-0.04, 0.03, -0.02, 0.04, -0.03]
+    assert min(_patch_fresh(_full_wall_scene(1), 2, flicker)) > 0.8
+    assert max(_patch_fresh(_full_wall_scene(1, flicker_m=1.0), 2, flicker)[1:]) < 0.05  # no such flicker
+    rests = _patch_fresh(_full_wall_scene(1), 2, [-0.04] * 4)
+    assert rests[0] > 0.8 and max(rests[1:]) < 0.05
+    young = _ref()
+    _learn([young], [_wall(np.random.default_rng(3)) for _ in range(6)])
+    shares = _patch_fresh(young, 2, flicker)
+    assert shares[0] > 0.8 and max(shares[1:]) < 0.05
+
+
+def test_a_live_scene_whose_returns_part_lets_the_frame_before_explain_a_flickering_offset():
+    """Interference repeating at one place in every other frame, 3 cm off (too close to part the pixel as
+    split), leaves the scene's median between the two depths: a clean frame after an interfered one changes
+    as much as the interference does. Where clean returns are apart by more than ``flicker_m`` the flicker
+    is no evidence: each frame is as fresh as with no flicker rule at all (``flicker_m`` beyond any)."""
+    offsets = [0.0, 0.03, 0.0, 0.03, 0.0, 0.03]
+    ref = _full_wall_scene(4, part=int(0.03 * SCALE))
+    assert not ref._single[40:60, 30:70].any() and ref._steady[40:60, 30:70].mean() > 0.9
+    shares = _patch_fresh(ref, 5, offsets)
+    assert shares == _patch_fresh(_full_wall_scene(4, part=int(0.03 * SCALE), flicker_m=1.0), 5, offsets)
+
+
+def test_a_deferred_repair_reads_the_live_scene_as_it_was():
+    """``repair_later`` on a flickering patch (fresh through ``flicker_m``, where the scene's clean returns
+    agree), called after the scene took in frames that part those pixels: bit for bit what ``repair`` gave
+    at once."""
+    rng = np.random.default_rng(13)
+    now_ref, later_ref = _full_wall_scene(1), _full_wall_scene(1)
+    before, hit = _patched(_wall(rng), -0.03), _patched(_wall(rng), 0.03)
+    for ref in (now_ref, later_ref):
+        ref.evidence(before)
+    now = now_ref.repair(now_ref.evidence(hit))
+    later = later_ref.repair_later(later_ref.evidence(hit))
+    parted = [_wall(rng) for _ in range(2 * SHIPPED.frames)]
+    for f in parted[1::2]:
+        f[40:60, 30:70] += int(0.03 * SCALE)
+    _learn([later_ref], parted)
+    assert not later_ref._single[40:60, 30:70].any()
+    got = later()
+    assert now.fill[40:60, 30:70].mean() > 0.8
+    for a, b in zip(now, got, strict=True):
+        assert np.array_equal(a, b)

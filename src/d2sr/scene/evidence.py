@@ -32,6 +32,15 @@ class SceneRepair(NamedTuple):
     keep: np.ndarray  # bool: returning pixels the scene finds nothing wrong with: left as they are
 
 
+class Held(NamedTuple):
+    """The reference's state a deferred repair reads, as it was when asked for (``repair_later``)."""
+
+    stored: bool  # the statistics are a stored scene's
+    stats: CleanStats
+    steady: np.ndarray  # bool: the pixels the scene is sure of
+    single: np.ndarray  # bool: steady, its and its neighbours' clean returns agree (``flicker_m``)
+
+
 @dataclass
 class Parts:
     """What ``Evidence`` works its fresh shares out from, when first read."""
@@ -42,9 +51,8 @@ class Parts:
     shift: np.ndarray | None = None  # bool: the shifted windows' pixels
     off: np.ndarray | None = None  # bool: the off windows' pixels
     far: np.ndarray | None = None  # bool: the returns read far off
-    # (stored, statistics, steady pixels) as a deferred repair holds them (``SceneReference.repair_later``);
-    # empty: ``explain`` reads the reference's own.
-    held: list[tuple[bool, CleanStats, np.ndarray]] = field(default_factory=list)
+    # What a deferred repair holds (``SceneReference.repair_later``); empty: ``explain`` reads the reference.
+    held: list[Held] = field(default_factory=list)
 
 
 @dataclass

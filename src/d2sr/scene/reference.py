@@ -23,11 +23,12 @@ import cv2
 import numpy as np
 
 from d2sr.errors import ConfigError, InputError
-from d2sr.frames.base import to_metres
+from d2sr.frames.base import crop_around, to_metres
 from d2sr.scene.evidence import (
     HALF,
     QUARTER,
     Evidence,
+    Held,
     Motion,
     Parts,
     SceneRepair,
@@ -63,6 +64,7 @@ class SceneReference:
     _parted: np.ndarray  # bool, once warm
     _split: np.ndarray  # bool: parted, or amid parted pixels; their returns are no evidence
     _steady: np.ndarray  # bool: pixels the scene is sure of (``trust_rate``, not split), once warm
+    _single: np.ndarray  # bool: steady, no gap beyond ``flicker_m`` between its or its neighbours' returns
     _shift_px: np.ndarray  # bool: pixels shifted windows are worked out over (``shift_rate``), once warm
     _far_lo: np.ndarray  # a return below this is far off, once warm (``_limits``)
     _far_hi: np.ndarray  # and above this
@@ -101,6 +103,7 @@ class SceneReference:
         self._stripe = 0  # stripe of rows the next ``add`` re-summarizes
         self._stats, self._labeller, self._streak, self._moving = None, None, None, 0
         self._before: np.ndarray | None = None  # the frame before's deviating depths (m; -1: a dropout)
+        self._prev: np.ndarray | None = None  # the frame before as judged (m), all of it
         self._judged: float | None = None  # the share the last frame judged deviated by (None: not judged)
         self._resting = 0  # frames the scene still rests (``rest``)
         self._skip = False  # the last frame judged came while resting: ``add`` keeps nothing
@@ -188,6 +191,7 @@ class SceneReference:
         self._parted = np.zeros(shape, bool)
         self._split = np.zeros(shape, bool)
         self._steady = np.zeros(shape, bool)
+        self._single = np.zeros(shape, bool)
         # At trust_rate the shifted windows' pixels are the steady ones: the same array, kept once.
         self._shift_px = self._steady if s.shift_rate == s.trust_rate else np.zeros(shape, bool)
         self._far_lo = np.zeros(shape, np.float32)
@@ -207,7 +211,7 @@ class SceneReference:
             s, rate=s.rate.copy(), nz_median=s.nz_median.copy(), lo=s.lo.copy(), hi=s.hi.copy()
         )
         same = self._shift_px is self._steady
-        self._steady, self._split = self._steady.copy(), self._split.copy()
+        self._steady, self._split, self._single = self._steady.copy(), self._split.copy(), self._single.copy()
         if same:
             self._shift_px = self._steady
         self._lent = False
@@ -230,6 +234,9 @@ class SceneReference:
         self._split[rows] = split
         agree = ~split & (median > 0)
         self._steady[rows] = (s.rate[rows] >= cfg.trust_rate) & agree
+        wide = self._gap[near] > cfg.flicker_m  # the same way, at the flicker a live scene tells
+        loose = (wide | (neighbours(wide) >= QUARTER))[top : top + len(median)]
+        self._single[rows] = self._steady[rows] & ~loose
         if self._shift_px is not self._steady:
             self._shift_px[rows] = (s.rate[rows] >= cfg.shift_rate) & agree
         self._returned[rows] = np.count_nonzero(s.rate[rows] > 0, axis=1)  # per row: pixels seen returning
@@ -278,17 +285,23 @@ class SceneReference:
         near = neighbours(deviates)
         dense_share = float(np.count_nonzero(near >= HALF)) / known  # flicker is scattered, interference not
         before = self._before
-        held: list[tuple[bool, CleanStats, np.ndarray]] = []  # set by repair_later: what it holds
+        # A live scene tells the CW-ToF kind of interference from a thing on its surface only once its ring
+        # is full: a young one's medians may still hold the frames the detector passed.
+        prev, self._prev = self._prev, metres
+        full = self.count >= cfg.frames
+        held: list[Held] = []  # set by repair_later: what it holds
         motion = Motion(metres, before, cfg)
 
         def explain() -> tuple[np.ndarray, float]:
             fresh = motion.unexplained(mask)
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense_share
-            stored, stats, steady = held[0] if held else (self._stored, self._stats, self._steady)
-            if stored:
-                assert stats is not None
-                fresh = fresh | (mask & _on_surface(metres, stats, steady, cfg))
+            assert self._stats is not None
+            h = held[0] if held else Held(self._stored, self._stats, self._steady, self._single)
+            if h.stored:
+                fresh = fresh | (mask & _on_surface(metres, h.stats, h.steady, cfg))
+            elif full and prev is not None:
+                fresh = _flickering(metres, prev, mask, fresh, h, cfg)
             return fresh, dense(fresh & deviates, known)
 
         # Where nothing split or shifted, ``changed`` is ``deviates``: its neighbours are counted already.
@@ -389,7 +402,7 @@ class SceneReference:
             return functools.partial(_nothing, ev.mask.shape)
         self._lent = True
         if ev.parts is not None and not ev.parts.held:
-            ev.parts.held.append((self._stored, stats, self._steady))
+            ev.parts.held.append(Held(self._stored, stats, self._steady, self._single))
         return functools.partial(_repair, ev, stats, self._steady, self._split, self.settings)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
@@ -416,6 +429,37 @@ def _on_surface(metres: np.ndarray, s: CleanStats, steady: np.ndarray, cfg: Scen
     frame after frame, varying in sign and size), not the scene's own drift."""
     off = np.abs(np.subtract(metres, s.nz_median, dtype=np.float32))
     out: np.ndarray = (metres > 0) & (off <= np.float32(cfg.offset_cap)) & steady
+    return out
+
+
+def _flickering(
+    metres: np.ndarray, prev: np.ndarray, mask: np.ndarray, fresh: np.ndarray, h: Held, cfg: SceneSettings
+) -> np.ndarray:
+    """``fresh`` and the deviations of ``mask`` it left out (the frame before explained them) that lie on a
+    live scene's surface (within ``offset_cap`` of its median where the scene is ``single``) amid returns
+    that changed by more than ``flicker_m`` since the frame before (``prev``, metres), on the mean over a
+    ``shift_px`` window: something that moved here reads as it did or lies off the surface; another CW-ToF
+    camera's light reads the same surface off by an amount that changes frame to frame, a patch at a time
+    (a window's mean is known to a millimetre where each pixel's own noise spans centimetres). Where clean
+    returns part by more, the scene may hold interference repeating at one place, its median between two
+    depths, and a clean return changes as much."""
+    left = mask & ~fresh
+    crop = crop_around(left, cfg.shift_px // 2)
+    if crop is None:
+        return fresh
+    rs, cs = crop
+    m, p = metres[rs, cs], prev[rs, cs]
+    both = (m > 0) & (p > 0) & h.single[rs, cs]
+    change = np.subtract(m, p, dtype=np.float32)
+    change *= both
+    k = (cfg.shift_px, cfg.shift_px)
+    n = cv2.boxFilter(both.view(np.uint8), cv2.CV_32F, k, normalize=False)
+    mean = cv2.boxFilter(change, -1, k, normalize=False) / np.maximum(n, np.float32(1))
+    off = np.abs(np.subtract(m, h.stats.nz_median[rs, cs], dtype=np.float32))
+    on = left[rs, cs] & both & (off <= np.float32(cfg.offset_cap))
+    on &= np.abs(mean) > np.float32(cfg.flicker_m)
+    out = fresh.copy()
+    out[rs, cs] |= on
     return out
 
 

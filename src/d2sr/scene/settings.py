@@ -185,6 +185,14 @@ class SceneSettings(Settings):
         0.05, ge=0, description="Metres a deviation reads near one of the frame before to be that surface."
     )
     motion_rel: float = Field(0.05, ge=0, description="The same, as a share of the range.")
+    flicker_m: float = Field(
+        0.01,
+        gt=0,
+        description="Metres a patch on a full live scene's surface changed "
+        "since the frame before (a shift_px window's mean) to be interference the motion test would explain, "
+        "and the most the scene's clean returns may part there: a real Kinect v2's interfered pixels change "
+        "by a median 18 mm frame to frame, its frames alone by 1 mm.",
+    )
 
     @model_validator(mode="after")
     def _warm_within_ring(self) -> SceneSettings:
