@@ -192,6 +192,7 @@ def render_card(card: dict, stem: str) -> str:
         ("metrics", "Metrics (frames never trained on; the calibration overlap is under Limits)"),
         ("evaluation", "Evaluation command"),
         ("outside", "From outside: real L515 frames, interference the generator does not make"),
+        ("real", "Real continuous-wave ToF interference: a Kinect v2 beside two others (development)"),
         ("limits", "Limits"),
         ("sources", "Files these figures are written from (make results)"),
         ("date", "Date"),
