@@ -260,6 +260,8 @@ def test_bad_settings_and_frames_are_refused():
         {"range_rate": 1.5},
         {"frames": 4, "warm": 8},
         {"tol": 1},
+        {"shift_px": 17},  # its windows' counts would pass a byte's 255
+        {"flicker_m": 0},
     ):
         with pytest.raises(ConfigError):
             SceneSettings(**bad)

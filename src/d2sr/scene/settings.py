@@ -124,7 +124,13 @@ class SceneSettings(Settings):
         "whatever the detector says: keeps a walking person within 1% of frames flagged.",
     )
     # Surfaces read a little off as a whole (a CW-ToF camera's light).
-    shift_px: int = Field(15, ge=3, description="Side (px) of the window whose mean tells a shifted surface.")
+    shift_px: int = Field(
+        15,
+        ge=3,
+        le=15,
+        description="Side (px) of the window whose mean tells a shifted "
+        "surface; at most 15, since a window's count of pixels is kept in a byte (15 x 15 = 225).",
+    )
     shift_m: float = Field(
         0.01,
         gt=0,
