@@ -4,9 +4,10 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["check_output", "output_args"]
+__all__ = ["check_output", "measure_main", "output_args"]
 
 
 def output_args(ap: argparse.ArgumentParser, plot: str | None = None) -> None:
@@ -30,3 +31,18 @@ def check_output(ap: argparse.ArgumentParser, args: argparse.Namespace) -> None:
                 check_out(path, is_dir=False, overwrite=args.overwrite, name=option)
             except D2SRError as exc:
                 ap.error(str(exc).replace(option, f"--{option}", 1))
+
+
+def measure_main(doc: str, measure: Callable[[Path], tuple[dict, list[Path]]], what: str) -> None:
+    """A script's whole command line: --data (default ../shared/data), --json, --overwrite; ``measure(data)``
+    gives (result, the files it read), written with their provenance as ``what`` and printed."""
+    from d2sr.atomic import write_result
+    from d2sr.provenance import data_read
+
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
+    output_args(ap)
+    args = ap.parse_args()
+    check_output(ap, args)
+    result, read = measure(args.data)
+    print(write_result(result, args.json, data=data_read(what, read, args.data)))

@@ -12,15 +12,11 @@ Run:  python -m lab.kinect2_stats --data ../shared/data --json lab/notes/results
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import cv2
 import numpy as np
-from bench.harness import check_output, output_args
-
-from d2sr.atomic import write_result
-from d2sr.provenance import data_read
+from bench.harness import measure_main
 
 MOVED_MM = 20  # a pixel moved: more than 2 cm off the truth (as lab.kinect2_cam0 counts)
 BIG_PATCH = 100  # pixels: a patch the detector's bar counts (issue 80: frames with > 100 pixels moved)
@@ -99,14 +95,7 @@ def measure(data: Path) -> tuple[dict, list[Path]]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
-    output_args(ap)
-    args = ap.parse_args()
-    check_output(ap, args)
-    result, read = measure(args.data)
-    data = data_read("kinect2_multicam/cam0: 50 interfered frames, 6 alone", read, args.data)
-    print(write_result(result, args.json, data=data))
+    measure_main(__doc__, measure, "kinect2_multicam/cam0: 50 interfered frames, 6 alone")
 
 
 if __name__ == "__main__":

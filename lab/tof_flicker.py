@@ -11,15 +11,11 @@ Run:  python -m lab.tof_flicker --data ../shared/data --json lab/notes/results/t
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import cv2
 import numpy as np
-from bench.harness import check_output, output_args
-
-from d2sr.atomic import write_result
-from d2sr.provenance import data_read
+from bench.harness import measure_main
 
 LOW_M, HIGH_M = 0.02, 0.08  # a return moved this much since the frame before
 AMID = 41  # of its 9x9 neighbourhood (81), at least this many moved too
@@ -88,14 +84,7 @@ def measure(data: Path) -> tuple[dict, list[Path]]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=Path("../shared/data"))
-    output_args(ap)
-    args = ap.parse_args()
-    check_output(ap, args)
-    result, read = measure(args.data)
-    data = data_read("kinect2 cam0 (interfered, alone), L515 dev0 and dev1, D435", read, args.data)
-    print(write_result(result, args.json, data=data))
+    measure_main(__doc__, measure, "kinect2 cam0 (interfered, alone), L515 dev0 and dev1, D435")
 
 
 if __name__ == "__main__":
