@@ -38,6 +38,7 @@ class Held(NamedTuple):
     stored: bool  # the statistics are a stored scene's
     stats: CleanStats
     steady: np.ndarray  # bool: the pixels the scene is sure of
+    split: np.ndarray  # bool: the pixels whose clean returns part (no evidence, no offset repair)
     single: np.ndarray  # bool: steady, its and its neighbours' clean returns agree (``flicker_m``)
 
 

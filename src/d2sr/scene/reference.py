@@ -297,7 +297,7 @@ class SceneReference:
             if fresh is mask:  # nothing explained: its dense share is the frame's
                 return mask, dense_share
             assert self._stats is not None
-            h = held[0] if held else Held(self._stored, self._stats, self._steady, self._single)
+            h = held[0] if held else self._held()
             if h.stored:
                 fresh = fresh | (mask & _on_surface(metres, h.stats, h.steady, cfg))
             elif full and prev is not None:
@@ -397,13 +397,18 @@ class SceneReference:
         """``repair`` of ``ev``'s frame, worked out when the returned function is called: later and on another
         thread, while the next frames are judged (``SensorLoop.finish``). It reads the statistics as they
         are now; the reference copies them before it next changes them."""
-        stats = self._stats
-        if stats is None or not ev.usable:
+        if self._stats is None or not ev.usable:
             return functools.partial(_nothing, ev.mask.shape)
         self._lent = True
+        h = self._held()
         if ev.parts is not None and not ev.parts.held:
-            ev.parts.held.append(Held(self._stored, stats, self._steady, self._single))
-        return functools.partial(_repair, ev, stats, self._steady, self._split, self.settings)
+            ev.parts.held.append(h)
+        return functools.partial(_repair, ev, h, self.settings)
+
+    def _held(self) -> Held:
+        """The state the evidence and a repair read, as it is now (copied before it changes: ``_own``)."""
+        assert self._stats is not None
+        return Held(self._stored, self._stats, self._steady, self._split, self._single)
 
     def _take(self, frame: np.ndarray, where: np.ndarray) -> None:
         """Pixels that have deviated for ``persist`` frames: their new value is the scene now."""
@@ -474,11 +479,9 @@ def _nothing(shape: tuple[int, ...]) -> SceneRepair:
     return SceneRepair(empty, np.zeros(shape, np.float32), empty)
 
 
-def _repair(
-    ev: Evidence, s: CleanStats, steady: np.ndarray, split: np.ndarray, cfg: SceneSettings
-) -> SceneRepair:
-    """``SceneReference.repair``'s work on the statistics it was given (``repair_later``)."""
-    m = ev.metres
+def _repair(ev: Evidence, h: Held, cfg: SceneSettings) -> SceneRepair:
+    """``SceneReference.repair``'s work on the state it was given (``repair_later``)."""
+    s, m = h.stats, ev.metres
     # A return where the scene's clean depths agree is trusted from range_rate: it did return, and the
     # scene says where; a dropout only where the scene nearly always returns (trust_rate).
     rate = np.where(m > 0, np.float32(cfg.range_rate), np.float32(cfg.trust_rate))
@@ -486,7 +489,7 @@ def _repair(
     trusted &= s.nz_median > 0
     near = neighbours(ev.fresh)
     # Fresh deviations in patches; where the scene nearly always returns (steady), sparser ones too.
-    patches = (near >= HALF) | ((near >= QUARTER) & steady)
+    patches = (near >= HALF) | ((near >= QUARTER) & h.steady)
     where = ev.fresh & patches & trusted
     far_frame = ev.far_evident
     if far_frame:
@@ -508,7 +511,7 @@ def _repair(
     keep = (m > 0) & ~ev.mask & (seldom | within)
     depth = np.where(where, s.nz_median, 0).astype(np.float32)
     if ev.shift_evident:
-        at, by = _offsets(ev, s, where, cfg, split)
+        at, by = _offsets(ev, s, where, cfg, h.split)
         where, keep = where | at, keep & ~at
         depth[at] = m[at] - by[at]
     return SceneRepair(where, depth, keep)
